@@ -1,0 +1,88 @@
+/* The allocator hook: every byte the library owns goes through here. */
+#include "internal.h"
+
+#include <stdlib.h>
+#include <time.h>
+
+static void *default_alloc(size_t size, void *user)
+{
+    (void)user;
+    return malloc(size);
+}
+
+static void default_free(void *ptr, size_t size, void *user)
+{
+    (void)size;
+    (void)user;
+    free(ptr);
+}
+
+void lc_allocator_resolve(locd_allocator *dst, const locd_allocator *src)
+{
+    if (src && src->alloc && src->free) {
+        *dst = *src;
+    } else {
+        dst->alloc = default_alloc;
+        dst->free = default_free;
+        dst->user = NULL;
+    }
+}
+
+void *lc_alloc(const locd_allocator *a, size_t size)
+{
+    if (size == 0)
+        size = 1;
+    return a->alloc(size, a->user);
+}
+
+void lc_free(const locd_allocator *a, void *ptr, size_t size)
+{
+    if (ptr)
+        a->free(ptr, size == 0 ? 1 : size, a->user);
+}
+
+int lc_mul_size(size_t a, size_t b, size_t *out)
+{
+    if (b != 0 && a > (size_t)-1 / b)
+        return 0;
+    *out = a * b;
+    return 1;
+}
+
+locd_status lc_buf_reserve(const locd_allocator *a, lc_buf *b, size_t elem, size_t count)
+{
+    size_t bytes, cap;
+    void *p;
+    if (count <= b->cap)
+        return LOCD_OK;
+    cap = b->cap + b->cap / 2;
+    if (cap < count)
+        cap = count;
+    if (cap < 16)
+        cap = 16;
+    if (!lc_mul_size(cap, elem, &bytes))
+        return lc_error(LOCD_ERR_NO_MEMORY, "buffer of %zu elements overflows size_t", cap);
+    p = lc_alloc(a, bytes);
+    if (!p)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate %zu bytes", bytes);
+    if (b->data && b->cap)
+        memcpy(p, b->data, b->cap * elem);
+    lc_free(a, b->data, b->cap * elem);
+    b->data = p;
+    b->cap = cap;
+    return LOCD_OK;
+}
+
+void lc_buf_release(const locd_allocator *a, lc_buf *b, size_t elem)
+{
+    lc_free(a, b->data, b->cap * elem);
+    b->data = NULL;
+    b->cap = 0;
+}
+
+double lc_now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}

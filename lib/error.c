@@ -1,0 +1,80 @@
+/* Status strings and the thread-local last-error detail. */
+#include "internal.h"
+
+#include <stdio.h>
+
+static LC_TLS char last_message[256];
+static LC_TLS int64_t last_index = -1;
+
+const char *locd_status_string(locd_status status)
+{
+    switch (status) {
+    case LOCD_OK: return "success";
+    case LOCD_PENDING: return "job still running";
+    case LOCD_ERR_INVALID_ARGUMENT: return "invalid argument";
+    case LOCD_ERR_NULL_POINTER: return "null pointer";
+    case LOCD_ERR_NONFINITE: return "non-finite coordinate (NaN or infinity)";
+    case LOCD_ERR_INVERTED_BOX: return "box with min > max";
+    case LOCD_ERR_NO_MEMORY: return "out of memory";
+    case LOCD_ERR_TOO_MANY_OBJECTS: return "too many objects";
+    case LOCD_ERR_BUFFER_TOO_SMALL: return "buffer too small";
+    case LOCD_ERR_INVALID_HANDLE: return "invalid handle";
+    case LOCD_ERR_BUSY: return "engine busy";
+    case LOCD_ERR_THREAD: return "thread creation failed";
+    case LOCD_ERR_UNSUPPORTED: return "not supported";
+    case LOCD_ERR_WORKER: return "worker process failed";
+    case LOCD_ERR_IO: return "input/output error";
+    case LOCD_ERR_CONNECTION: return "service connection failed";
+    case LOCD_ERR_PROTOCOL: return "protocol error";
+    case LOCD_ERR_TIMEOUT: return "timed out";
+    case LOCD_ERR_CANCELLED: return "cancelled";
+    case LOCD_ERR_AUTH: return "authentication refused";
+    case LOCD_ERR_SHAPE: return "invalid shape";
+    case LOCD_ERR_INTERNAL: return "internal error";
+    default: return "unknown status";
+    }
+}
+
+const char *locd_last_error(void)
+{
+    return last_message;
+}
+
+int64_t locd_last_error_index(void)
+{
+    return last_index;
+}
+
+void lc_clear_error(void)
+{
+    last_message[0] = '\0';
+    last_index = -1;
+}
+
+static void set_message(locd_status status, const char *fmt, va_list ap)
+{
+    int len = snprintf(last_message, sizeof last_message, "%s: ", locd_status_string(status));
+    if (len < 0 || (size_t)len >= sizeof last_message)
+        return;
+    vsnprintf(last_message + len, sizeof last_message - (size_t)len, fmt, ap);
+}
+
+locd_status lc_error(locd_status status, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    set_message(status, fmt, ap);
+    va_end(ap);
+    last_index = -1;
+    return status;
+}
+
+locd_status lc_error_box(locd_status status, int64_t index, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    set_message(status, fmt, ap);
+    va_end(ap);
+    last_index = index;
+    return status;
+}

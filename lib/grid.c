@@ -1,0 +1,159 @@
+/* Validation of the input boxes and the fitting of the octree's root cube. */
+#include "internal.h"
+
+#include <math.h>
+
+void lc_bounds_init(lc_bounds *b)
+{
+    int a;
+    for (a = 0; a < 3; a++) {
+        b->lo[a] = HUGE_VAL;
+        b->hi[a] = -HUGE_VAL;
+    }
+    b->bad = -1;
+    b->bad_status = LOCD_OK;
+}
+
+/* One loop for both precisions; stops at the first bad box of the range. */
+#define LC_BOUNDS_BODY(T)                                                                                    \
+    size_t i;                                                                                                \
+    double lo0 = out->lo[0], lo1 = out->lo[1], lo2 = out->lo[2];                                             \
+    double hi0 = out->hi[0], hi1 = out->hi[1], hi2 = out->hi[2];                                             \
+    for (i = begin; i < end; i++) {                                                                          \
+        const T *b = boxes + 6 * i;                                                                          \
+        if (LC_UNLIKELY(!(isfinite(b[0]) && isfinite(b[1]) && isfinite(b[2]) && isfinite(b[3]) &&           \
+                          isfinite(b[4]) && isfinite(b[5])))) {                                              \
+            out->bad = (int64_t)i;                                                                           \
+            out->bad_status = LOCD_ERR_NONFINITE;                                                            \
+            break;                                                                                           \
+        }                                                                                                    \
+        if (LC_UNLIKELY(b[0] > b[3] || b[1] > b[4] || b[2] > b[5])) {                                        \
+            out->bad = (int64_t)i;                                                                           \
+            out->bad_status = LOCD_ERR_INVERTED_BOX;                                                         \
+            break;                                                                                           \
+        }                                                                                                    \
+        lo0 = b[0] < lo0 ? b[0] : lo0;                                                                       \
+        lo1 = b[1] < lo1 ? b[1] : lo1;                                                                       \
+        lo2 = b[2] < lo2 ? b[2] : lo2;                                                                       \
+        hi0 = b[3] > hi0 ? b[3] : hi0;                                                                       \
+        hi1 = b[4] > hi1 ? b[4] : hi1;                                                                       \
+        hi2 = b[5] > hi2 ? b[5] : hi2;                                                                       \
+    }                                                                                                        \
+    out->lo[0] = lo0;                                                                                        \
+    out->lo[1] = lo1;                                                                                        \
+    out->lo[2] = lo2;                                                                                        \
+    out->hi[0] = hi0;                                                                                        \
+    out->hi[1] = hi1;                                                                                        \
+    out->hi[2] = hi2;
+
+void lc_bounds_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out)
+{
+    LC_BOUNDS_BODY(float)
+}
+
+void lc_bounds_f64(const double *boxes, size_t begin, size_t end, lc_bounds *out)
+{
+    LC_BOUNDS_BODY(double)
+}
+
+void lc_bounds_merge(lc_bounds *acc, const lc_bounds *b)
+{
+    int a;
+    for (a = 0; a < 3; a++) {
+        if (b->lo[a] < acc->lo[a])
+            acc->lo[a] = b->lo[a];
+        if (b->hi[a] > acc->hi[a])
+            acc->hi[a] = b->hi[a];
+    }
+    if (b->bad >= 0 && (acc->bad < 0 || b->bad < acc->bad)) {
+        acc->bad = b->bad;
+        acc->bad_status = b->bad_status;
+    }
+}
+
+static uint32_t bit_length(uint64_t v)
+{
+    uint32_t n = 0;
+    while (v) {
+        n++;
+        v >>= 1;
+    }
+    return n;
+}
+
+locd_status lc_grid_check(const locd_grid *g)
+{
+    if (!g)
+        return lc_error(LOCD_ERR_NULL_POINTER, "grid is NULL");
+    if (g->size < sizeof(locd_grid))
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "grid->size is %u, expected %zu (use locd_grid_fit_*)", g->size,
+                        sizeof(locd_grid));
+    if (g->depth > 21 || g->index_bits < 1 || g->index_bits > 32 ||
+        g->index_bits + LC_LEVEL_BITS + 3 * g->depth > 64 || g->cell_bias < 0 || g->cell_bias > 8 ||
+        !(g->scale_a > 0.0) || !(g->scale_b >= 0.0))
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "grid is not one made by locd_grid_fit_*");
+    return LOCD_OK;
+}
+
+locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth, int32_t cell_bias, uint32_t flags,
+                                locd_grid *g)
+{
+    uint32_t ibits, auto_depth, a;
+    double half = 0.0, s;
+    if (cell_bias < 0 || cell_bias > 8)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "cell_bias %d is outside 0..8", (int)cell_bias);
+    if ((uint64_t)n > (uint64_t)UINT32_MAX + 1u)
+        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu objects do not fit a 32-bit index", n);
+    memset(g, 0, sizeof *g);
+    g->size = sizeof *g;
+    ibits = n > 1 ? bit_length((uint64_t)(n - 1)) : 1;
+    auto_depth = (64u - ibits - LC_LEVEL_BITS) / 3u;
+    if (auto_depth > 21)
+        auto_depth = 21;
+    g->depth = (max_depth && max_depth < auto_depth) ? max_depth : auto_depth;
+    g->cell_bias = cell_bias;
+    g->index_bits = ibits;
+    g->flags = flags & LOCD_CONFIG_CUBES;
+    for (a = 0; a < 3; a++) {
+        double lo = n ? b->lo[a] : 0.0, hi = n ? b->hi[a] : 0.0;
+        double h = hi * 0.5 - lo * 0.5; /* halved: never overflows */
+        g->origin[a] = lo * 0.5;
+        if (h > half)
+            half = h;
+    }
+    g->scale_a = 1.0;
+    g->scale_b = 1.0;
+    if (half > 0.0) {
+        s = 2147483648.0 / half;
+        if (isfinite(s)) {
+            g->scale_b = s;
+        } else { /* tiny (subnormal) extents: scale in two exact steps */
+            g->scale_a = ldexp(1.0, 600);
+            g->scale_b = 2147483648.0 / (half * g->scale_a);
+        }
+    }
+    return LOCD_OK;
+}
+
+#define LC_GRID_FIT(SUFFIX, T)                                                                               \
+    locd_status locd_grid_fit_##SUFFIX(const T *boxes, size_t n, uint32_t max_depth, int32_t cell_bias,     \
+                                       uint32_t flags, locd_grid *grid)                                      \
+    {                                                                                                        \
+        lc_bounds b;                                                                                         \
+        locd_status st;                                                                                      \
+        if (!grid || (!boxes && n))                                                                          \
+            return lc_error(LOCD_ERR_NULL_POINTER, "%s is NULL", grid ? "boxes" : "grid");                  \
+        if ((uint64_t)n > (uint64_t)UINT32_MAX + 1u)                                                         \
+            return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu objects do not fit a 32-bit index", n);         \
+        lc_bounds_init(&b);                                                                                  \
+        lc_bounds_##SUFFIX(boxes, 0, n, &b);                                                                 \
+        if (b.bad >= 0)                                                                                      \
+            return lc_error_box(b.bad_status, b.bad, "box %lld", (long long)b.bad);                          \
+        st = lc_grid_from_bounds(&b, n, max_depth, cell_bias, flags, grid);                                  \
+        if (!st)                                                                                             \
+            lc_clear_error();                                                                                \
+        return st;                                                                                           \
+    }
+
+LC_GRID_FIT(f32, float)
+LC_GRID_FIT(f64, double)

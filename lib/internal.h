@@ -1,0 +1,140 @@
+/* Private declarations shared by the library's sources. Not installed. */
+#ifndef LOCD_INTERNAL_H
+#define LOCD_INTERNAL_H
+
+#include "locd/locd.h"
+
+#include <stdarg.h>
+#include <string.h>
+
+#if defined(__GNUC__)
+#define LC_LIKELY(x) __builtin_expect(!!(x), 1)
+#define LC_UNLIKELY(x) __builtin_expect(!!(x), 0)
+#define LC_INLINE static __inline__ __attribute__((always_inline))
+#define LC_TLS __thread
+#define LC_PRINTF(a, b) __attribute__((format(printf, a, b)))
+#else
+#define LC_LIKELY(x) (x)
+#define LC_UNLIKELY(x) (x)
+#define LC_INLINE static
+#define LC_TLS
+#define LC_PRINTF(a, b)
+#endif
+
+/* Handle kinds: the first field of every handle, checked on entry. */
+#define LC_MAGIC_ENGINE 0x4c4f4345u /* "LOCE" */
+#define LC_MAGIC_PAIRS 0x4c4f4350u  /* "LOCP" */
+#define LC_MAGIC_JOB 0x4c4f434au    /* "LOCJ" */
+#define LC_MAGIC_DEAD 0xdeadbeefu
+
+/* ---- errors (error.c) ---- */
+locd_status lc_error(locd_status status, const char *fmt, ...) LC_PRINTF(2, 3);
+locd_status lc_error_box(locd_status status, int64_t index, const char *fmt, ...) LC_PRINTF(3, 4);
+void lc_clear_error(void);
+
+/* ---- memory (alloc.c) ---- */
+void lc_allocator_resolve(locd_allocator *dst, const locd_allocator *src);
+void *lc_alloc(const locd_allocator *a, size_t size);
+void lc_free(const locd_allocator *a, void *ptr, size_t size);
+/* size * count with overflow check; returns 0 on overflow. */
+int lc_mul_size(size_t a, size_t b, size_t *out);
+/* A growable array of `elem` sized items owned through an allocator. */
+typedef struct lc_buf {
+    void *data;
+    size_t cap; /* in elements */
+} lc_buf;
+locd_status lc_buf_reserve(const locd_allocator *a, lc_buf *b, size_t elem, size_t count);
+void lc_buf_release(const locd_allocator *a, lc_buf *b, size_t elem);
+
+/* ---- time ---- */
+double lc_now_ms(void);
+
+/* ---- pairs (pairs.c) ---- */
+struct locd_pairs {
+    uint32_t magic;
+    locd_allocator alloc;
+    uint32_t *data; /* 2 * cap values */
+    size_t count;
+    size_t cap; /* pairs */
+};
+locd_status lc_pairs_check(const locd_pairs *p);
+locd_status lc_pairs_reserve(locd_pairs *p, size_t pairs);
+/* Sorts 2*count interleaved uint32 pairs by (i, j); scratch of count uint64. */
+void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch, uint64_t *scratch2);
+locd_status lc_pairs_init_embedded(locd_pairs *p, const locd_allocator *a);
+void lc_pairs_fini_embedded(locd_pairs *p);
+
+/* ---- grid (grid.c) ---- */
+typedef struct lc_bounds {
+    double lo[3], hi[3];
+    int64_t bad;       /* first bad box index, or -1 */
+    locd_status bad_status;
+} lc_bounds;
+void lc_bounds_init(lc_bounds *b);
+void lc_bounds_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out);
+void lc_bounds_f64(const double *boxes, size_t begin, size_t end, lc_bounds *out);
+/* Combines b into acc (a later chunk's bad index never hides an earlier one). */
+void lc_bounds_merge(lc_bounds *acc, const lc_bounds *b);
+locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth, int32_t cell_bias, uint32_t flags,
+                                locd_grid *grid);
+locd_status lc_grid_check(const locd_grid *g);
+
+/* Quantization: a monotone map from coordinates to [0, 2^31). Monotone is all
+ * exactness needs: a <= b implies q(a) <= q(b), so overlapping boxes always
+ * get overlapping integer ranges (docs/encoding.md). */
+#define LC_QBITS 31
+#define LC_QMAX 2147483647.0
+LC_INLINE int32_t lc_quantize(const locd_grid *g, int axis, double x)
+{
+    double t = ((x * 0.5 - g->origin[axis]) * g->scale_a) * g->scale_b;
+    t = t < 0.0 ? 0.0 : t;
+    t = t > LC_QMAX ? LC_QMAX : t;
+    return (int32_t)t;
+}
+
+/* ---- encode / sort / merge (encode.c, sort.c, merge.c) ---- */
+/* Bits of the octree key: (padded morton << 5) | level. */
+#define LC_LEVEL_BITS 5
+/* Encodes boxes [first, first+count); returns entries written or, when
+ * capacity is too small, (size_t)-1 with *needed set. */
+size_t lc_encode_f32(const locd_grid *g, const float *boxes, size_t first, size_t count, uint64_t *out,
+                     size_t capacity, size_t *needed);
+size_t lc_encode_f64(const locd_grid *g, const double *boxes, size_t first, size_t count, uint64_t *out,
+                     size_t capacity, size_t *needed);
+/* Radix sort; returns the buffer holding the result (entries or scratch). */
+uint64_t *lc_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits);
+/* Multiway merge of runs restricted to [begin[r], end[r]) into out. */
+void lc_merge_ranges(const uint64_t *const *runs, const size_t *begin, const size_t *end, size_t k, uint64_t *out);
+/* Splits k runs so that exactly `rank` elements lie before the split; pos[r] receives the split in run r. */
+void lc_merge_split(const uint64_t *const *runs, const size_t *counts, size_t k, size_t rank, size_t *pos);
+
+/* ---- sweep (sweep.c) ---- */
+typedef struct lc_sweep_out {
+    const locd_allocator *alloc;
+    lc_buf pairs; /* uint32 x 2 */
+    size_t count;
+    lc_buf cand;  /* candidate records */
+    lc_buf segs;  /* segment stack */
+    uint64_t candidates;
+    uint64_t exact_tests;
+} lc_sweep_out;
+void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a);
+void lc_sweep_out_fini(lc_sweep_out *o);
+/* Sweeps entries [begin, end) of the whole sorted array (entries before
+ * `begin` rebuild the state), appending pairs to o. */
+locd_status lc_sweep_range_f32(const locd_grid *g, const float *boxes, const uint64_t *entries, size_t count,
+                               size_t begin, size_t end, lc_sweep_out *o);
+locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const uint64_t *entries, size_t count,
+                               size_t begin, size_t end, lc_sweep_out *o);
+
+/* ---- thread pool (pool.c) ---- */
+typedef struct lc_pool lc_pool;
+typedef void (*lc_task_fn)(void *ctx, uint32_t tid, uint32_t nthreads);
+locd_status lc_pool_create(const locd_allocator *a, uint32_t threads, lc_pool **out);
+void lc_pool_destroy(lc_pool *p);
+/* Runs fn(ctx, t, k) for t = 0..k-1 (k <= pool size; the caller runs t = 0)
+ * and returns when all are done. */
+void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx);
+uint32_t lc_cpu_count(void);
+
+#endif

@@ -1,0 +1,152 @@
+/* A fork-join thread pool that lives as long as its engine: threads are
+ * created once, so a call costs a wake-up, not a pthread_create. */
+#include "internal.h"
+
+#include <pthread.h>
+#include <unistd.h>
+
+struct lc_pool {
+    locd_allocator alloc;
+    uint32_t size; /* threads including the caller */
+    pthread_t *threads;
+    pthread_mutex_t mu;
+    pthread_cond_t start_cv, done_cv;
+    uint64_t generation;
+    uint32_t k, pending;
+    int stop;
+    lc_task_fn fn;
+    void *ctx;
+};
+
+typedef struct lc_worker_arg {
+    lc_pool *pool;
+    uint32_t tid;
+} lc_worker_arg;
+
+static void *worker_main(void *arg)
+{
+    lc_worker_arg *wa = arg;
+    lc_pool *p = wa->pool;
+    uint32_t tid = wa->tid;
+    uint64_t seen = 0;
+    for (;;) {
+        lc_task_fn fn;
+        void *ctx;
+        uint32_t k;
+        pthread_mutex_lock(&p->mu);
+        while (p->generation == seen && !p->stop)
+            pthread_cond_wait(&p->start_cv, &p->mu);
+        if (p->stop) {
+            pthread_mutex_unlock(&p->mu);
+            break;
+        }
+        seen = p->generation;
+        fn = p->fn;
+        ctx = p->ctx;
+        k = p->k;
+        pthread_mutex_unlock(&p->mu);
+        if (tid < k)
+            fn(ctx, tid, k);
+        pthread_mutex_lock(&p->mu);
+        if (--p->pending == 0)
+            pthread_cond_signal(&p->done_cv);
+        pthread_mutex_unlock(&p->mu);
+    }
+    return NULL;
+}
+
+uint32_t lc_cpu_count(void)
+{
+    long c = sysconf(_SC_NPROCESSORS_ONLN);
+    return c < 1 ? 1u : (c > 64 ? 64u : (uint32_t)c);
+}
+
+static void stop_threads(lc_pool *p, uint32_t started)
+{
+    uint32_t t;
+    pthread_mutex_lock(&p->mu);
+    p->stop = 1;
+    pthread_cond_broadcast(&p->start_cv);
+    pthread_mutex_unlock(&p->mu);
+    for (t = 0; t < started; t++)
+        pthread_join(p->threads[t], NULL);
+}
+
+locd_status lc_pool_create(const locd_allocator *a, uint32_t threads, lc_pool **out)
+{
+    lc_pool *p;
+    lc_worker_arg *args;
+    uint32_t t;
+    size_t bytes;
+    *out = NULL;
+    if (threads < 1)
+        threads = 1;
+    p = lc_alloc(a, sizeof *p);
+    if (!p)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the thread pool");
+    memset(p, 0, sizeof *p);
+    p->alloc = *a;
+    p->size = threads;
+    bytes = (sizeof(pthread_t) + sizeof(lc_worker_arg)) * threads;
+    p->threads = lc_alloc(a, bytes);
+    if (!p->threads) {
+        lc_free(a, p, sizeof *p);
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the thread pool");
+    }
+    args = (lc_worker_arg *)(p->threads + threads);
+    pthread_mutex_init(&p->mu, NULL);
+    pthread_cond_init(&p->start_cv, NULL);
+    pthread_cond_init(&p->done_cv, NULL);
+    for (t = 1; t < threads; t++) {
+        args[t].pool = p;
+        args[t].tid = t;
+        if (pthread_create(&p->threads[t - 1], NULL, worker_main, &args[t]) != 0) {
+            stop_threads(p, t - 1);
+            pthread_mutex_destroy(&p->mu);
+            pthread_cond_destroy(&p->start_cv);
+            pthread_cond_destroy(&p->done_cv);
+            lc_free(a, p->threads, bytes);
+            lc_free(a, p, sizeof *p);
+            return lc_error(LOCD_ERR_THREAD, "could not start thread %u of %u", t, threads);
+        }
+    }
+    *out = p;
+    return LOCD_OK;
+}
+
+void lc_pool_destroy(lc_pool *p)
+{
+    locd_allocator a;
+    if (!p)
+        return;
+    stop_threads(p, p->size - 1);
+    pthread_mutex_destroy(&p->mu);
+    pthread_cond_destroy(&p->start_cv);
+    pthread_cond_destroy(&p->done_cv);
+    a = p->alloc;
+    lc_free(&a, p->threads, (sizeof(pthread_t) + sizeof(lc_worker_arg)) * p->size);
+    lc_free(&a, p, sizeof *p);
+}
+
+void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
+{
+    if (k > p->size)
+        k = p->size;
+    if (k <= 1 || p->size == 1) {
+        fn(ctx, 0, 1);
+        return;
+    }
+    pthread_mutex_lock(&p->mu);
+    p->fn = fn;
+    p->ctx = ctx;
+    p->k = k;
+    p->pending = p->size - 1;
+    p->generation++;
+    pthread_cond_broadcast(&p->start_cv);
+    pthread_mutex_unlock(&p->mu);
+    fn(ctx, 0, k);
+    pthread_mutex_lock(&p->mu);
+    while (p->pending)
+        pthread_cond_wait(&p->done_cv, &p->mu);
+    pthread_mutex_unlock(&p->mu);
+}

@@ -1,0 +1,96 @@
+/* Step 2: sort entries. An LSD radix sort over only the bits that vary
+ * between the entries' keys; stable, so entries of equal key keep their
+ * (ascending) object order and the result equals a full 64-bit sort. */
+#include "internal.h"
+
+#define LC_RADIX_MAX_BITS 11
+#define LC_RADIX_MAX_PASSES 6
+
+static void insertion_sort(uint64_t *a, size_t n)
+{
+    size_t i, j;
+    for (i = 1; i < n; i++) {
+        uint64_t v = a[i];
+        for (j = i; j > 0 && a[j - 1] > v; j--)
+            a[j] = a[j - 1];
+        a[j] = v;
+    }
+}
+
+uint64_t *lc_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits)
+{
+    uint64_t diff = 0, first, *src = entries, *dst = scratch;
+    uint32_t lowbit, highbit, span, passes, bits, p;
+    size_t i;
+    uint32_t hist[LC_RADIX_MAX_PASSES][1u << LC_RADIX_MAX_BITS];
+    uint32_t shift[LC_RADIX_MAX_PASSES];
+    uint64_t mask;
+
+    if (count < 2)
+        return entries;
+    if (count <= 64) {
+        insertion_sort(entries, count);
+        return entries;
+    }
+    first = entries[0] >> index_bits;
+    for (i = 0; i < count; i++)
+        diff |= (entries[i] >> index_bits) ^ first;
+    if (!diff)
+        return entries; /* one key: already in object order */
+    lowbit = (uint32_t)__builtin_ctzll(diff) + index_bits;
+    highbit = 63u - (uint32_t)__builtin_clzll(diff) + index_bits;
+    span = highbit - lowbit + 1;
+    passes = (span + LC_RADIX_MAX_BITS - 1) / LC_RADIX_MAX_BITS;
+    bits = (span + passes - 1) / passes;
+    mask = (1ull << bits) - 1;
+    for (p = 0; p < passes; p++) {
+        shift[p] = lowbit + p * bits;
+        memset(hist[p], 0, sizeof(uint32_t) << bits);
+    }
+    /* 32-bit counters: callers hand at most 2^32 - 1 entries to one call. */
+    for (i = 0; i < count; i++) {
+        uint64_t v = src[i];
+        for (p = 0; p < passes; p++)
+            hist[p][(v >> shift[p]) & mask]++;
+    }
+    for (p = 0; p < passes; p++) {
+        uint32_t sum = 0, b, *h = hist[p];
+        int trivial = 0;
+        for (b = 0; b <= mask; b++) {
+            uint32_t c = h[b];
+            if (c == count)
+                trivial = 1;
+            h[b] = sum;
+            sum += c;
+        }
+        if (trivial)
+            continue; /* every entry has the same digit here */
+        for (i = 0; i < count; i++) {
+            uint64_t v = src[i];
+            dst[h[(v >> shift[p]) & mask]++] = v;
+        }
+        {
+            uint64_t *t = src;
+            src = dst;
+            dst = t;
+        }
+    }
+    return src;
+}
+
+locd_status locd_sort_entries(const locd_grid *grid, uint64_t *entries, uint64_t *scratch, size_t count)
+{
+    locd_status st = lc_grid_check(grid);
+    uint64_t *r;
+    if (st)
+        return st;
+    if (count && (!entries || !scratch))
+        return lc_error(LOCD_ERR_NULL_POINTER, "entries and scratch must not be NULL");
+    if (count > UINT32_MAX)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "sort at most 2^32-1 entries per call");
+    r = lc_sort(entries, scratch, count, grid->index_bits);
+    if (r != entries)
+        memcpy(entries, r, count * sizeof *entries);
+    lc_clear_error();
+    return LOCD_OK;
+}

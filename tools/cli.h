@@ -1,0 +1,51 @@
+/* Shared helpers of the locd command-line tool. */
+#ifndef LOCD_CLI_H
+#define LOCD_CLI_H
+
+#include <locd/locd.h>
+#include <stddef.h>
+#include <stdint.h>
+
+/* A scene as loaded from .aabb (float32) or .aabb64 (float64). */
+typedef struct cli_scene {
+    size_t n;
+    int f64;
+    float *f;  /* 6n values when !f64 */
+    double *d; /* 6n values when f64 */
+} cli_scene;
+
+int cli_load_scene(const char *path, cli_scene *s);
+void cli_free_scene(cli_scene *s);
+/* Writes m pairs (2m uint32, little-endian) to path; 0 on success. */
+int cli_write_pairs(const char *path, const uint32_t *pairs, size_t m);
+int cli_write_file(const char *path, const void *data, size_t bytes);
+
+/* Deterministic generator (splitmix64 seeded xoshiro256**). */
+typedef struct cli_rng {
+    uint64_t s[4];
+} cli_rng;
+void cli_rng_seed(cli_rng *r, uint64_t seed);
+uint64_t cli_rng_next(cli_rng *r);
+double cli_rng_uniform(cli_rng *r); /* [0, 1) */
+double cli_rng_normal(cli_rng *r);
+
+/* Scene generators: kinds "uniform", "clustered", "mixed", "lattice", "far".
+ * Returns 6n floats (malloc) or NULL for an unknown kind. */
+float *cli_generate(const char *kind, size_t n, uint64_t seed);
+const char *cli_generator_kinds(void);
+
+void cli_cpu_model(char *buf, size_t len);
+double cli_median(double *v, size_t n);
+double cli_now_ms(void);
+void cli_die(const char *fmt, ...);
+int cli_parse_size(const char *s, size_t *out); /* accepts 1e6, 1000000, 1M, 10k */
+
+/* Subcommands. argv[0] is the subcommand name. */
+int cmd_gen(int argc, char **argv);
+int cmd_pairs(int argc, char **argv);
+int cmd_bench(int argc, char **argv);
+int cmd_serve(int argc, char **argv);
+int cmd_simulate(int argc, char **argv);
+int cmd_accuracy(int argc, char **argv);
+
+#endif

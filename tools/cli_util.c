@@ -1,0 +1,272 @@
+/* Scene files, random numbers and small helpers for the locd tool. */
+#include "cli.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+void cli_die(const char *fmt, ...)
+{
+    va_list ap;
+    fputs("locd: ", stderr);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+    exit(2);
+}
+
+static int ends_with(const char *s, const char *suffix)
+{
+    size_t a = strlen(s), b = strlen(suffix);
+    return a >= b && strcmp(s + a - b, suffix) == 0;
+}
+
+int cli_load_scene(const char *path, cli_scene *s)
+{
+    FILE *f = fopen(path, "rb");
+    long size;
+    size_t row, n;
+    void *data;
+    memset(s, 0, sizeof *s);
+    if (!f) {
+        fprintf(stderr, "locd: cannot open %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    s->f64 = ends_with(path, ".aabb64");
+    row = s->f64 ? 48 : 24;
+    if (fseek(f, 0, SEEK_END) != 0 || (size = ftell(f)) < 0 || fseek(f, 0, SEEK_SET) != 0) {
+        fprintf(stderr, "locd: cannot read %s\n", path);
+        fclose(f);
+        return -1;
+    }
+    if ((size_t)size % row) {
+        fprintf(stderr, "locd: %s: size %ld is not a multiple of %zu bytes (one box)\n", path, size, row);
+        fclose(f);
+        return -1;
+    }
+    n = (size_t)size / row;
+    data = malloc(size ? (size_t)size : 1);
+    if (!data || (size && fread(data, 1, (size_t)size, f) != (size_t)size)) {
+        fprintf(stderr, "locd: cannot read %s\n", path);
+        free(data);
+        fclose(f);
+        return -1;
+    }
+    fclose(f);
+    s->n = n;
+    if (s->f64)
+        s->d = data;
+    else
+        s->f = data;
+    return 0;
+}
+
+void cli_free_scene(cli_scene *s)
+{
+    free(s->f);
+    free(s->d);
+    memset(s, 0, sizeof *s);
+}
+
+int cli_write_file(const char *path, const void *data, size_t bytes)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) {
+        fprintf(stderr, "locd: cannot create %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    if (bytes && fwrite(data, 1, bytes, f) != bytes) {
+        fprintf(stderr, "locd: cannot write %s\n", path);
+        fclose(f);
+        return -1;
+    }
+    if (fclose(f) != 0) {
+        fprintf(stderr, "locd: cannot write %s\n", path);
+        return -1;
+    }
+    return 0;
+}
+
+int cli_write_pairs(const char *path, const uint32_t *pairs, size_t m)
+{
+    return cli_write_file(path, pairs, m * 2 * sizeof(uint32_t));
+}
+
+static uint64_t splitmix64(uint64_t *x)
+{
+    uint64_t z = (*x += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+void cli_rng_seed(cli_rng *r, uint64_t seed)
+{
+    int i;
+    for (i = 0; i < 4; i++)
+        r->s[i] = splitmix64(&seed);
+}
+
+static uint64_t rotl(uint64_t x, int k)
+{
+    return (x << k) | (x >> (64 - k));
+}
+
+uint64_t cli_rng_next(cli_rng *r)
+{
+    uint64_t *s = r->s, result = rotl(s[1] * 5, 7) * 9, t = s[1] << 17;
+    s[2] ^= s[0];
+    s[3] ^= s[1];
+    s[1] ^= s[2];
+    s[0] ^= s[3];
+    s[2] ^= t;
+    s[3] = rotl(s[3], 45);
+    return result;
+}
+
+double cli_rng_uniform(cli_rng *r)
+{
+    return (double)(cli_rng_next(r) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+double cli_rng_normal(cli_rng *r)
+{
+    double u = cli_rng_uniform(r), v = cli_rng_uniform(r);
+    if (u < 1e-300)
+        u = 1e-300;
+    return sqrt(-2.0 * log(u)) * cos(6.283185307179586 * v);
+}
+
+const char *cli_generator_kinds(void)
+{
+    return "uniform, clustered, mixed, lattice, far";
+}
+
+static void put_box(float *b, double x, double y, double z, double sx, double sy, double sz)
+{
+    b[0] = (float)x;
+    b[1] = (float)y;
+    b[2] = (float)z;
+    b[3] = (float)(x + sx);
+    b[4] = (float)(y + sy);
+    b[5] = (float)(z + sz);
+}
+
+float *cli_generate(const char *kind, size_t n, uint64_t seed)
+{
+    cli_rng r;
+    size_t i;
+    float *b;
+    /* Edge of n equal cubes in the unit cube giving about one overlapping
+       pair per cube: n^2/2 * (2w)^3 = n  =>  w = (4n)^(-1/3). */
+    double w = n ? pow(4.0 * (double)n, -1.0 / 3.0) : 0.0;
+    if (strcmp(kind, "uniform") && strcmp(kind, "clustered") && strcmp(kind, "mixed") && strcmp(kind, "lattice") &&
+        strcmp(kind, "far"))
+        return NULL;
+    b = malloc(n ? n * 6 * sizeof(float) : 1);
+    if (!b)
+        return NULL;
+    cli_rng_seed(&r, seed);
+    if (!strcmp(kind, "uniform")) {
+        for (i = 0; i < n; i++)
+            put_box(b + 6 * i, cli_rng_uniform(&r) * (1 - w), cli_rng_uniform(&r) * (1 - w),
+                    cli_rng_uniform(&r) * (1 - w), w, w, w);
+    } else if (!strcmp(kind, "far")) {
+        /* The uniform scene, 1000 times larger, 1e5 from the origin: float32
+           spacing there is 1/128, the cubes about 1000 w. */
+        double off = 1e5, scale = 1000.0;
+        for (i = 0; i < n; i++)
+            put_box(b + 6 * i, off + scale * cli_rng_uniform(&r) * (1 - w), off + scale * cli_rng_uniform(&r) * (1 - w),
+                    off + scale * cli_rng_uniform(&r) * (1 - w), scale * w, scale * w, scale * w);
+    } else if (!strcmp(kind, "clustered")) {
+        /* Half the cubes in 64 Gaussian hot spots, half spread evenly. */
+        double cx[64], cy[64], cz[64];
+        int c;
+        for (c = 0; c < 64; c++) {
+            cx[c] = 0.1 + 0.8 * cli_rng_uniform(&r);
+            cy[c] = 0.1 + 0.8 * cli_rng_uniform(&r);
+            cz[c] = 0.1 + 0.8 * cli_rng_uniform(&r);
+        }
+        for (i = 0; i < n; i++) {
+            double x, y, z, e = 0.5 * w;
+            if (cli_rng_next(&r) & 1) {
+                c = (int)(cli_rng_next(&r) % 64);
+                x = cx[c] + 0.03 * cli_rng_normal(&r);
+                y = cy[c] + 0.03 * cli_rng_normal(&r);
+                z = cz[c] + 0.03 * cli_rng_normal(&r);
+            } else {
+                x = cli_rng_uniform(&r);
+                y = cli_rng_uniform(&r);
+                z = cli_rng_uniform(&r);
+            }
+            put_box(b + 6 * i, x, y, z, e, e, e);
+        }
+    } else if (!strcmp(kind, "mixed")) {
+        /* Edges log-uniform over three orders of magnitude, random aspect. */
+        for (i = 0; i < n; i++) {
+            double s = 0.3 * w * pow(10.0, 3.0 * cli_rng_uniform(&r) - 2.0);
+            double sx = s * (0.5 + cli_rng_uniform(&r)), sy = s * (0.5 + cli_rng_uniform(&r)),
+                   sz = s * (0.5 + cli_rng_uniform(&r));
+            put_box(b + 6 * i, cli_rng_uniform(&r), cli_rng_uniform(&r), cli_rng_uniform(&r), sx, sy, sz);
+        }
+    } else { /* lattice: unit cubes on an integer grid, touching faces, edges, corners */
+        size_t m = 1, x, y, z;
+        while ((m + 1) * (m + 1) * (m + 1) <= n)
+            m++;
+        for (i = 0; i < n; i++) {
+            size_t j = i % (m * m * m);
+            x = j % m;
+            y = (j / m) % m;
+            z = j / (m * m);
+            put_box(b + 6 * i, (double)x, (double)y, (double)z, 1.0, 1.0, 1.0);
+        }
+    }
+    return b;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+double cli_median(double *v, size_t n)
+{
+    if (!n)
+        return 0.0;
+    qsort(v, n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double cli_now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
+int cli_parse_size(const char *s, size_t *out)
+{
+    char *end;
+    double v;
+    errno = 0;
+    v = strtod(s, &end);
+    if (end == s || errno)
+        return -1;
+    if (*end == 'k' || *end == 'K') {
+        v *= 1e3;
+        end++;
+    } else if (*end == 'M' || *end == 'm') {
+        v *= 1e6;
+        end++;
+    }
+    if (*end || v < 0 || v > 1e12 || v != floor(v))
+        return -1;
+    *out = (size_t)v;
+    return 0;
+}

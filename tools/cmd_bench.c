@@ -1,0 +1,144 @@
+/* locd bench: the paper's Tables 1-2 (processors, run time, speedup,
+ * efficiency) measured on this machine, next to the paper's own figures. */
+#include "cli.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* Lucchesi, Egbert, Harris (IJCA 2014), uniform cubes: seconds by processors. */
+typedef struct paper_row {
+    size_t n;
+    unsigned procs;
+    double seconds;
+} paper_row;
+static const paper_row paper[] = {
+    {1000000, 1, 29.5}, {1000000, 2, 15.58}, {1000000, 40, 1.48}, {2000000, 1, 59.7}, {2000000, 40, 2.89},
+};
+
+static double paper_seconds(size_t n, unsigned p)
+{
+    size_t i;
+    for (i = 0; i < sizeof paper / sizeof paper[0]; i++)
+        if (paper[i].n == n && paper[i].procs == p)
+            return paper[i].seconds;
+    return 0.0;
+}
+
+void cli_cpu_model(char *buf, size_t len)
+{
+    FILE *f = fopen("/proc/cpuinfo", "r");
+    char line[512];
+    snprintf(buf, len, "unknown CPU");
+    if (!f)
+        return;
+    while (fgets(line, sizeof line, f)) {
+        if (!strncmp(line, "model name", 10)) {
+            char *c = strchr(line, ':');
+            if (c) {
+                c += 2;
+                c[strcspn(c, "\n")] = 0;
+                snprintf(buf, len, "%s", c);
+            }
+            break;
+        }
+    }
+    fclose(f);
+}
+
+static int parse_sizes(const char *s, size_t *sizes, int max)
+{
+    char buf[256], *tok, *save = NULL;
+    int k = 0;
+    snprintf(buf, sizeof buf, "%s", s);
+    for (tok = strtok_r(buf, ",", &save); tok && k < max; tok = strtok_r(NULL, ",", &save))
+        if (cli_parse_size(tok, &sizes[k++]) != 0)
+            return -1;
+    return k;
+}
+
+int cmd_bench(int argc, char **argv)
+{
+    size_t sizes[8] = {1000000, 2000000}, repeat = 5, pmax = (size_t)sysconf(_SC_NPROCESSORS_ONLN);
+    int nsizes = 2, a, si;
+    char cpu[256];
+    const char *kind = "uniform";
+    if (pmax < 1)
+        pmax = 1;
+    for (a = 1; a < argc; a++) {
+        if (!strcmp(argv[a], "--help")) {
+            printf("usage: locd bench [--sizes 1e6,2e6] [--repeat R] [--threads-max P] [--kind KIND]\n"
+                   "Prints the paper's Tables 1-2 layout for this machine: processors, run time (median of R),\n"
+                   "speedup and efficiency, beside the paper's 2014 figures for the same number of cubes.\n");
+            return 0;
+        } else if (!strcmp(argv[a], "--sizes") && a + 1 < argc) {
+            if ((nsizes = parse_sizes(argv[++a], sizes, 8)) <= 0)
+                cli_die("bench: bad --sizes");
+        } else if (!strcmp(argv[a], "--repeat") && a + 1 < argc) {
+            if (cli_parse_size(argv[++a], &repeat) || !repeat)
+                cli_die("bench: bad --repeat");
+        } else if (!strcmp(argv[a], "--threads-max") && a + 1 < argc) {
+            if (cli_parse_size(argv[++a], &pmax) || !pmax || pmax > 64)
+                cli_die("bench: bad --threads-max");
+        } else if (!strcmp(argv[a], "--kind") && a + 1 < argc) {
+            kind = argv[++a];
+        } else {
+            cli_die("bench: unknown option '%s'", argv[a]);
+        }
+    }
+    cli_cpu_model(cpu, sizeof cpu);
+    printf("locd %s bench: '%s' scenes (locd gen %s N --seed 1), median of %zu runs\n", locd_version_string(), kind,
+           kind, repeat);
+    printf("machine: %s, %ld cores online\n\n", cpu, sysconf(_SC_NPROCESSORS_ONLN));
+    printf("| objects   | processors | run time    | speedup | efficiency | pairs     | paper run time | paper speedup | paper efficiency |\n");
+    printf("|----------:|-----------:|------------:|--------:|-----------:|----------:|---------------:|--------------:|-----------------:|\n");
+    for (si = 0; si < nsizes; si++) {
+        size_t n = sizes[si], p, r;
+        float *boxes = cli_generate(kind, n, 1);
+        double t1 = 0, paper1 = paper_seconds(n, 1);
+        if (!boxes)
+            cli_die("bench: cannot generate '%s' (kinds: %s)", kind, cli_generator_kinds());
+        for (p = 1; p <= pmax; p++) {
+            locd_engine_config cfg;
+            locd_engine *eng;
+            locd_pairs *pairs;
+            locd_stats st;
+            double *ms = calloc(repeat, sizeof(double)), med, pp;
+            locd_engine_config_init(&cfg);
+            cfg.threads = (uint32_t)p;
+            if (locd_engine_create(&cfg, &eng) || locd_pairs_create(NULL, &pairs))
+                cli_die("bench: %s", locd_last_error());
+            locd_engine_find_pairs_f32(eng, boxes, n, 0, pairs); /* warm-up: buffers reach their size */
+            for (r = 0; r < repeat; r++) {
+                if (locd_engine_find_pairs_f32(eng, boxes, n, 0, pairs) != LOCD_OK)
+                    cli_die("bench: %s", locd_last_error());
+                locd_stats_init(&st);
+                locd_engine_stats(eng, &st);
+                ms[r] = st.ms_total;
+            }
+            med = cli_median(ms, repeat);
+            if (p == 1)
+                t1 = med;
+            pp = paper_seconds(n, (unsigned)p);
+            printf("| %9zu | %10zu | %8.2f ms | %7.2f | %9.1f%% | %9zu |", n, p, med, t1 / med,
+                   100.0 * t1 / med / (double)p, locd_pairs_count(pairs));
+            if (pp > 0)
+                printf(" %12.2f s | %13.2f | %15.1f%% |\n", pp, paper1 / pp, 100.0 * paper1 / pp / (double)p);
+            else
+                printf(" %14s | %13s | %16s |\n", "-", "-", "-");
+            free(ms);
+            locd_pairs_destroy(pairs);
+            locd_engine_destroy(eng);
+        }
+        {
+            double pp = paper_seconds(n, 40);
+            if (pp > 0)
+                printf("| %9zu | %10d | %11s | %7s | %10s | %9s | %12.2f s | %13.2f | %15.1f%% |\n", n, 40, "-", "-",
+                       "-", "-", pp, paper1 / pp, 100.0 * paper1 / pp / 40.0);
+        }
+        free(boxes);
+    }
+    printf("\npaper: Lucchesi, Egbert, Harris, IJCA 21(4) 2014, Tables 1-2 (2 processors at 1M: 94.7%% efficiency).\n");
+    return 0;
+}
