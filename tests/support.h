@@ -1,0 +1,28 @@
+/* Helpers shared by the C tests: scenes and the reference answer. */
+#ifndef LOCD_TEST_SUPPORT_H
+#define LOCD_TEST_SUPPORT_H
+
+#include <locd/locd.h>
+#include <stddef.h>
+#include <stdint.h>
+
+/* xorshift-based generator: tests are reproducible from their seed. */
+typedef struct ts_rng {
+    uint64_t s;
+} ts_rng;
+void ts_seed(ts_rng *r, uint64_t seed);
+uint64_t ts_next(ts_rng *r);
+double ts_uniform(ts_rng *r); /* [0, 1) */
+
+/* Random scene of n boxes: kind 0 uniform, 1 clustered, 2 mixed sizes,
+ * 3 touching lattice, 4 degenerate (points, planes, duplicates). malloc'd. */
+float *ts_scene(int kind, size_t n, uint64_t seed);
+#define TS_SCENE_KINDS 5
+
+/* Copies pairs, sorted by (i, j), into a malloc'd array; *m gets the count. */
+uint32_t *ts_sorted_copy(const locd_pairs *p, size_t *m);
+/* 1 if the engine result (any order) equals the brute-force set. */
+int ts_same_as_brute_f32(const float *boxes, size_t n, const locd_pairs *result);
+int ts_same_as_brute_f64(const double *boxes, size_t n, const locd_pairs *result);
+
+#endif
