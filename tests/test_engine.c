@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include <cmocka.h>
+#include <math.h>
 
 #include "support.h"
 
@@ -45,10 +46,93 @@ static void random_scenes_match_brute_force(void **state)
     locd_pairs_destroy(p);
 }
 
+/* Byte-identical output (not just the same set) for every thread count. */
+static void order_is_the_same_for_every_thread_count(void **state)
+{
+    int kind;
+    (void)state;
+    for (kind = 0; kind < TS_SCENE_KINDS; kind++) {
+        size_t n = 30000;
+        float *b = ts_scene(kind, n, 77 + (uint64_t)kind);
+        locd_pairs *ref, *p;
+        uint32_t t;
+        assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
+        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        for (t = 1; t <= 8; t++) {
+            locd_engine *e = engine_with(t);
+            assert_int_equal(locd_engine_find_pairs_f32(e, b, n, 0, t == 1 ? ref : p), LOCD_OK);
+            if (t > 1) {
+                assert_int_equal(locd_pairs_count(p), locd_pairs_count(ref));
+                assert_memory_equal(locd_pairs_data(p), locd_pairs_data(ref), locd_pairs_count(p) * 8);
+            }
+            locd_engine_destroy(e);
+        }
+        locd_pairs_destroy(ref);
+        locd_pairs_destroy(p);
+        free(b);
+    }
+}
+
+/* The same values as float32 and float64 give the same pairs in the same order. */
+static void f32_and_f64_agree(void **state)
+{
+    size_t n = 20000, i;
+    float *b = ts_scene(2, n, 5);
+    double *d = malloc(n * 6 * sizeof *d);
+    locd_engine *e = engine_with(2);
+    locd_pairs *p32, *p64;
+    (void)state;
+    for (i = 0; i < 6 * n; i++)
+        d[i] = b[i];
+    assert_int_equal(locd_pairs_create(NULL, &p32), LOCD_OK);
+    assert_int_equal(locd_pairs_create(NULL, &p64), LOCD_OK);
+    assert_int_equal(locd_engine_find_pairs_f32(e, b, n, 0, p32), LOCD_OK);
+    assert_int_equal(locd_engine_find_pairs_f64(e, d, n, 0, p64), LOCD_OK);
+    assert_int_equal(locd_pairs_count(p32), locd_pairs_count(p64));
+    assert_memory_equal(locd_pairs_data(p32), locd_pairs_data(p64), locd_pairs_count(p32) * 8);
+    assert_true(ts_same_as_brute_f64(d, n, p64));
+    locd_pairs_destroy(p32);
+    locd_pairs_destroy(p64);
+    locd_engine_destroy(e);
+    free(d);
+    free(b);
+}
+
+/* Touching faces, edges and corners count; a gap of one float ulp does not. */
+static void touching_boxes_count_and_ulp_gaps_do_not(void **state)
+{
+    locd_engine *e = engine_with(1);
+    locd_pairs *p;
+    float b[5 * 6] = {
+        0, 0, 0, 1, 1, 1, /* 0 */
+        1, 0, 0, 2, 1, 1, /* 1: face of 0 */
+        1, 1, 0, 2, 2, 1, /* 2: edge of 0, face of 1 */
+        1, 1, 1, 2, 2, 2, /* 3: corner of 0, edge of 1, face of 2 */
+        0, 0, 0, 0, 0, 0, /* 4: a point on 0's corner */
+    };
+    float c[12] = {0, 0, 0, 1, 1, 1, 0, 0, 0, 2, 1, 1};
+    (void)state;
+    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    assert_int_equal(locd_engine_find_pairs_f32(e, b, 5, LOCD_FIND_SORTED, p), LOCD_OK);
+    assert_true(ts_same_as_brute_f32(b, 5, p));
+    assert_int_equal(locd_pairs_count(p), 7); /* 01 02 03 04 12 13 23 */
+    c[6] = nextafterf(1.0f, 2.0f);            /* box 1 starts one ulp past box 0 */
+    assert_int_equal(locd_engine_find_pairs_f32(e, c, 2, 0, p), LOCD_OK);
+    assert_int_equal(locd_pairs_count(p), 0);
+    c[6] = 1.0f;
+    assert_int_equal(locd_engine_find_pairs_f32(e, c, 2, 0, p), LOCD_OK);
+    assert_int_equal(locd_pairs_count(p), 1);
+    locd_pairs_destroy(p);
+    locd_engine_destroy(e);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(random_scenes_match_brute_force),
+        cmocka_unit_test(order_is_the_same_for_every_thread_count),
+        cmocka_unit_test(f32_and_f64_agree),
+        cmocka_unit_test(touching_boxes_count_and_ulp_gaps_do_not),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
