@@ -315,4 +315,7 @@ LOCD_API locd_status locd_brute_force_f64(const double *boxes, size_t n, locd_pa
 }
 #endif
 
+/* Filter pipeline: shapes, narrow phase, swept tests (issue 9). */
+#include "locd/pipeline.h"
+
 #endif /* LOCD_LOCD_H */
