@@ -1,0 +1,402 @@
+// locd._core: the pybind11 extension behind `import locd`.
+//
+// Thin on purpose: it turns numpy arrays into (pointer, n) for the public C
+// API, releases the GIL around every C call that may take time, copies the
+// pairs into a fresh (m, 2) uint32 array, and turns status codes into the
+// Python exceptions defined in locd/_errors.py. Policy (defaults, argument
+// checking of Python-level options, concurrent.futures semantics) lives in
+// locd/__init__.py.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <cstdint>
+#include <cstring>
+#include <mutex>
+#include <string>
+
+#include "locd/locd.h"
+
+namespace py = pybind11;
+
+namespace {
+
+// Raises the Python exception for a failed call. Reads the thread-local detail
+// first: nothing else may call into locd on this thread before that.
+[[noreturn]] void raise_status(locd_status status)
+{
+    std::string detail = locd_last_error();
+    long long index = static_cast<long long>(locd_last_error_index());
+    py::object exc = py::module_::import("locd._errors")
+                         .attr("from_status")(status, locd_status_string(status), detail, index);
+    PyErr_SetObject(reinterpret_cast<PyObject *>(Py_TYPE(exc.ptr())), exc.ptr());
+    throw py::error_already_set();
+}
+
+// A validated (n, 6) float32 or float64 array the C side can read in place.
+struct Boxes {
+    py::array array; // the caller's array when possible, else a converted copy
+    const void *data = nullptr;
+    size_t n = 0;
+    bool f64 = false;
+};
+
+std::string shape_string(const py::array &a)
+{
+    std::string s = "(";
+    for (py::ssize_t d = 0; d < a.ndim(); d++)
+        s += (d ? ", " : "") + std::to_string(a.shape(d));
+    return s + (a.ndim() == 1 ? ",)" : ")");
+}
+
+// Accepts float32 and float64 arrays of shape (n, 6). A native-endian,
+// aligned, C-contiguous array is passed to C as it is (zero-copy); any other
+// float32/float64 layout is converted first. Non-arrays (lists) become float64.
+Boxes view_boxes(py::handle obj)
+{
+    py::module_ np = py::module_::import("numpy");
+    Boxes b;
+    if (py::isinstance<py::array>(obj))
+        b.array = py::reinterpret_borrow<py::array>(obj);
+    else
+        b.array = np.attr("asarray")(obj, py::arg("dtype") = np.attr("float64"));
+    py::dtype dt = b.array.dtype();
+    if (dt.kind() != 'f' || (dt.itemsize() != 4 && dt.itemsize() != 8))
+        throw py::type_error("boxes must be a float32 or float64 array, got dtype " +
+                             py::str(dt).cast<std::string>() + " (convert it with .astype(numpy.float64))");
+    if (b.array.ndim() != 2 || b.array.shape(1) != 6)
+        throw py::value_error("boxes must have shape (n, 6): minx miny minz maxx maxy maxz per row; got shape " +
+                              shape_string(b.array));
+    b.f64 = dt.itemsize() == 8;
+    py::dtype native = b.f64 ? py::dtype::of<double>() : py::dtype::of<float>();
+    const int need = py::array::c_style | py::detail::npy_api::NPY_ARRAY_ALIGNED_;
+    if (!native.equal(dt) || (b.array.flags() & need) != need)
+        b.array = np.attr("require")(b.array, native, "CA");
+    b.data = b.array.data();
+    b.n = static_cast<size_t>(b.array.shape(0));
+    return b;
+}
+
+py::array_t<uint32_t> pairs_to_array(const locd_pairs *pairs)
+{
+    size_t m = locd_pairs_count(pairs);
+    py::array_t<uint32_t> out({static_cast<py::ssize_t>(m), static_cast<py::ssize_t>(2)});
+    uint32_t *dst = out.mutable_data();
+    const uint32_t *src = locd_pairs_data(pairs);
+    if (m) {
+        py::gil_scoped_release nogil;
+        std::memcpy(dst, src, m * 2 * sizeof(uint32_t));
+    }
+    return out;
+}
+
+py::dict stats_to_dict(const locd_stats &s)
+{
+    py::dict d;
+    d["threads"] = s.threads;
+    d["objects"] = s.objects;
+    d["entries"] = s.entries;
+    d["candidates"] = s.candidates;
+    d["exact_tests"] = s.exact_tests;
+    d["pairs"] = s.pairs;
+    d["depth"] = s.depth;
+    d["ms_total"] = s.ms_total;
+    d["ms_bounds"] = s.ms_bounds;
+    d["ms_encode"] = s.ms_encode;
+    d["ms_sort"] = s.ms_sort;
+    d["ms_merge"] = s.ms_merge;
+    d["ms_sweep"] = s.ms_sweep;
+    d["ms_order"] = s.ms_order;
+    d["ms_transfer"] = s.ms_transfer;
+    return d;
+}
+
+// Owns a locd_pairs buffer; frees it on scope exit.
+struct PairsBuffer {
+    locd_pairs *p = nullptr;
+    PairsBuffer()
+    {
+        locd_status st = locd_pairs_create(nullptr, &p);
+        if (st != LOCD_OK)
+            raise_status(st);
+    }
+    ~PairsBuffer() { locd_pairs_destroy(p); }
+    PairsBuffer(const PairsBuffer &) = delete;
+    PairsBuffer &operator=(const PairsBuffer &) = delete;
+};
+
+class Job;
+
+// One locd_engine plus a reusable pairs buffer. The mutex serializes Python
+// threads sharing one Engine; it is only ever taken with the GIL released,
+// so a thread waiting for it never blocks the interpreter.
+class Engine {
+public:
+    Engine(int32_t level, uint32_t threads, uint32_t max_depth, int32_t cell_bias, bool cubes,
+           py::object service, py::object secret, py::object worker_path)
+    {
+        locd_engine_config cfg;
+        locd_engine_config_init(&cfg);
+        cfg.level = level;
+        cfg.threads = threads;
+        cfg.max_depth = max_depth;
+        cfg.cell_bias = cell_bias;
+        cfg.flags = cubes ? LOCD_CONFIG_CUBES : 0u;
+        std::string service_s, secret_s, worker_s;
+        if (!service.is_none()) {
+            service_s = service.cast<std::string>();
+            cfg.service_address = service_s.c_str();
+        }
+        if (!secret.is_none()) {
+            secret_s = secret.cast<std::string>();
+            cfg.service_secret = secret_s.c_str();
+        }
+        if (!worker_path.is_none()) {
+            worker_s = worker_path.cast<std::string>();
+            cfg.worker_path = worker_s.c_str();
+        }
+        locd_status st;
+        {
+            // Starting workers or connecting to a service can take a while.
+            py::gil_scoped_release nogil;
+            st = locd_engine_create(&cfg, &engine_);
+        }
+        if (st != LOCD_OK)
+            raise_status(st);
+    }
+
+    ~Engine()
+    {
+        // Destroy without the GIL: stopping workers may wait for them.
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> lock(mutex_);
+        locd_engine_destroy(engine_);
+        engine_ = nullptr;
+    }
+
+    void close()
+    {
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> lock(mutex_);
+        locd_engine_destroy(engine_);
+        engine_ = nullptr;
+    }
+
+    bool closed() const { return engine_ == nullptr; }
+    int32_t level() const { return engine_ ? locd_engine_level(engine_) : 0; }
+    uint32_t threads() const { return engine_ ? locd_engine_threads(engine_) : 0; }
+
+    py::array_t<uint32_t> find_pairs(py::handle boxes_obj, bool sort)
+    {
+        Boxes b = view_boxes(boxes_obj);
+        uint32_t flags = sort ? LOCD_FIND_SORTED : 0u;
+        std::unique_lock<std::mutex> lock(mutex_, std::defer_lock);
+        locd_status st;
+        {
+            py::gil_scoped_release nogil;
+            lock.lock();
+            if (!engine_)
+                st = LOCD_ERR_INVALID_HANDLE;
+            else if (b.f64)
+                st = locd_engine_find_pairs_f64(engine_, static_cast<const double *>(b.data), b.n, flags, pairs_.p);
+            else
+                st = locd_engine_find_pairs_f32(engine_, static_cast<const float *>(b.data), b.n, flags, pairs_.p);
+        }
+        if (st == LOCD_ERR_INVALID_HANDLE && !engine_)
+            throw py::value_error("the engine is closed");
+        if (st != LOCD_OK)
+            raise_status(st);
+        // Still holding the lock: nobody else may refill pairs_ meanwhile.
+        return pairs_to_array(pairs_.p);
+    }
+
+    py::dict stats()
+    {
+        locd_stats s;
+        locd_stats_init(&s);
+        locd_status st;
+        {
+            py::gil_scoped_release nogil;
+            std::lock_guard<std::mutex> lock(mutex_);
+            st = engine_ ? locd_engine_stats(engine_, &s) : LOCD_ERR_INVALID_HANDLE;
+        }
+        if (st != LOCD_OK)
+            raise_status(st);
+        return stats_to_dict(s);
+    }
+
+    locd_engine *handle() const { return engine_; }
+    std::mutex &mutex() { return mutex_; }
+
+private:
+    locd_engine *engine_ = nullptr;
+    PairsBuffer pairs_;
+    std::mutex mutex_;
+};
+
+// A submitted job. Python's locd.Job adds concurrent.futures semantics on top.
+class Job {
+public:
+    explicit Job(locd_job *job) : job_(job) {}
+    ~Job() { release(); }
+
+    // The status codes LOCD_OK, LOCD_PENDING, LOCD_ERR_TIMEOUT and
+    // LOCD_ERR_CANCELLED are returned; other errors raise.
+    int32_t poll()
+    {
+        locd_status st;
+        {
+            py::gil_scoped_release nogil;
+            std::lock_guard<std::mutex> lock(mutex_);
+            st = job_ ? locd_job_poll(job_) : LOCD_ERR_CANCELLED;
+        }
+        return checked(st);
+    }
+
+    int32_t wait(int64_t timeout_ms)
+    {
+        locd_status st;
+        {
+            py::gil_scoped_release nogil;
+            std::lock_guard<std::mutex> lock(mutex_);
+            st = job_ ? locd_job_wait(job_, timeout_ms) : LOCD_ERR_CANCELLED;
+        }
+        return checked(st);
+    }
+
+    py::array_t<uint32_t> take()
+    {
+        PairsBuffer out;
+        locd_status st;
+        {
+            py::gil_scoped_release nogil;
+            std::lock_guard<std::mutex> lock(mutex_);
+            st = job_ ? locd_job_take(job_, out.p) : LOCD_ERR_INVALID_HANDLE;
+        }
+        if (st != LOCD_OK)
+            raise_status(st);
+        return pairs_to_array(out.p);
+    }
+
+    py::dict stats()
+    {
+        locd_stats s;
+        locd_stats_init(&s);
+        locd_status st;
+        {
+            py::gil_scoped_release nogil;
+            std::lock_guard<std::mutex> lock(mutex_);
+            st = job_ ? locd_job_stats(job_, &s) : LOCD_ERR_INVALID_HANDLE;
+        }
+        if (st != LOCD_OK)
+            raise_status(st);
+        return stats_to_dict(s);
+    }
+
+    void cancel()
+    {
+        locd_status st;
+        {
+            py::gil_scoped_release nogil;
+            std::lock_guard<std::mutex> lock(mutex_);
+            st = job_ ? locd_job_cancel(job_) : LOCD_OK;
+        }
+        if (st != LOCD_OK)
+            raise_status(st);
+    }
+
+    // Frees the C job (cancelling it if it still runs). Later calls report
+    // the job as cancelled.
+    void release()
+    {
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> lock(mutex_);
+        locd_job_release(job_);
+        job_ = nullptr;
+    }
+
+private:
+    int32_t checked(locd_status st)
+    {
+        if (st == LOCD_OK || st == LOCD_PENDING || st == LOCD_ERR_TIMEOUT || st == LOCD_ERR_CANCELLED)
+            return st;
+        raise_status(st);
+    }
+
+    locd_job *job_ = nullptr;
+    std::mutex mutex_;
+};
+
+Job *submit(Engine &engine, py::handle boxes_obj, bool sort)
+{
+    Boxes b = view_boxes(boxes_obj);
+    uint32_t flags = sort ? LOCD_FIND_SORTED : 0u;
+    locd_job *job = nullptr;
+    locd_status st;
+    {
+        // submit copies the boxes, so the caller may reuse its array at once.
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> lock(engine.mutex());
+        if (!engine.handle())
+            st = LOCD_ERR_INVALID_HANDLE;
+        else if (b.f64)
+            st = locd_engine_submit_f64(engine.handle(), static_cast<const double *>(b.data), b.n, flags, &job);
+        else
+            st = locd_engine_submit_f32(engine.handle(), static_cast<const float *>(b.data), b.n, flags, &job);
+    }
+    if (st == LOCD_ERR_INVALID_HANDLE && !engine.handle())
+        throw py::value_error("the engine is closed");
+    if (st != LOCD_OK)
+        raise_status(st);
+    return new Job(job);
+}
+
+py::array_t<uint32_t> brute_force(py::handle boxes_obj)
+{
+    Boxes b = view_boxes(boxes_obj);
+    PairsBuffer out;
+    locd_status st;
+    {
+        py::gil_scoped_release nogil;
+        st = b.f64 ? locd_brute_force_f64(static_cast<const double *>(b.data), b.n, out.p)
+                   : locd_brute_force_f32(static_cast<const float *>(b.data), b.n, out.p);
+    }
+    if (st != LOCD_OK)
+        raise_status(st);
+    return pairs_to_array(out.p);
+}
+
+} // namespace
+
+PYBIND11_MODULE(_core, m)
+{
+    m.doc() = "Compiled core of locd (pybind11). Use the `locd` package, not this module.";
+
+    m.def("version", []() { return std::string(locd_version_string()); },
+          "Version string of the loaded C library.");
+    m.def("brute_force", &brute_force, py::arg("boxes"),
+          "O(n^2) reference: every overlapping pair, sorted by (i, j).");
+    m.def("_buffer_address", [](py::handle boxes) {
+        Boxes b = view_boxes(boxes);
+        return reinterpret_cast<uintptr_t>(b.data);
+    }, py::arg("boxes"), "Address of the buffer find_pairs would hand to C (for the zero-copy test).");
+
+    py::class_<Engine>(m, "Engine")
+        .def(py::init<int32_t, uint32_t, uint32_t, int32_t, bool, py::object, py::object, py::object>(),
+             py::arg("level"), py::arg("threads"), py::arg("max_depth"), py::arg("cell_bias"), py::arg("cubes"),
+             py::arg("service"), py::arg("secret"), py::arg("worker_path"))
+        .def("find_pairs", &Engine::find_pairs, py::arg("boxes"), py::arg("sort"))
+        .def("stats", &Engine::stats)
+        .def("close", &Engine::close)
+        .def_property_readonly("closed", &Engine::closed)
+        .def_property_readonly("level", &Engine::level)
+        .def_property_readonly("threads", &Engine::threads)
+        .def("submit", &submit, py::arg("boxes"), py::arg("sort"), py::keep_alive<0, 1>());
+
+    py::class_<Job>(m, "Job")
+        .def("poll", &Job::poll)
+        .def("wait", &Job::wait, py::arg("timeout_ms"))
+        .def("take", &Job::take)
+        .def("stats", &Job::stats)
+        .def("cancel", &Job::cancel)
+        .def("release", &Job::release);
+}

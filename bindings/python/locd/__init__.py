@@ -1,0 +1,312 @@
+"""locd: exact all-pairs collision detection of axis-aligned boxes.
+
+Boxes are an (n, 6) numpy array, one row ``minx miny minz maxx maxy maxz``
+per object, float32 (read in place when C-contiguous) or float64. Two boxes
+overlap iff on every axis ``a.min <= b.max and b.min <= a.max`` (closed
+intervals: touching faces, edges and corners count; zero-size boxes are
+valid). The result is exactly the overlapping pairs as an (m, 2) uint32 array,
+``i < j``, each pair once, in an order that does not depend on the thread
+count, the integration level or the run (``sort=True`` orders it by (i, j)).
+
+>>> import numpy as np, locd
+>>> boxes = np.array([[0, 0, 0, 1, 1, 1], [1, 1, 1, 2, 2, 2], [3, 3, 3, 4, 4, 4]], np.float32)
+>>> locd.find_pairs(boxes).tolist()
+[[0, 1]]
+
+Main entry points:
+
+- :func:`find_pairs` -- one call, an engine per Python thread behind the scenes.
+- :class:`Engine` -- explicit engine (integration level, threads, worker
+  processes or a service), its per-stage :class:`Stats`, and asynchronous
+  :class:`Job` objects from :meth:`Engine.submit`.
+- :mod:`locd.abi` -- the same ``find_pairs`` through cffi's ABI mode (no
+  compiler, only the shared library and the public header's declarations).
+
+Errors: bad boxes raise :class:`InvalidBoxError` (a ``ValueError`` whose
+``index`` names the first bad box); wrong shapes raise ``ValueError``, wrong
+dtypes ``TypeError``; any other failure raises :class:`Error` carrying the C
+status code. The GIL is released while the C library works.
+"""
+from __future__ import annotations
+
+import concurrent.futures
+import dataclasses
+import math
+import threading
+import weakref
+from typing import Any, Dict, Optional, Union
+
+import numpy as np
+
+from . import _core
+from ._errors import STATUS, Error, InvalidBoxError
+
+__all__ = ["find_pairs", "brute_force", "Engine", "Job", "Stats", "Error", "InvalidBoxError", "STATUS",
+           "LEVELS", "__version__"]
+
+#: Version of the loaded C library (the Meson project version).
+__version__: str = _core.version()
+
+#: Integration level names accepted by :class:`Engine`.
+LEVELS: Dict[str, int] = {"inprocess": 1, "workers": 2, "service": 3}
+
+_OK = STATUS["OK"]
+_PENDING = STATUS["PENDING"]
+_TIMEOUT = STATUS["ERR_TIMEOUT"]
+_CANCELLED = STATUS["ERR_CANCELLED"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Stats:
+    """Statistics of one call (``locd_stats``): counts and per-stage milliseconds.
+
+    ``ms_total`` is the wall time inside the C call; the stages are bounds
+    (validation and root cube), encode, sort, merge, sweep, order (sorting the
+    pairs when ``sort=True``) and transfer (shared memory or socket traffic of
+    levels 2 and 3).
+    """
+
+    threads: int
+    objects: int
+    entries: int
+    candidates: int
+    exact_tests: int
+    pairs: int
+    depth: int
+    ms_total: float
+    ms_bounds: float
+    ms_encode: float
+    ms_sort: float
+    ms_merge: float
+    ms_sweep: float
+    ms_order: float
+    ms_transfer: float
+
+    def as_dict(self) -> Dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+def _count(name: str, value: Optional[int]) -> int:
+    if value is None:
+        return 0
+    value = int(value)
+    if value < 1:
+        raise ValueError("%s must be >= 1 (or None for one per core), got %d" % (name, value))
+    return value
+
+
+class Engine:
+    """A locd engine: an integration level, its threads/workers and buffers.
+
+    Reuse one engine for many calls (it keeps its threads, workers or
+    connection and its buffers). Use it as a context manager, or call
+    :meth:`close`. An engine runs one call at a time; Python threads sharing it
+    take turns (give each thread its own engine to run them in parallel).
+
+    Args:
+        level: ``'inprocess'`` (threads in this process), ``'workers'`` (worker
+            processes over POSIX shared memory) or ``'service'`` (a separate
+            locd service process; asynchronous jobs), or the number 1, 2 or 3.
+        threads: threads for level ``'inprocess'`` (None = one per core).
+        workers: worker processes for level ``'workers'`` (None = one per core).
+        service: level ``'service'``: ``"unix:/path/to.sock"`` or ``"tcp:host:port"``.
+        secret: shared secret for a TCP service.
+        max_depth: octree depth limit (0 = automatic).
+        cell_bias: cell size bias 0..8 (see docs/encoding.md); default 1.
+        cubes: choose cells from bounding cubes (the paper's choice) instead of
+            the boxes' own extents. The result is the same; only the work differs.
+        worker_path: level ``'workers'``: path of the locd-worker executable
+            (None = the library's default).
+    """
+
+    def __init__(self, level: Union[str, int] = "inprocess", threads: Optional[int] = None,
+                 workers: Optional[int] = None, service: Optional[str] = None, secret: Optional[str] = None,
+                 max_depth: int = 0, cell_bias: int = 1, cubes: bool = False,
+                 worker_path: Optional[str] = None) -> None:
+        if isinstance(level, str):
+            if level not in LEVELS:
+                raise ValueError("level must be one of %s, got %r" % (", ".join(map(repr, LEVELS)), level))
+            lvl = LEVELS[level]
+        else:
+            lvl = int(level)
+            if lvl not in LEVELS.values():
+                raise ValueError("level must be 1, 2 or 3, got %d" % lvl)
+        if workers is not None and lvl != LEVELS["workers"]:
+            raise ValueError("workers= applies to level='workers' (use threads= for the other levels)")
+        if lvl == LEVELS["workers"] and workers is None:
+            workers = threads
+        count = _count("workers" if lvl == LEVELS["workers"] else "threads",
+                       workers if lvl == LEVELS["workers"] else threads)
+        if lvl == LEVELS["service"] and not service:
+            raise ValueError("level='service' needs service='unix:/path.sock' or 'tcp:host:port'")
+        if max_depth < 0:
+            raise ValueError("max_depth must be >= 0, got %d" % max_depth)
+        self._jobs: "weakref.WeakSet[Job]" = weakref.WeakSet()
+        self._core = _core.Engine(lvl, count, int(max_depth), int(cell_bias), bool(cubes), service, secret,
+                                  worker_path)
+
+    # -- lifetime -------------------------------------------------------------
+    def close(self) -> None:
+        """Stops the engine's threads/workers/connection. Unfinished jobs are cancelled."""
+        core = getattr(self, "_core", None)
+        if core is None or core.closed:
+            return
+        for job in list(self._jobs):
+            job._release()
+        core.close()
+
+    def __enter__(self) -> "Engine":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown: nothing sensible to report
+            pass
+
+    @property
+    def closed(self) -> bool:
+        return self._core.closed
+
+    @property
+    def level(self) -> str:
+        """Integration level in use (``'inprocess'``, ``'workers'`` or ``'service'``)."""
+        self._check_open()
+        return {v: k for k, v in LEVELS.items()}[self._core.level]
+
+    @property
+    def threads(self) -> int:
+        """Threads (level 1) or worker processes (level 2) in use."""
+        self._check_open()
+        return self._core.threads
+
+    def __repr__(self) -> str:
+        if self._core.closed:
+            return "<locd.Engine closed>"
+        return "<locd.Engine level=%r threads=%d>" % (self.level, self.threads)
+
+    def _check_open(self) -> None:
+        if self._core.closed:
+            raise ValueError("the engine is closed")
+
+    # -- work -----------------------------------------------------------------
+    def find_pairs(self, boxes: Any, *, sort: bool = False) -> np.ndarray:
+        """Every overlapping pair of ``boxes`` as an (m, 2) uint32 array, i < j.
+
+        ``boxes``: (n, 6) float32 or float64 array (float32 C-contiguous is read
+        in place; other layouts are converted). ``sort=True`` orders the pairs
+        by (i, j); otherwise the order is deterministic but unspecified.
+        """
+        return self._core.find_pairs(boxes, bool(sort))
+
+    @property
+    def stats(self) -> Stats:
+        """:class:`Stats` of this engine's last successful call."""
+        self._check_open()
+        return Stats(**self._core.stats())
+
+    def submit(self, boxes: Any, *, sort: bool = False) -> "Job":
+        """Starts finding the pairs asynchronously and returns a :class:`Job`.
+
+        The boxes are copied, so the array may be reused at once.
+        """
+        job = Job(self._core.submit(boxes, bool(sort)))
+        self._jobs.add(job)
+        return job
+
+
+class Job:
+    """An asynchronous :meth:`Engine.submit` call (concurrent.futures style)."""
+
+    def __init__(self, core: Any) -> None:
+        self._core = core
+        self._result: Optional[np.ndarray] = None
+        self._lock = threading.Lock()
+
+    def done(self) -> bool:
+        """True when the job finished (successfully, with an error or cancelled)."""
+        return self._result is not None or self._core.poll() != _PENDING
+
+    def cancelled(self) -> bool:
+        return self._result is None and self._core.poll() == _CANCELLED
+
+    def cancel(self) -> bool:
+        """Asks the job to stop. True unless it had already finished."""
+        if self._result is not None or self._core.poll() == _OK:
+            return False
+        self._core.cancel()
+        return self._core.poll() != _OK
+
+    def result(self, timeout: Optional[float] = None) -> np.ndarray:
+        """Waits for the pairs (an (m, 2) uint32 array) at most ``timeout`` seconds.
+
+        Raises ``TimeoutError`` if the job is still running then (it keeps
+        running), ``concurrent.futures.CancelledError`` if it was cancelled, or
+        the job's own :class:`Error`.
+        """
+        with self._lock:
+            if self._result is not None:
+                return self._result
+            ms = -1 if timeout is None else max(0, int(math.ceil(timeout * 1000.0)))
+            status = self._core.wait(ms)
+            if status == _TIMEOUT:
+                raise concurrent.futures.TimeoutError("locd job still running after %.3f s" % timeout)
+            if status == _CANCELLED:
+                raise concurrent.futures.CancelledError("locd job was cancelled")
+            self._result = self._core.take()
+            return self._result
+
+    @property
+    def stats(self) -> Stats:
+        """:class:`Stats` of the finished job."""
+        return Stats(**self._core.stats())
+
+    def _release(self) -> None:
+        self._core.release()
+
+    def __repr__(self) -> str:
+        state = "finished" if self._result is not None else "running" if not self.done() else "done"
+        return "<locd.Job %s>" % state
+
+
+_local = threading.local()
+
+
+def _engine_for(threads: Optional[int]) -> Engine:
+    engines = getattr(_local, "engines", None)
+    if engines is None:
+        engines = _local.engines = {}
+    key = _count("threads", threads)
+    engine = engines.get(key)
+    if engine is None:
+        engine = engines[key] = Engine(threads=threads)
+    return engine
+
+
+def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False) -> np.ndarray:
+    """Every overlapping pair of ``boxes`` as an (m, 2) uint32 array, i < j.
+
+    Args:
+        boxes: (n, 6) array, rows ``minx miny minz maxx maxy maxz``; float32
+            (zero-copy when C-contiguous) or float64 (computed in float64).
+        threads: threads to use (None = one per core).
+        sort: order the pairs by (i, j) (costs time); otherwise the order is
+            deterministic (the same for every thread count and run).
+
+    Raises:
+        InvalidBoxError: a box has NaN/inf coordinates or min > max (``.index``).
+        ValueError: ``boxes`` is not of shape (n, 6).
+        TypeError: ``boxes`` is not float32/float64.
+
+    Each Python thread gets its own engine (kept for later calls), so calls
+    from several threads run in parallel.
+    """
+    return _engine_for(threads)._core.find_pairs(boxes, bool(sort))
+
+
+def brute_force(boxes: Any) -> np.ndarray:
+    """The O(n^2) C reference: every overlapping pair, sorted by (i, j). For tests and tiny scenes."""
+    return _core.brute_force(boxes)
