@@ -1,0 +1,231 @@
+/* Determinism: the pair array (its bytes, not just the set) must not depend
+ * on the thread count, the precision of the same values, the entry point
+ * (pairs buffer or caller buffer), whether the engine is fresh or has run
+ * other scenes, or the run. Scenes are large enough for the work to be split
+ * between threads. The CLI-level check across integration levels is in
+ * scripts/ci/steps/60-determinism.sh.
+ *
+ * LOCD_TEST_HEAVY=0 (set by the sanitizer runs) shrinks the scenes. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "support.h"
+
+#define MAX_THREADS 8
+
+static int heavy(void)
+{
+    const char *v = getenv("LOCD_TEST_HEAVY");
+    return !(v && v[0] == '0');
+}
+
+/* Above the engine's 4096-object parallel threshold. The clustered, lattice
+ * and degenerate kinds have pairs growing as n^2: keep those scenes smaller. */
+static size_t scene_n(int kind)
+{
+    if (!heavy())
+        return 4500;
+    return (kind == 0 || kind == 2) ? 20000 : 5000;
+}
+
+static locd_engine *engine_for(uint32_t threads, int32_t bias, uint32_t depth, uint32_t cfg_flags)
+{
+    locd_engine_config cfg;
+    locd_engine *e = NULL;
+    locd_engine_config_init(&cfg);
+    cfg.threads = threads;
+    cfg.cell_bias = bias;
+    cfg.max_depth = depth;
+    cfg.flags = cfg_flags;
+    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
+    return e;
+}
+
+static double *widen(const float *f, size_t n)
+{
+    double *d = malloc((n ? n : 1) * 6 * sizeof *d);
+    size_t i;
+    assert_non_null(d);
+    for (i = 0; i < 6 * n; i++)
+        d[i] = (double)f[i];
+    return d;
+}
+
+/* Fails with a message naming the first differing pair. */
+static void same_bytes(const uint32_t *got, size_t got_n, const uint32_t *want, size_t want_n, const char *what)
+{
+    size_t i;
+    if (got_n != want_n)
+        fail_msg("%s: %zu pairs, expected %zu", what, got_n, want_n);
+    for (i = 0; i < 2 * got_n; i++)
+        if (got[i] != want[i])
+            fail_msg("%s: pair %zu is (%u, %u), expected (%u, %u)", what, i / 2, got[i & ~(size_t)1],
+                     got[i | 1], want[i & ~(size_t)1], want[i | 1]);
+}
+
+static void same_pairs(const locd_pairs *got, const locd_pairs *want, const char *what)
+{
+    same_bytes(locd_pairs_data(got), locd_pairs_count(got), locd_pairs_data(want), locd_pairs_count(want), what);
+}
+
+/* Every scene kind, threads 1..8, float32 and float64, pairs buffer and
+ * caller buffer, first and second call on the engine: one byte sequence. */
+static void every_thread_count_precision_and_entry_point(void **state)
+{
+    int kind;
+    (void)state;
+    for (kind = 0; kind < TS_SCENE_KINDS; kind++) {
+        const size_t n = scene_n(kind);
+        float *f = ts_scene(kind, n, 900 + (uint64_t)kind);
+        double *d = widen(f, n);
+        locd_pairs *ref, *p;
+        uint32_t *buf = NULL;
+        size_t cap, count;
+        uint32_t t;
+        char what[96];
+        assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
+        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        {
+            locd_engine *e1 = engine_for(1, 1, 0, 0);
+            assert_int_equal(locd_engine_find_pairs_f32(e1, f, n, 0, ref), LOCD_OK);
+            locd_engine_destroy(e1);
+        }
+        assert_true(locd_pairs_count(ref) > 0); /* the set itself is test_engine's job */
+        cap = locd_pairs_count(ref);
+        buf = malloc(cap * 2 * sizeof(uint32_t) + 8);
+        assert_non_null(buf);
+        for (t = 1; t <= MAX_THREADS; t++) {
+            locd_engine *e = engine_for(t, 1, 0, 0);
+            snprintf(what, sizeof what, "kind %d threads %u f32", kind, t);
+            assert_int_equal(locd_engine_find_pairs_f32(e, f, n, 0, p), LOCD_OK);
+            same_pairs(p, ref, what);
+            snprintf(what, sizeof what, "kind %d threads %u f64", kind, t);
+            assert_int_equal(locd_engine_find_pairs_f64(e, d, n, 0, p), LOCD_OK);
+            same_pairs(p, ref, what);
+            snprintf(what, sizeof what, "kind %d threads %u f32_into", kind, t);
+            assert_int_equal(locd_engine_find_pairs_f32_into(e, f, n, 0, buf, cap, &count), LOCD_OK);
+            same_bytes(buf, count, locd_pairs_data(ref), locd_pairs_count(ref), what);
+            snprintf(what, sizeof what, "kind %d threads %u f64_into", kind, t);
+            assert_int_equal(locd_engine_find_pairs_f64_into(e, d, n, 0, buf, cap, &count), LOCD_OK);
+            same_bytes(buf, count, locd_pairs_data(ref), locd_pairs_count(ref), what);
+            assert_int_equal(locd_engine_threads(e), t);
+            locd_engine_destroy(e);
+        }
+        free(buf);
+        locd_pairs_destroy(ref);
+        locd_pairs_destroy(p);
+        free(d);
+        free(f);
+    }
+}
+
+/* Other encodings (cubes, cell bias, a depth limit) change the order but it
+ * must still not depend on the thread count. */
+static void every_thread_count_for_other_configs(void **state)
+{
+    static const struct {
+        int32_t bias;
+        uint32_t depth, flags;
+    } cfgs[] = {{0, 0, 0}, {3, 0, 0}, {1, 4, 0}, {1, 0, LOCD_CONFIG_CUBES}, {8, 2, LOCD_CONFIG_CUBES}};
+    const size_t n = scene_n(2);
+    float *f = ts_scene(2, n, 4242);
+    size_t c;
+    (void)state;
+    for (c = 0; c < sizeof cfgs / sizeof cfgs[0]; c++) {
+        locd_pairs *ref, *p;
+        uint32_t t;
+        char what[96];
+        assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
+        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        for (t = 1; t <= MAX_THREADS; t++) {
+            locd_engine *e = engine_for(t, cfgs[c].bias, cfgs[c].depth, cfgs[c].flags);
+            assert_int_equal(locd_engine_find_pairs_f32(e, f, n, 0, t == 1 ? ref : p), LOCD_OK);
+            if (t > 1) {
+                snprintf(what, sizeof what, "bias %d depth %u flags %u threads %u", (int)cfgs[c].bias,
+                         cfgs[c].depth, cfgs[c].flags, t);
+                same_pairs(p, ref, what);
+            }
+            locd_engine_destroy(e);
+        }
+        locd_pairs_destroy(ref);
+        locd_pairs_destroy(p);
+    }
+    free(f);
+}
+
+/* An engine that has run other (larger, smaller) scenes gives the same bytes
+ * as a fresh one: nothing left in its reused buffers leaks into a result. */
+static void reused_engine_and_repeated_runs(void **state)
+{
+    const size_t n = scene_n(0);
+    float *a = ts_scene(0, n, 11), *big = ts_scene(2, 2 * n, 12), *small = ts_scene(3, 4200, 13);
+    locd_pairs *ref, *p;
+    locd_engine *fresh = engine_for(4, 1, 0, 0), *e = engine_for(4, 1, 0, 0);
+    int r;
+    (void)state;
+    assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
+    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    assert_int_equal(locd_engine_find_pairs_f32(fresh, a, n, 0, ref), LOCD_OK);
+    for (r = 0; r < 3; r++) {
+        assert_int_equal(locd_engine_find_pairs_f32(e, big, 2 * n, 0, p), LOCD_OK);
+        assert_int_equal(locd_engine_find_pairs_f32(e, a, n, 0, p), LOCD_OK);
+        same_pairs(p, ref, "after a larger scene");
+        assert_int_equal(locd_engine_find_pairs_f32(e, small, 4200, 0, p), LOCD_OK);
+        assert_int_equal(locd_engine_find_pairs_f32(e, a, n, 0, p), LOCD_OK);
+        same_pairs(p, ref, "after a smaller scene");
+    }
+    locd_engine_destroy(fresh);
+    locd_engine_destroy(e);
+    locd_pairs_destroy(ref);
+    locd_pairs_destroy(p);
+    free(a);
+    free(big);
+    free(small);
+}
+
+/* LOCD_FIND_SORTED gives brute force's (i, j) order byte for byte, at every thread count. */
+static void sorted_flag_is_brute_force_order(void **state)
+{
+    const size_t n = heavy() ? 8000 : 4500;
+    float *f = ts_scene(4, n, 99);
+    double *d = widen(f, n);
+    locd_pairs *ref, *p;
+    uint32_t t;
+    char what[64];
+    (void)state;
+    assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
+    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    assert_int_equal(locd_brute_force_f64(d, n, ref), LOCD_OK);
+    for (t = 1; t <= MAX_THREADS; t++) {
+        locd_engine *e = engine_for(t, 1, 0, 0);
+        snprintf(what, sizeof what, "sorted threads %u f32", t);
+        assert_int_equal(locd_engine_find_pairs_f32(e, f, n, LOCD_FIND_SORTED, p), LOCD_OK);
+        same_pairs(p, ref, what);
+        snprintf(what, sizeof what, "sorted threads %u f64", t);
+        assert_int_equal(locd_engine_find_pairs_f64(e, d, n, LOCD_FIND_SORTED, p), LOCD_OK);
+        same_pairs(p, ref, what);
+        locd_engine_destroy(e);
+    }
+    locd_pairs_destroy(ref);
+    locd_pairs_destroy(p);
+    free(d);
+    free(f);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(every_thread_count_precision_and_entry_point),
+        cmocka_unit_test(every_thread_count_for_other_configs),
+        cmocka_unit_test(reused_engine_and_repeated_runs),
+        cmocka_unit_test(sorted_flag_is_brute_force_order),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
