@@ -1,0 +1,67 @@
+/* Prints the size and field offsets of the public structs as the C compiler
+ * lays them out from the real header, one "name value" per line. The C# test
+ * runner compares them with Marshal.SizeOf / Marshal.OffsetOf of the structs
+ * mirrored in Native.cs. */
+#include <locd/locd.h>
+
+#include <stddef.h>
+#include <stdio.h>
+
+#define SIZE(T) printf(#T " %zu\n", sizeof(T))
+#define OFF(T, f) printf(#T "." #f " %zu\n", offsetof(T, f))
+#define OFFN(T, f, name, extra) printf(#T "." name " %zu\n", offsetof(T, f) + (extra))
+
+int main(void)
+{
+    SIZE(locd_allocator);
+    OFF(locd_allocator, alloc);
+    OFF(locd_allocator, free);
+    OFF(locd_allocator, user);
+
+    SIZE(locd_engine_config);
+    OFF(locd_engine_config, size);
+    OFF(locd_engine_config, level);
+    OFF(locd_engine_config, threads);
+    OFF(locd_engine_config, max_depth);
+    OFF(locd_engine_config, cell_bias);
+    OFF(locd_engine_config, flags);
+    OFF(locd_engine_config, service_address);
+    OFF(locd_engine_config, service_secret);
+    OFF(locd_engine_config, worker_path);
+    OFF(locd_engine_config, allocator);
+    OFF(locd_engine_config, log);
+    OFF(locd_engine_config, log_user);
+
+    SIZE(locd_stats);
+    OFF(locd_stats, size);
+    OFF(locd_stats, threads);
+    OFF(locd_stats, objects);
+    OFF(locd_stats, entries);
+    OFF(locd_stats, candidates);
+    OFF(locd_stats, exact_tests);
+    OFF(locd_stats, pairs);
+    OFF(locd_stats, depth);
+    OFF(locd_stats, reserved);
+    OFF(locd_stats, ms_total);
+    OFF(locd_stats, ms_bounds);
+    OFF(locd_stats, ms_encode);
+    OFF(locd_stats, ms_sort);
+    OFF(locd_stats, ms_merge);
+    OFF(locd_stats, ms_sweep);
+    OFF(locd_stats, ms_order);
+    OFF(locd_stats, ms_transfer);
+
+    SIZE(locd_grid);
+    OFF(locd_grid, size);
+    OFF(locd_grid, depth);
+    OFF(locd_grid, cell_bias);
+    OFF(locd_grid, index_bits);
+    OFF(locd_grid, flags);
+    OFF(locd_grid, reserved);
+    OFFN(locd_grid, origin, "origin0", 0);
+    OFFN(locd_grid, origin, "origin1", sizeof(double));
+    OFFN(locd_grid, origin, "origin2", 2 * sizeof(double));
+    OFF(locd_grid, scale_a);
+    OFF(locd_grid, scale_b);
+    return 0;
+}

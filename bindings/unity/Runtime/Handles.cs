@@ -1,0 +1,92 @@
+// SafeHandles owning the C library's opaque handles. A handle is released
+// exactly once, by Dispose or by the finalizer, and never while a call that
+// took a reference (DangerousAddRef) is still running on another thread.
+using System;
+using System.Runtime.InteropServices;
+using System.Threading;
+
+namespace Locd
+{
+    /// <summary>Owns a locd_engine *.</summary>
+    public sealed class EngineHandle : SafeHandle
+    {
+        static long live;
+
+        /// <summary>Engines created and not yet destroyed (all threads).</summary>
+        public static long Live { get { return Interlocked.Read(ref live); } }
+
+        public EngineHandle() : base(IntPtr.Zero, true) { }
+
+        public override bool IsInvalid { get { return handle == IntPtr.Zero; } }
+
+        internal void Own(IntPtr engine)
+        {
+            SetHandle(engine);
+            Interlocked.Increment(ref live);
+        }
+
+        protected override bool ReleaseHandle()
+        {
+            Native.locd_engine_destroy(handle);
+            Interlocked.Decrement(ref live);
+            return true;
+        }
+    }
+
+    /// <summary>Owns a locd_pairs * (a growable native pairs buffer).</summary>
+    public sealed class PairsHandle : SafeHandle
+    {
+        public PairsHandle() : base(IntPtr.Zero, true) { }
+
+        public override bool IsInvalid { get { return handle == IntPtr.Zero; } }
+
+        /// <summary>Creates an empty buffer (malloc/free).</summary>
+        public static unsafe PairsHandle Create()
+        {
+            var h = new PairsHandle();
+            IntPtr p;
+            LocdException.Check(Native.locd_pairs_create(null, &p));
+            h.SetHandle(p);
+            return h;
+        }
+
+        protected override bool ReleaseHandle()
+        {
+            Native.locd_pairs_destroy(handle);
+            return true;
+        }
+    }
+
+    /// <summary>Owns a locd_job * and keeps its engine alive until the job is released.</summary>
+    public sealed class JobHandle : SafeHandle
+    {
+        static long live;
+        EngineHandle engine;
+
+        /// <summary>Jobs submitted and not yet released (all threads).</summary>
+        public static long Live { get { return Interlocked.Read(ref live); } }
+
+        public JobHandle() : base(IntPtr.Zero, true) { }
+
+        public override bool IsInvalid { get { return handle == IntPtr.Zero; } }
+
+        // The caller holds a reference on `owner` (DangerousAddRef) taken for
+        // this job; it is given back in ReleaseHandle, after locd_job_release,
+        // so the engine is destroyed last even when both are finalized together.
+        internal void Own(IntPtr job, EngineHandle owner)
+        {
+            engine = owner;
+            SetHandle(job);
+            Interlocked.Increment(ref live);
+        }
+
+        protected override bool ReleaseHandle()
+        {
+            Native.locd_job_release(handle);
+            Interlocked.Decrement(ref live);
+            if (engine != null)
+                engine.DangerousRelease();
+            return true;
+        }
+    }
+}
