@@ -1,0 +1,49 @@
+"""Shared helpers for the Python tests of locd (run against the *installed* package)."""
+import os
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, settings
+
+# Fixed, modest example counts so CI stays fast; no deadline (timings on a
+# shared 2-core machine vary). LOCD_HYPOTHESIS_EXAMPLES raises it locally.
+settings.register_profile(
+    "locd",
+    max_examples=int(os.environ.get("LOCD_HYPOTHESIS_EXAMPLES", "60")),
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+    print_blob=True,
+)
+settings.load_profile("locd")
+
+REPO_ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+
+
+def numpy_pairs(boxes):
+    """Independent reference: every pair (i < j) overlapping under the closed-interval rule, sorted.
+
+    float32 widens to float64 exactly, so comparing in float64 is the same test.
+    """
+    b = np.asarray(boxes, dtype=np.float64)
+    lo, hi = b[:, :3], b[:, 3:]
+    overlap = np.all((lo[:, None, :] <= hi[None, :, :]) & (lo[None, :, :] <= hi[:, None, :]), axis=2)
+    i, j = np.nonzero(np.triu(overlap, 1))
+    return np.stack([i, j], axis=1).astype(np.uint32).reshape(-1, 2)
+
+
+def sorted_pairs(pairs):
+    pairs = np.asarray(pairs).reshape(-1, 2)
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
+
+
+def uniform_scene(n, seed=1, dtype=np.float32):
+    """n equal cubes in the unit cube, about one overlapping pair per cube (the CLI's 'uniform')."""
+    rng = np.random.default_rng(seed)
+    w = (4.0 * max(n, 1)) ** (-1.0 / 3.0)
+    lo = rng.random((n, 3)) * (1 - w)
+    return np.ascontiguousarray(np.hstack([lo, lo + w]).astype(dtype))
+
+
+@pytest.fixture
+def small_scene():
+    return uniform_scene(500, seed=7)

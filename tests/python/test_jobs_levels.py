@@ -1,0 +1,221 @@
+"""Asynchronous jobs and integration levels 2 (worker processes) and 3 (service) from Python.
+
+Each group is skipped only when a runtime probe shows the C library reports
+LOCD_ERR_UNSUPPORTED for it (the feature is not in this build); any other
+failure fails the tests.
+"""
+import concurrent.futures
+import os
+import shutil
+import socket
+import subprocess
+import tempfile
+import time
+
+import numpy as np
+import pytest
+
+import locd
+from conftest import REPO_ROOT, numpy_pairs, sorted_pairs, uniform_scene
+
+UNSUPPORTED = locd.STATUS["ERR_UNSUPPORTED"]
+
+
+def _unsupported(make):
+    try:
+        obj = make()
+    except locd.Error as e:
+        if e.status == UNSUPPORTED:
+            return str(e)
+        raise
+    if hasattr(obj, "close"):
+        obj.close()
+    return None
+
+
+def _probe_jobs():
+    with locd.Engine(threads=1) as engine:
+        return _unsupported(lambda: engine.submit(np.zeros((2, 6), np.float32)).result())
+
+
+def _probe_workers():
+    return _unsupported(lambda: locd.Engine(level="workers", workers=2))
+
+
+JOBS_MISSING = _probe_jobs()
+WORKERS_MISSING = _probe_workers()
+needs_jobs = pytest.mark.skipif(JOBS_MISSING is not None, reason="jobs: %s" % JOBS_MISSING)
+needs_workers = pytest.mark.skipif(WORKERS_MISSING is not None, reason="level workers: %s" % WORKERS_MISSING)
+
+
+def scenes():
+    rng = np.random.default_rng(9)
+    lo = rng.random((800, 3))
+    mixed = np.hstack([lo, lo + rng.random((800, 3)) ** 4 * 0.3])
+    lattice = np.array([[x, y, z, x + 1, y + 1, z + 1] for x in range(6) for y in range(6) for z in range(6)],
+                       dtype=np.float32)
+    return [uniform_scene(3000, seed=1), mixed, mixed.astype(np.float32), lattice, np.zeros((0, 6))]
+
+
+# -- jobs -----------------------------------------------------------------------------
+@needs_jobs
+def test_job_result_matches_find_pairs():
+    with locd.Engine(threads=2) as engine:
+        for boxes in scenes():
+            expected = engine.find_pairs(boxes)
+            job = engine.submit(boxes)
+            got = job.result(timeout=60)
+            np.testing.assert_array_equal(got, expected)
+            assert job.done() and not job.cancelled()
+            assert job.result() is got  # the result is kept
+            assert job.stats.objects == len(boxes) and job.stats.pairs == len(got)
+            np.testing.assert_array_equal(engine.submit(boxes, sort=True).result(), numpy_pairs(boxes))
+
+
+@needs_jobs
+def test_job_copies_the_boxes():
+    boxes = uniform_scene(3000, seed=2)
+    expected = sorted_pairs(numpy_pairs(boxes))
+    with locd.Engine(threads=1) as engine:
+        job = engine.submit(boxes)
+        boxes[:] = np.nan  # the caller may reuse its buffer at once
+        np.testing.assert_array_equal(sorted_pairs(job.result(timeout=60)), expected)
+
+
+@needs_jobs
+def test_job_timeout_then_result():
+    boxes = uniform_scene(1_000_000, seed=3)
+    with locd.Engine(threads=1) as engine:
+        job = engine.submit(boxes)
+        with pytest.raises(concurrent.futures.TimeoutError):
+            job.result(timeout=0.001)
+        assert len(job.result()) > 0 and job.done()
+
+
+@needs_jobs
+def test_job_cancel():
+    boxes = uniform_scene(1_000_000, seed=4)
+    with locd.Engine(threads=1) as engine:
+        job = engine.submit(boxes)
+        if job.cancel():
+            with pytest.raises(concurrent.futures.CancelledError):
+                job.result(timeout=60)
+            assert job.done() and job.cancelled()
+        else:  # it had already finished: the result stands
+            assert len(job.result()) > 0
+        # The engine is still usable afterwards.
+        small = uniform_scene(100)
+        np.testing.assert_array_equal(sorted_pairs(engine.find_pairs(small)), numpy_pairs(small))
+
+
+@needs_jobs
+def test_closing_the_engine_cancels_unfinished_jobs():
+    engine = locd.Engine(threads=1)
+    job = engine.submit(uniform_scene(1_000_000, seed=5))
+    engine.close()
+    assert job.done()
+    with pytest.raises(concurrent.futures.CancelledError):
+        job.result()
+
+
+@needs_jobs
+def test_job_bad_box_raises_on_submit_or_result():
+    boxes = uniform_scene(50)
+    boxes[7, 2] = np.inf
+    with locd.Engine(threads=1) as engine:
+        with pytest.raises(locd.InvalidBoxError) as info:
+            engine.submit(boxes).result(timeout=60)
+        assert info.value.index == 7
+
+
+# -- level 2: worker processes --------------------------------------------------------
+@needs_workers
+@pytest.mark.parametrize("workers", [1, 2, 3])
+def test_workers_level_matches_inprocess(workers):
+    with locd.Engine(level="workers", workers=workers) as engine, locd.Engine(threads=1) as ref:
+        assert engine.level == "workers"
+        for boxes in scenes():
+            got = engine.find_pairs(boxes)
+            np.testing.assert_array_equal(got, ref.find_pairs(boxes))  # same order too
+            np.testing.assert_array_equal(sorted_pairs(got), numpy_pairs(boxes))
+            assert engine.stats.pairs == len(got)
+        bad = uniform_scene(40)
+        bad[31, 0] = np.nan
+        with pytest.raises(locd.InvalidBoxError) as info:
+            engine.find_pairs(bad)
+        assert info.value.index == 31
+
+
+@needs_workers
+@needs_jobs
+def test_workers_level_jobs():
+    boxes = uniform_scene(20000, seed=6)
+    with locd.Engine(level="workers", workers=2) as engine:
+        np.testing.assert_array_equal(engine.submit(boxes).result(timeout=120), engine.find_pairs(boxes))
+
+
+# -- level 3: service -----------------------------------------------------------------
+def _cli():
+    for path in (os.environ.get("LOCD_CLI"), os.path.join(REPO_ROOT, "build-ci", "c", "tools", "locd"),
+                 shutil.which("locd")):
+        if path and os.path.isfile(path) and os.access(path, os.X_OK):
+            return path
+    return None
+
+
+@pytest.fixture(scope="module")
+def service():
+    """A `locd serve` process on a Unix socket; skipped when the CLI or its service is not available."""
+    cli = _cli()
+    if cli is None:
+        pytest.skip("no locd CLI built (set LOCD_CLI); the service test needs `locd serve`")
+    tmp = tempfile.mkdtemp(prefix="locd-py-")
+    address = "unix:" + os.path.join(tmp, "locd.sock")
+    proc = subprocess.Popen([cli, "serve", address], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        deadline = time.time() + 20
+        while True:
+            if proc.poll() is not None:
+                out = proc.stdout.read()
+                if "not available" in out or proc.returncode == 2:
+                    pytest.skip("locd serve: %s" % out.strip())
+                raise RuntimeError("locd serve exited with %d: %s" % (proc.returncode, out))
+            if os.path.exists(address[5:]):
+                s = socket.socket(socket.AF_UNIX)
+                try:
+                    s.connect(address[5:])
+                    break
+                except OSError:
+                    pass
+                finally:
+                    s.close()
+            if time.time() > deadline:
+                raise RuntimeError("locd serve did not listen on %s" % address)
+            time.sleep(0.05)
+        yield address
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def test_service_level(service):
+    with locd.Engine(level="service", service=service) as engine, locd.Engine(threads=1) as ref:
+        assert engine.level == "service"
+        for boxes in scenes():
+            got = engine.find_pairs(boxes)
+            np.testing.assert_array_equal(got, ref.find_pairs(boxes))
+            np.testing.assert_array_equal(sorted_pairs(got), numpy_pairs(boxes))
+        boxes = uniform_scene(20000, seed=8)
+        jobs = [engine.submit(boxes), engine.submit(boxes.astype(np.float64), sort=True)]
+        np.testing.assert_array_equal(jobs[0].result(timeout=120), ref.find_pairs(boxes))
+        np.testing.assert_array_equal(jobs[1].result(timeout=120), numpy_pairs(boxes))
+
+
+def test_service_unreachable_is_locd_error():
+    with pytest.raises(locd.Error) as info:
+        locd.Engine(level="service", service="unix:/nonexistent/locd-test.sock")
+    assert info.value.status < 0 and not isinstance(info.value, locd.InvalidBoxError)
