@@ -1,0 +1,91 @@
+/* Private declarations of the filter pipeline (shapes, narrow phase, swept
+ * tests). Shared by the C sources and the C++ FCL glue. Not installed. */
+#ifndef LOCD_NARROW_H
+#define LOCD_NARROW_H
+
+#include "locd/locd.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define LC_MAGIC_SHAPE 0x4c4f4353u    /* "LOCS" */
+#define LC_MAGIC_WORLD 0x4c4f4357u    /* "LOCW" */
+#define LC_MAGIC_CONTACTS 0x4c4f434eu /* "LOCN" */
+
+typedef struct lc_fcl_geom lc_fcl_geom;
+
+struct locd_shape {
+    uint32_t magic;
+    int32_t kind;
+    int32_t refs;         /* world references + the caller's handle */
+    double radius;        /* sphere, capsule */
+    double half[3];       /* box half extents; capsule: half[2] = half length */
+    double *points;       /* convex points or mesh vertices, 3 per point */
+    size_t npoints;
+    uint32_t *tris;       /* mesh: 3 indices per triangle */
+    size_t ntris;
+    double *tri_boxes;    /* mesh: local box of each triangle (6 per triangle) */
+    double centroid[3];   /* local point inside the shape (libccd's centre) */
+    double bound_radius;  /* every point of the shape is within this of the local origin */
+    double extent;        /* smallest local box edge: the "size" of the swept threshold */
+    double local_box[6];
+    lc_fcl_geom *fcl;     /* FCL geometry, NULL for convex hulls or without FCL */
+};
+
+/* A shape placed in the world: rotation (row-major) and translation. */
+typedef struct lc_placed {
+    const locd_shape *s;
+    double R[9];
+    double t[3];
+} lc_placed;
+
+/* One contact: depth, normal from a to b, point. */
+typedef struct lc_contact {
+    double depth;
+    double normal[3];
+    double point[3];
+} lc_contact;
+
+/* ---- pose math (shape.c) ---- */
+/* 0 when the pose is finite with a non-zero quaternion; fills R and t. */
+int lc_pose_to_rt(const double *pose, double *R, double *t);
+void lc_place(const locd_shape *s, const double *pose_R, const double *pose_t, lc_placed *out);
+/* World box of a placed shape. */
+void lc_placed_box(const lc_placed *p, double *box);
+locd_status lc_shape_check(const locd_shape *s);
+void lc_shape_retain(locd_shape *s);
+void lc_shape_release(locd_shape *s);
+
+/* ---- closed forms (closed_form.c): return 1 hit, 0 miss; contact may be NULL ---- */
+int lc_closed_supported(int32_t ka, int32_t kb);
+int lc_closed_test(const lc_placed *a, const lc_placed *b, lc_contact *c);
+/* Swept sphere-sphere: b moves by d relative to a; *toi in [0, 1]. */
+int lc_closed_sweep_spheres(const lc_placed *a, const lc_placed *b, const double *d, double *toi);
+
+/* ---- libccd (ccd_tests.c) ---- */
+int lc_ccd_test(const lc_placed *a, const lc_placed *b, int want_contact, int32_t method, lc_contact *c);
+/* b moves by d (world) relative to a during the step; 1 and *toi when they meet. */
+int lc_ccd_sweep(const lc_placed *a, const lc_placed *b, const double *d, double *toi);
+
+/* ---- FCL glue (fcl_glue.cpp): no exception crosses these ---- */
+/* NULL on failure with err filled. */
+lc_fcl_geom *lc_fcl_make(const locd_shape *s, char *err, size_t errlen);
+void lc_fcl_free(lc_fcl_geom *g);
+/* 1 hit, 0 miss, -1 error (err filled). */
+int lc_fcl_test(const lc_placed *a, const lc_placed *b, int want_contact, lc_contact *c, char *err, size_t errlen);
+
+/* ---- routing (pair_test.c) ---- */
+int32_t lc_route_resolve(int32_t route, int32_t ka, int32_t kb);
+/* Runs the pair test through a resolved route; counts go to the stats
+ * counters (may be NULL). 1 hit, 0 miss, negative locd_status on error. */
+int lc_pair_test(const lc_placed *a, const lc_placed *b, int32_t route, int want_contact, int32_t method,
+                 lc_contact *c, uint64_t *counts /* closed, ccd, fcl */);
+int lc_pair_sweep(const lc_placed *a, const lc_placed *b, const double *d, int32_t route, double *toi,
+                  uint64_t *counts);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

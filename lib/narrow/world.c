@@ -1,0 +1,290 @@
+/* The world handle: shapes with poses and velocities, and the result
+ * buffer (locd_contacts). */
+#include "../internal.h"
+#include "world.h"
+
+#include <math.h>
+#include <stdlib.h>
+
+locd_status lc_world_check(const locd_world *w)
+{
+    if (!w || w->magic != LC_MAGIC_WORLD)
+        return lc_error(LOCD_ERR_INVALID_HANDLE, "not a live locd_world");
+    return LOCD_OK;
+}
+
+locd_status locd_world_create(const locd_engine_config *config, locd_world **out)
+{
+    locd_world *w;
+    locd_status st;
+    if (!out)
+        return lc_error(LOCD_ERR_NULL_POINTER, "out is NULL");
+    *out = NULL;
+    w = calloc(1, sizeof *w);
+    if (!w)
+        return lc_error(LOCD_ERR_NO_MEMORY, "world");
+    w->magic = LC_MAGIC_WORLD;
+    if ((st = locd_engine_create(config, &w->engine)) != LOCD_OK ||
+        (st = locd_pairs_create(NULL, &w->pairs)) != LOCD_OK) {
+        locd_world_destroy(w);
+        return st;
+    }
+    *out = w;
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+void locd_world_destroy(locd_world *w)
+{
+    size_t i;
+    if (!w || w->magic != LC_MAGIC_WORLD)
+        return;
+    for (i = 0; i < w->n; i++)
+        lc_shape_release(w->shapes[i]);
+    free(w->shapes);
+    free(w->poses);
+    free(w->vel);
+    free(w->R);
+    free(w->boxes);
+    free(w->fast);
+    free(w->work);
+    locd_engine_destroy(w->engine);
+    locd_pairs_destroy(w->pairs);
+    w->magic = LC_MAGIC_DEAD;
+    free(w);
+}
+
+size_t locd_world_count(const locd_world *w)
+{
+    return w && w->magic == LC_MAGIC_WORLD ? w->n : 0;
+}
+
+static locd_status grow(void **p, size_t count, size_t elem)
+{
+    void *q = realloc(*p, count * elem);
+    if (!q)
+        return lc_error(LOCD_ERR_NO_MEMORY, "world arrays");
+    *p = q;
+    return LOCD_OK;
+}
+
+static locd_status check_pose(const double *pose, int64_t index)
+{
+    double R[9], t[3];
+    if (lc_pose_to_rt(pose, R, t) != 0)
+        return lc_error_box(LOCD_ERR_SHAPE, index,
+                            "object %lld: pose is non-finite or its quaternion is zero", (long long)index);
+    return LOCD_OK;
+}
+
+static locd_status check_velocity(const double *v, int64_t index)
+{
+    int k;
+    for (k = 0; k < 6; k++)
+        if (!isfinite(v[k]))
+            return lc_error_box(LOCD_ERR_SHAPE, index, "object %lld: velocity is non-finite", (long long)index);
+    return LOCD_OK;
+}
+
+locd_status locd_world_add(locd_world *w, locd_shape *shape, const double *pose, const double *velocity,
+                           uint32_t *index)
+{
+    static const double rest[6] = {0, 0, 0, 0, 0, 0};
+    locd_status st;
+    if ((st = lc_world_check(w)) != LOCD_OK || (st = lc_shape_check(shape)) != LOCD_OK)
+        return st;
+    if (!pose)
+        return lc_error(LOCD_ERR_NULL_POINTER, "pose is NULL");
+    if (!velocity)
+        velocity = rest;
+    if ((st = check_pose(pose, (int64_t)w->n)) != LOCD_OK || (st = check_velocity(velocity, (int64_t)w->n)) != LOCD_OK)
+        return st;
+    if (w->n >= UINT32_MAX - 1)
+        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "a world holds at most 2^32 - 2 objects");
+    if (w->n == w->cap) {
+        size_t cap = w->cap ? 2 * w->cap : 64;
+        if ((st = grow((void **)&w->shapes, cap, sizeof *w->shapes)) != LOCD_OK ||
+            (st = grow((void **)&w->poses, cap, 7 * sizeof(double))) != LOCD_OK ||
+            (st = grow((void **)&w->vel, cap, 6 * sizeof(double))) != LOCD_OK)
+            return st;
+        w->cap = cap;
+    }
+    lc_shape_retain(shape);
+    w->shapes[w->n] = shape;
+    memcpy(w->poses + 7 * w->n, pose, 7 * sizeof(double));
+    memcpy(w->vel + 6 * w->n, velocity, 6 * sizeof(double));
+    if (index)
+        *index = (uint32_t)w->n;
+    w->n++;
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+locd_status locd_world_set_pose(locd_world *w, uint32_t index, const double *pose)
+{
+    locd_status st;
+    if ((st = lc_world_check(w)) != LOCD_OK)
+        return st;
+    if (!pose)
+        return lc_error(LOCD_ERR_NULL_POINTER, "pose is NULL");
+    if (index >= w->n)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "object %u of %zu", index, w->n);
+    if ((st = check_pose(pose, index)) != LOCD_OK)
+        return st;
+    memcpy(w->poses + 7 * (size_t)index, pose, 7 * sizeof(double));
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+locd_status locd_world_set_velocity(locd_world *w, uint32_t index, const double *velocity)
+{
+    locd_status st;
+    if ((st = lc_world_check(w)) != LOCD_OK)
+        return st;
+    if (!velocity)
+        return lc_error(LOCD_ERR_NULL_POINTER, "velocity is NULL");
+    if (index >= w->n)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "object %u of %zu", index, w->n);
+    if ((st = check_velocity(velocity, index)) != LOCD_OK)
+        return st;
+    memcpy(w->vel + 6 * (size_t)index, velocity, 6 * sizeof(double));
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+/* Bulk setters validate everything first: nothing is half-written. */
+locd_status locd_world_set_poses(locd_world *w, const double *poses, size_t count)
+{
+    locd_status st;
+    size_t i;
+    if ((st = lc_world_check(w)) != LOCD_OK)
+        return st;
+    if (!poses && count)
+        return lc_error(LOCD_ERR_NULL_POINTER, "poses is NULL");
+    if (count != w->n)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "%zu poses for %zu objects", count, w->n);
+    for (i = 0; i < count; i++)
+        if ((st = check_pose(poses + 7 * i, (int64_t)i)) != LOCD_OK)
+            return st;
+    if (count)
+        memcpy(w->poses, poses, 7 * count * sizeof(double));
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+locd_status locd_world_set_velocities(locd_world *w, const double *velocities, size_t count)
+{
+    locd_status st;
+    size_t i;
+    if ((st = lc_world_check(w)) != LOCD_OK)
+        return st;
+    if (!velocities && count)
+        return lc_error(LOCD_ERR_NULL_POINTER, "velocities is NULL");
+    if (count != w->n)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "%zu velocities for %zu objects", count, w->n);
+    for (i = 0; i < count; i++)
+        if ((st = check_velocity(velocities + 6 * i, (int64_t)i)) != LOCD_OK)
+            return st;
+    if (count)
+        memcpy(w->vel, velocities, 6 * count * sizeof(double));
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+locd_status locd_world_get_pose(const locd_world *w, uint32_t index, double *pose)
+{
+    locd_status st;
+    if ((st = lc_world_check(w)) != LOCD_OK)
+        return st;
+    if (!pose)
+        return lc_error(LOCD_ERR_NULL_POINTER, "pose is NULL");
+    if (index >= w->n)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "object %u of %zu", index, w->n);
+    memcpy(pose, w->poses + 7 * (size_t)index, 7 * sizeof(double));
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+/* ---- contacts ---- */
+
+locd_status lc_contacts_check(const locd_contacts *c)
+{
+    if (!c || c->magic != LC_MAGIC_CONTACTS)
+        return lc_error(LOCD_ERR_INVALID_HANDLE, "not a live locd_contacts");
+    return LOCD_OK;
+}
+
+locd_status locd_contacts_create(locd_contacts **out)
+{
+    locd_contacts *c;
+    if (!out)
+        return lc_error(LOCD_ERR_NULL_POINTER, "out is NULL");
+    c = calloc(1, sizeof *c);
+    *out = c;
+    if (!c)
+        return lc_error(LOCD_ERR_NO_MEMORY, "contacts");
+    c->magic = LC_MAGIC_CONTACTS;
+    return LOCD_OK;
+}
+
+void locd_contacts_destroy(locd_contacts *c)
+{
+    if (!c || c->magic != LC_MAGIC_CONTACTS)
+        return;
+    free(c->pairs);
+    free(c->toi);
+    free(c->depth);
+    free(c->normal);
+    free(c->point);
+    c->magic = LC_MAGIC_DEAD;
+    free(c);
+}
+
+locd_status lc_contacts_reserve(locd_contacts *c, size_t count)
+{
+    locd_status st;
+    size_t cap;
+    if (count <= c->cap)
+        return LOCD_OK;
+    cap = c->cap ? c->cap : 64;
+    while (cap < count)
+        cap *= 2;
+    if ((st = grow((void **)&c->pairs, cap, 2 * sizeof(uint32_t))) != LOCD_OK ||
+        (st = grow((void **)&c->toi, cap, sizeof(double))) != LOCD_OK ||
+        (st = grow((void **)&c->depth, cap, sizeof(double))) != LOCD_OK ||
+        (st = grow((void **)&c->normal, cap, 3 * sizeof(double))) != LOCD_OK ||
+        (st = grow((void **)&c->point, cap, 3 * sizeof(double))) != LOCD_OK)
+        return st;
+    c->cap = cap;
+    return LOCD_OK;
+}
+
+size_t locd_contacts_count(const locd_contacts *c)
+{
+    return c && c->magic == LC_MAGIC_CONTACTS ? c->count : 0;
+}
+
+const uint32_t *locd_contacts_pairs(const locd_contacts *c)
+{
+    return c && c->magic == LC_MAGIC_CONTACTS ? c->pairs : NULL;
+}
+
+const double *locd_contacts_toi(const locd_contacts *c)
+{
+    return c && c->magic == LC_MAGIC_CONTACTS ? c->toi : NULL;
+}
+
+const double *locd_contacts_depth(const locd_contacts *c)
+{
+    return c && c->magic == LC_MAGIC_CONTACTS && c->has_contact ? c->depth : NULL;
+}
+
+const double *locd_contacts_normal(const locd_contacts *c)
+{
+    return c && c->magic == LC_MAGIC_CONTACTS && c->has_contact ? c->normal : NULL;
+}
+
+const double *locd_contacts_point(const locd_contacts *c)
+{
+    return c && c->magic == LC_MAGIC_CONTACTS && c->has_contact ? c->point : NULL;
+}
