@@ -1,28 +1,360 @@
-/* Asynchronous jobs. Placeholder until the levels work lands: every call
- * reports LOCD_ERR_UNSUPPORTED. */
-#include "engine_internal.h"
+/* Asynchronous jobs at every level.
+ *
+ * Levels 1 and 2 use the generic job: submit copies the boxes, takes the
+ * engine (so a concurrent find or a second submit on the same engine gets
+ * LOCD_ERR_BUSY until the job's thread is done) and runs the level's own
+ * `find` on a detached thread. Level 3 hands the job to the service
+ * (service_client.c); many jobs may then be in flight on one engine.
+ *
+ * A job holds two references: the caller's handle (dropped by
+ * locd_job_release) and the runner's (the thread, or the service
+ * connection). Cancel finishes a pending job at once with
+ * LOCD_ERR_CANCELLED; a generic job's thread cannot be interrupted inside
+ * the engine, so the engine stays busy until that call returns and its
+ * result is discarded. */
+#include "job_internal.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <time.h>
+
+locd_status lc_job_new(const locd_allocator *a, int kind, locd_job **out)
+{
+    pthread_condattr_t ca;
+    locd_job *j = lc_alloc(a, sizeof *j);
+    *out = NULL;
+    if (!j)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the job");
+    memset(j, 0, sizeof *j);
+    j->alloc = *a;
+    j->kind = kind;
+    if (pthread_mutex_init(&j->mu, NULL) != 0) {
+        lc_free(a, j, sizeof *j);
+        return lc_error(LOCD_ERR_THREAD, "pthread_mutex_init failed");
+    }
+    pthread_condattr_init(&ca);
+    pthread_condattr_setclock(&ca, CLOCK_MONOTONIC); /* timeouts immune to clock changes */
+    if (pthread_cond_init(&j->cv, &ca) != 0) {
+        pthread_condattr_destroy(&ca);
+        pthread_mutex_destroy(&j->mu);
+        lc_free(a, j, sizeof *j);
+        return lc_error(LOCD_ERR_THREAD, "pthread_cond_init failed");
+    }
+    pthread_condattr_destroy(&ca);
+    j->refs = 2;
+    j->status = LOCD_PENDING;
+    lc_pairs_init_embedded(&j->result, a);
+    locd_stats_init(&j->stats);
+    j->t_submit = lc_now_ms();
+    j->magic = LC_MAGIC_JOB;
+    *out = j;
+    return LOCD_OK;
+}
+
+void lc_job_finish(locd_job *j, locd_status status, const char *message, int64_t index)
+{
+    pthread_mutex_lock(&j->mu);
+    if (j->status == LOCD_PENDING) {
+        j->status = status;
+        j->error_index = index;
+        if (status < 0)
+            snprintf(j->message, sizeof j->message, "%s", message ? message : "");
+        pthread_cond_broadcast(&j->cv);
+    }
+    pthread_mutex_unlock(&j->mu);
+}
+
+static void job_free(locd_job *j)
+{
+    locd_allocator a = j->alloc;
+    lc_pairs_fini_embedded(&j->result);
+    if (j->boxes)
+        lc_free(&a, j->boxes, j->bytes);
+    pthread_cond_destroy(&j->cv);
+    pthread_mutex_destroy(&j->mu);
+    j->magic = LC_MAGIC_DEAD;
+    lc_free(&a, j, sizeof *j);
+}
+
+void lc_job_unref(locd_job *j)
+{
+    int left;
+    pthread_mutex_lock(&j->mu);
+    left = --j->refs;
+    pthread_mutex_unlock(&j->mu);
+    if (left == 0)
+        job_free(j);
+}
+
+/* Raises the job's stored error on the calling thread. The stored text
+ * already starts with the status description: strip it so it is not
+ * repeated. */
+static locd_status raise_job_error(const locd_job *j, locd_status status)
+{
+    const char *msg = j->message, *prefix = locd_status_string(status);
+    size_t len = strlen(prefix);
+    if (!strncmp(msg, prefix, len) && msg[len] == ':' && msg[len + 1] == ' ')
+        msg += len + 2;
+    return lc_error_box(status, j->error_index, "%s", msg[0] ? msg : "job failed");
+}
+
+static locd_status job_check(const locd_job *j)
+{
+    if (!j)
+        return lc_error(LOCD_ERR_INVALID_HANDLE, "job is NULL");
+    if (j->magic != LC_MAGIC_JOB)
+        return lc_error(LOCD_ERR_INVALID_HANDLE, "not a locd_job handle (released?)");
+    return LOCD_OK;
+}
+
+static void *generic_run(void *arg)
+{
+    locd_job *j = arg;
+    locd_engine *e = j->engine;
+    locd_stats st;
+    locd_status s;
+    int cancelled;
+    double t0;
+    pthread_mutex_lock(&j->mu);
+    cancelled = j->status != LOCD_PENDING;
+    pthread_mutex_unlock(&j->mu);
+    locd_stats_init(&st);
+    if (cancelled) {
+        s = LOCD_ERR_CANCELLED;
+    } else {
+        t0 = lc_now_ms();
+        s = e->ops->find(e, j->boxes, j->n, j->f64, j->flags, &j->result, &st);
+        st.ms_total = lc_now_ms() - t0;
+        if (!s) {
+            j->stats = st;
+            e->stats = st; /* a job is a call of this engine */
+        }
+    }
+    lc_free(&j->alloc, j->boxes, j->bytes);
+    j->boxes = NULL;
+    /* Give the engine back before waking waiters: a waiter may call find
+       right away. The engine is not touched after this line. */
+    lc_engine_release(e);
+    lc_job_finish(j, s, s ? locd_last_error() : NULL, s ? locd_last_error_index() : -1);
+    lc_job_unref(j);
+    return NULL;
+}
+
+static locd_status generic_submit(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
+                                  locd_job **out)
+{
+    pthread_attr_t attr;
+    pthread_t th;
+    locd_job *j;
+    locd_status st;
+    size_t bytes;
+    if (!lc_mul_size(n ? n : 1, 6 * (f64 ? sizeof(double) : sizeof(float)), &bytes))
+        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu boxes do not fit in memory", n);
+    if (!lc_engine_acquire(e))
+        return lc_error(LOCD_ERR_BUSY, "the engine is running another call or job (levels 1 and 2 run one job at a "
+                                       "time per engine)");
+    if ((st = lc_job_new(&e->alloc, LC_JOB_GENERIC, &j)) != LOCD_OK) {
+        lc_engine_release(e);
+        return st;
+    }
+    j->boxes = lc_alloc(&e->alloc, bytes);
+    if (!j->boxes) {
+        lc_engine_release(e);
+        j->refs = 1;
+        lc_job_unref(j);
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not copy %zu bytes of boxes", bytes);
+    }
+    if (n)
+        memcpy(j->boxes, boxes, n * 6 * (f64 ? sizeof(double) : sizeof(float)));
+    j->bytes = bytes;
+    j->engine = e;
+    j->n = n;
+    j->f64 = f64;
+    j->flags = flags;
+    pthread_attr_init(&attr);
+    pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
+    if (pthread_create(&th, &attr, generic_run, j) != 0) {
+        pthread_attr_destroy(&attr);
+        lc_engine_release(e);
+        j->refs = 1;
+        lc_job_unref(j);
+        return lc_error(LOCD_ERR_THREAD, "could not start the job's thread");
+    }
+    pthread_attr_destroy(&attr);
+    *out = j;
+    return LOCD_OK;
+}
+
+static locd_status submit_common(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
+                                 locd_job **out)
+{
+    locd_status st;
+    if (!out)
+        return lc_error(LOCD_ERR_NULL_POINTER, "out is NULL");
+    *out = NULL;
+    if ((st = lc_engine_check(e)) != LOCD_OK)
+        return st;
+    if (n && !boxes)
+        return lc_error(LOCD_ERR_NULL_POINTER, "boxes is NULL");
+    if (flags & ~LOCD_FIND_SORTED)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown flags 0x%x", flags & ~LOCD_FIND_SORTED);
+    if ((uint64_t)n > (uint64_t)UINT32_MAX + 1u)
+        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu objects do not fit a 32-bit index", n);
+    st = e->ops->submit ? e->ops->submit(e, boxes, n, f64, flags, out) : generic_submit(e, boxes, n, f64, flags, out);
+    if (!st)
+        lc_clear_error();
+    return st;
+}
 
 locd_status locd_engine_submit_f32(locd_engine *engine, const float *boxes, size_t n, uint32_t flags,
                                    locd_job **out)
 {
-    (void)engine; (void)boxes; (void)n; (void)flags;
-    if (out)
-        *out = NULL;
-    return lc_error(LOCD_ERR_UNSUPPORTED, "jobs are not implemented yet");
+    return submit_common(engine, boxes, n, 0, flags, out);
 }
 
 locd_status locd_engine_submit_f64(locd_engine *engine, const double *boxes, size_t n, uint32_t flags,
                                    locd_job **out)
 {
-    (void)engine; (void)boxes; (void)n; (void)flags;
-    if (out)
-        *out = NULL;
-    return lc_error(LOCD_ERR_UNSUPPORTED, "jobs are not implemented yet");
+    return submit_common(engine, boxes, n, 1, flags, out);
 }
 
-locd_status locd_job_poll(locd_job *job) { (void)job; return lc_error(LOCD_ERR_INVALID_HANDLE, "no job"); }
-locd_status locd_job_wait(locd_job *job, int64_t timeout_ms) { (void)job; (void)timeout_ms; return lc_error(LOCD_ERR_INVALID_HANDLE, "no job"); }
-locd_status locd_job_take(locd_job *job, locd_pairs *out) { (void)job; (void)out; return lc_error(LOCD_ERR_INVALID_HANDLE, "no job"); }
-locd_status locd_job_stats(const locd_job *job, locd_stats *stats) { (void)job; (void)stats; return lc_error(LOCD_ERR_INVALID_HANDLE, "no job"); }
-locd_status locd_job_cancel(locd_job *job) { (void)job; return lc_error(LOCD_ERR_INVALID_HANDLE, "no job"); }
-void locd_job_release(locd_job *job) { (void)job; }
+locd_status locd_job_poll(locd_job *job)
+{
+    locd_status st = job_check(job);
+    if (st)
+        return st;
+    pthread_mutex_lock(&job->mu);
+    st = job->status;
+    pthread_mutex_unlock(&job->mu);
+    if (st < 0)
+        return raise_job_error(job, st);
+    lc_clear_error();
+    return st;
+}
+
+locd_status locd_job_wait(locd_job *job, int64_t timeout_ms)
+{
+    struct timespec dl;
+    locd_status st = job_check(job);
+    if (st)
+        return st;
+    clock_gettime(CLOCK_MONOTONIC, &dl);
+    if (timeout_ms > 0) {
+        int64_t cap = timeout_ms > (int64_t)1e12 ? (int64_t)1e12 : timeout_ms; /* no time_t overflow */
+        dl.tv_sec += (time_t)(cap / 1000);
+        dl.tv_nsec += (long)(cap % 1000) * 1000000L;
+        if (dl.tv_nsec >= 1000000000L) {
+            dl.tv_sec++;
+            dl.tv_nsec -= 1000000000L;
+        }
+    }
+    pthread_mutex_lock(&job->mu);
+    while (job->status == LOCD_PENDING) {
+        if (timeout_ms < 0)
+            pthread_cond_wait(&job->cv, &job->mu);
+        else if (timeout_ms == 0 || pthread_cond_timedwait(&job->cv, &job->mu, &dl) == ETIMEDOUT)
+            break;
+    }
+    st = job->status;
+    pthread_mutex_unlock(&job->mu);
+    if (st == LOCD_PENDING)
+        return lc_error(LOCD_ERR_TIMEOUT, "job still running after %lld ms", (long long)timeout_ms);
+    if (st < 0)
+        return raise_job_error(job, st);
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+locd_status locd_job_take(locd_job *job, locd_pairs *out)
+{
+    locd_status st = job_check(job);
+    if (st)
+        return st;
+    if ((st = lc_pairs_check(out)) != LOCD_OK)
+        return st;
+    pthread_mutex_lock(&job->mu);
+    st = job->status;
+    if (st == LOCD_OK && job->taken)
+        st = LOCD_ERR_INVALID_ARGUMENT;
+    else if (st == LOCD_OK)
+        st = lc_pairs_reserve(out, job->result.count);
+    if (st == LOCD_OK) {
+        if (job->result.count)
+            memcpy(out->data, job->result.data, job->result.count * 2 * sizeof(uint32_t));
+        out->count = job->result.count;
+        job->taken = 1;
+        lc_pairs_fini_embedded(&job->result);
+        lc_pairs_init_embedded(&job->result, &job->alloc);
+    }
+    pthread_mutex_unlock(&job->mu);
+    if (st == LOCD_PENDING)
+        return LOCD_PENDING;
+    if (st == LOCD_ERR_INVALID_ARGUMENT)
+        return lc_error(st, "the job's result was already taken");
+    if (st == LOCD_ERR_NO_MEMORY)
+        return lc_error(st, "could not grow the pairs buffer");
+    if (st < 0)
+        return raise_job_error(job, st);
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+locd_status locd_job_stats(const locd_job *job, locd_stats *stats)
+{
+    locd_status st = job_check(job);
+    uint32_t size;
+    if (st)
+        return st;
+    if (!stats)
+        return lc_error(LOCD_ERR_NULL_POINTER, "stats is NULL");
+    size = stats->size;
+    if (size < 2 * sizeof(uint32_t) || size > sizeof(locd_stats))
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "stats->size is %u; use locd_stats_init()", size);
+    pthread_mutex_lock((pthread_mutex_t *)&job->mu);
+    st = job->status;
+    if (st == LOCD_OK) {
+        memcpy(stats, &job->stats, size);
+        stats->size = size;
+    }
+    pthread_mutex_unlock((pthread_mutex_t *)&job->mu);
+    if (st < 0)
+        return raise_job_error(job, st);
+    if (st == LOCD_OK)
+        lc_clear_error();
+    return st;
+}
+
+/* Cancels without touching the thread's last error (used by release). */
+static void job_cancel(locd_job *job)
+{
+    int was_pending;
+    pthread_mutex_lock(&job->mu);
+    was_pending = job->status == LOCD_PENDING;
+    job->cancelled = 1;
+    pthread_mutex_unlock(&job->mu);
+    if (was_pending) {
+        lc_job_finish(job, LOCD_ERR_CANCELLED, "cancelled by the caller", -1);
+        if (job->kind == LC_JOB_SERVICE)
+            lc_service_job_cancel(job);
+    }
+}
+
+locd_status locd_job_cancel(locd_job *job)
+{
+    locd_status st = job_check(job);
+    if (st)
+        return st;
+    job_cancel(job);
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+void locd_job_release(locd_job *job)
+{
+    if (!job || job->magic != LC_MAGIC_JOB)
+        return;
+    job_cancel(job);
+    if (job->kind == LC_JOB_SERVICE)
+        lc_service_job_released(job);
+    lc_job_unref(job);
+}

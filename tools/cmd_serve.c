@@ -1,12 +1,101 @@
-/* locd serve: placeholder until the level-3 service lands. */
+/* locd serve: run the level-3 service in the foreground until SIGINT or
+ * SIGTERM. One log line says where it listens; later lines (dropped
+ * connections and their reasons) go to stderr too. */
 #include "cli.h"
 
+#include <signal.h>
 #include <stdio.h>
+#include <string.h>
+#include <time.h>
+
+static locd_service *g_service;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    locd_service_stop(g_service); /* async-signal-safe: writes one byte to a pipe */
+}
+
+static void log_line(int32_t severity, const char *message, void *user)
+{
+    static const char *names[] = {"error", "warning", "info", "debug"};
+    int verbose = *(int *)user;
+    if (severity == LOCD_LOG_DEBUG && !verbose)
+        return;
+    fprintf(stderr, "locd serve: %s%s%s\n", severity <= LOCD_LOG_WARNING ? names[severity] : "",
+            severity <= LOCD_LOG_WARNING ? ": " : "", message);
+    fflush(stderr);
+}
+
+static void serve_usage(void)
+{
+    printf("usage: locd serve [--listen unix:PATH|tcp:HOST:PORT] [options]\n"
+           "  --listen ADDR        where to listen (default unix:$XDG_RUNTIME_DIR/locd/locd.sock or\n"
+           "                       unix:/tmp/locd-UID/locd.sock); the socket's directory must be private (0700)\n"
+           "  --secret S           shared secret clients must present (required for tcp)\n"
+           "  --threads K          job runners, each with its own level-1 engine (default: one per core)\n"
+           "  --engine-threads T   threads of each runner's engine (default 1)\n"
+           "  --max-mb M           largest message accepted, in MiB (default 1024)\n"
+           "  --max-clients C      connections at once (default 256)\n"
+           "  --verbose            also log connects and disconnects\n"
+           "Runs in the foreground until SIGINT or SIGTERM.\n");
+}
 
 int cmd_serve(int argc, char **argv)
 {
-    (void)argc;
-    (void)argv;
-    fprintf(stderr, "locd: 'serve' (the level-3 service) is not available in this build yet\n");
-    return 2;
+    locd_service_config cfg;
+    struct sigaction sa;
+    locd_status st;
+    int a, verbose = 0;
+    size_t k;
+    locd_service_config_init(&cfg);
+    for (a = 1; a < argc; a++) {
+        const char *o = argv[a];
+        int more = a + 1 < argc;
+        if (!strcmp(o, "--help")) {
+            serve_usage();
+            return 0;
+        } else if (!strcmp(o, "--listen") && more) {
+            cfg.listen = argv[++a];
+        } else if (!strcmp(o, "--secret") && more) {
+            cfg.secret = argv[++a];
+        } else if (!strcmp(o, "--threads") && more) {
+            if (cli_parse_size(argv[++a], &k) || k < 1 || k > 256)
+                cli_die("serve: bad --threads (1..256)");
+            cfg.threads = (uint32_t)k;
+        } else if (!strcmp(o, "--engine-threads") && more) {
+            if (cli_parse_size(argv[++a], &k) || k < 1 || k > 64)
+                cli_die("serve: bad --engine-threads (1..64)");
+            cfg.engine_threads = (uint32_t)k;
+        } else if (!strcmp(o, "--max-mb") && more) {
+            if (cli_parse_size(argv[++a], &k) || k < 1 || k > (1u << 20))
+                cli_die("serve: bad --max-mb");
+            cfg.max_message = (uint64_t)k << 20;
+        } else if (!strcmp(o, "--max-clients") && more) {
+            if (cli_parse_size(argv[++a], &k) || k < 1 || k > 100000)
+                cli_die("serve: bad --max-clients");
+            cfg.max_clients = (uint32_t)k;
+        } else if (!strcmp(o, "--verbose")) {
+            verbose = 1;
+        } else {
+            cli_die("serve: unknown option '%s' (see locd serve --help)", o);
+        }
+    }
+    cfg.log = log_line;
+    cfg.log_user = &verbose;
+    if ((st = locd_service_create(&cfg, &g_service)) != LOCD_OK) {
+        fprintf(stderr, "locd serve: cannot start: %s\n", locd_last_error());
+        return 1;
+    }
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    sa.sa_handler = SIG_IGN;
+    sigaction(SIGPIPE, &sa, NULL);
+    st = locd_service_run(g_service); /* logs "listening on ADDR" first */
+    locd_service_destroy(g_service);
+    g_service = NULL;
+    return st ? 1 : 0;
 }

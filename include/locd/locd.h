@@ -318,4 +318,7 @@ LOCD_API locd_status locd_brute_force_f64(const double *boxes, size_t n, locd_pa
 /* Filter pipeline: shapes, narrow phase, swept tests (issue 9). */
 #include "locd/pipeline.h"
 
+/* Level-3 service hosting: locd_service_* (issue 5). */
+#include "locd/service.h"
+
 #endif /* LOCD_LOCD_H */

@@ -1,0 +1,45 @@
+/* locd: the level-3 service (what `locd serve` runs), for programs that
+ * want to host it themselves. Included by locd/locd.h. Clients do not need
+ * this header: they create an engine with LOCD_LEVEL_SERVICE and
+ * service_address. */
+#ifndef LOCD_SERVICE_H
+#define LOCD_SERVICE_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct locd_service_config {
+    uint32_t size;           /* sizeof(locd_service_config) */
+    const char *listen;      /* "unix:PATH" or "tcp:HOST:PORT" (port 0 = any free port);
+                                NULL = unix:$XDG_RUNTIME_DIR/locd/locd.sock, or /tmp/locd-UID/locd.sock */
+    const char *secret;      /* shared secret clients must present; required for tcp */
+    uint32_t threads;        /* job runners (each with its own level-1 engine); 0 = one per core */
+    uint32_t engine_threads; /* threads of each runner's engine; 0 = 1 */
+    uint64_t max_message;    /* largest accepted message in bytes; 0 = 1 GiB */
+    uint32_t max_clients;    /* connections served at once; 0 = 256 */
+    uint32_t max_jobs;       /* jobs in flight per connection; 0 = 1024 */
+    locd_log_fn log;         /* NULL = silent */
+    void *log_user;
+} locd_service_config;
+
+typedef struct locd_service locd_service;
+
+LOCD_API void locd_service_config_init(locd_service_config *config);
+/* Binds and listens (a Unix socket's directory must be private to the user:
+ * it is created with mode 0700 if missing, refused if others can enter it). */
+LOCD_API locd_status locd_service_create(const locd_service_config *config, locd_service **out);
+/* The address actually listened on ("tcp:127.0.0.1:40123" for port 0). */
+LOCD_API const char *locd_service_address(const locd_service *service);
+/* Serves clients until locd_service_stop; then closes every connection. */
+LOCD_API locd_status locd_service_run(locd_service *service);
+/* Makes locd_service_run return. Async-signal-safe. */
+LOCD_API void locd_service_stop(locd_service *service);
+/* Frees the service (after run returned, or instead of running it). */
+LOCD_API void locd_service_destroy(locd_service *service);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

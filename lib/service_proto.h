@@ -1,0 +1,99 @@
+/* Level 3: the service's wire protocol, shared by the client
+ * (service_client.c) and the server (service_server.c).
+ *
+ * Every message is a 24-byte header followed by `length` payload bytes:
+ *   u32 magic "LCDS" | u16 version | u16 type | u64 job id | u64 length
+ * All integers little-endian; box coordinates and pairs are sent as raw
+ * little-endian float32/float64/uint32 arrays (both ends are little-endian
+ * machines; lc_proto_host_ok() checks). A header with a bad magic, version
+ * or type, or a length over the receiver's limit, drops the connection.
+ *
+ * HELLO   c->s  u32 secret_len, secret bytes
+ * WELCOME s->c  u32 shm_ok (1: the client may pass boxes through /dev/shm)
+ * SUBMIT  c->s  u32 flags, u32 f64, u64 n, u32 max_depth, i32 cell_bias,
+ *               u32 config_flags, u32 transport; transport 0: the boxes
+ *               follow (n*6 values); 1: u32 name_len, a shm segment name
+ * CANCEL  c->s  (no payload) cancels job `id`
+ * RESULT  s->c  i32 status, i64 error_index, u32 msg_len, msg, stats
+ *               (LC_PROTO_STATS_BYTES), u64 count, count pairs (2 u32 each)
+ * ERROR   s->c  i32 status, u32 msg_len, msg; the server then closes */
+#ifndef LOCD_SERVICE_PROTO_H
+#define LOCD_SERVICE_PROTO_H
+
+#include "internal.h"
+
+#define LC_PROTO_MAGIC 0x5344434cu /* "LCDS" as little-endian bytes */
+#define LC_PROTO_VERSION 1u
+#define LC_PROTO_HEADER 24
+
+#define LC_MSG_HELLO 1
+#define LC_MSG_WELCOME 2
+#define LC_MSG_SUBMIT 3
+#define LC_MSG_CANCEL 4
+#define LC_MSG_RESULT 5
+#define LC_MSG_ERROR 6
+
+#define LC_PROTO_SUBMIT_FIXED 36
+#define LC_PROTO_STATS_BYTES 112
+#define LC_PROTO_MAX_TEXT 1024
+#define LC_PROTO_MAX_SECRET 1024
+/* Boxes at least this large go through shared memory on a local socket. */
+#define LC_PROTO_SHM_MIN_BYTES (64u * 1024u)
+/* Segment names the server accepts: "/locd-" + [A-Za-z0-9-]. */
+#define LC_PROTO_SHM_PREFIX "/locd-"
+
+typedef struct lc_msg_header {
+    uint32_t magic;
+    uint16_t version;
+    uint16_t type;
+    uint64_t id;
+    uint64_t length;
+} lc_msg_header;
+
+typedef struct lc_submit_fixed {
+    uint32_t flags, f64;
+    uint64_t n;
+    uint32_t max_depth;
+    int32_t cell_bias;
+    uint32_t config_flags, transport;
+} lc_submit_fixed;
+
+int lc_proto_host_ok(void);
+
+void lc_put_u32(uint8_t *p, uint32_t v);
+void lc_put_u64(uint8_t *p, uint64_t v);
+uint32_t lc_get_u32(const uint8_t *p);
+uint64_t lc_get_u64(const uint8_t *p);
+
+void lc_proto_put_header(uint8_t *out, uint16_t type, uint64_t id, uint64_t length);
+/* 0 when valid; otherwise -1 with the reason in why. */
+int lc_proto_get_header(const uint8_t *in, uint64_t max_length, lc_msg_header *h, char *why, size_t why_len);
+
+void lc_proto_put_submit(uint8_t *out, const lc_submit_fixed *s);
+void lc_proto_get_submit(const uint8_t *in, lc_submit_fixed *s);
+void lc_proto_put_stats(uint8_t *out, const locd_stats *s);
+void lc_proto_get_stats(const uint8_t *in, locd_stats *s);
+
+/* Writes all bytes (MSG_NOSIGNAL: a closed peer is an error, not SIGPIPE).
+ * 0 on success, -1 on error. */
+int lc_proto_write_all(int fd, const void *buf, size_t len);
+/* Reads exactly len bytes. timeout_ms < 0 waits forever; otherwise each
+ * wait for more bytes is bounded. Returns 1 on success, 0 on a clean end of
+ * stream before the first byte, -1 on error, truncation or timeout (why). */
+int lc_proto_read_all(int fd, void *buf, size_t len, int timeout_ms, char *why, size_t why_len);
+/* Reads and drops len bytes. */
+int lc_proto_skip(int fd, uint64_t len, int timeout_ms, char *why, size_t why_len);
+
+/* Parses "unix:PATH" or "tcp:HOST:PORT". 0 on success. */
+typedef struct lc_address {
+    int tcp;
+    char path[108];
+    char host[256];
+    char port[16];
+} lc_address;
+int lc_proto_parse_address(const char *s, lc_address *a, char *why, size_t why_len);
+
+/* Constant-time comparison of two secrets (1 when equal). */
+int lc_proto_secret_equal(const char *a, size_t alen, const char *b, size_t blen);
+
+#endif
