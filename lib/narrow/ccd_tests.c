@@ -130,6 +130,18 @@ static void ccd_setup(ccd_t *ccd, const lc_placed *a, const lc_placed *b)
 
 /* libccd's direction already points from obj1 toward obj2 (moving obj2 by
  * depth * dir separates them): the tests check it against the closed forms. */
+/* Translation of obj2 along unit dir that separates it from obj1:
+ * max over obj1 of x.dir minus min over obj2 of x.dir. */
+static double overlap_along(const ccd_obj *o1, const ccd_obj *o2, const ccd_vec3_t *dir)
+{
+    ccd_vec3_t neg, s1, s2;
+    ccdVec3Copy(&neg, dir);
+    ccdVec3Scale(&neg, CCD_REAL(-1.0));
+    support(o1, dir, &s1);
+    support(o2, &neg, &s2);
+    return ccdVec3Dot(&s1, dir) - ccdVec3Dot(&s2, dir);
+}
+
 static int ccd_pair(const ccd_obj *oa, const ccd_obj *ob, const ccd_t *ccd, int want_contact, int32_t method,
                     lc_contact *c)
 {
@@ -144,6 +156,26 @@ static int ccd_pair(const ccd_obj *oa, const ccd_obj *ob, const ccd_t *ccd, int 
         r = ccdGJKPenetration(oa, ob, ccd, &depth, &dir, &pos);
     if (r != 0)
         return 0;
+    /* libccd's EPA can stop on a face that is not the closest one in deep
+     * penetration: measure the overlap along its normal exactly with the
+     * support functions (so pushing by depth always separates), and try MPR's
+     * direction when EPA's turns out longer than EPA claimed. */
+    {
+        double v = overlap_along(oa, ob, &dir);
+        if (method != LOCD_CONTACT_MPR && v > depth + ccd->epa_tolerance * 10.0) {
+            ccd_real_t d2;
+            ccd_vec3_t dir2, pos2;
+            if (ccdMPRPenetration(oa, ob, ccd, &d2, &dir2, &pos2) == 0) {
+                double v2 = overlap_along(oa, ob, &dir2);
+                if (v2 < v) {
+                    v = v2;
+                    dir = dir2;
+                    pos = pos2;
+                }
+            }
+        }
+        depth = v > 0.0 ? v : 0.0;
+    }
     c->depth = depth;
     c->normal[0] = ccdVec3X(&dir);
     c->normal[1] = ccdVec3Y(&dir);
