@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# Smoke test of the benchmark against FCL, Bullet and CGAL (bench/peers) on
+# small scenes (n = 2,000) of every kind. The peers that must be exact
+# (locd at 1 and all threads, CGAL with closed boxes, the brute force) must
+# return exactly locd's 1-thread pairs; the others' differences (touching
+# boxes treated as open, ...) are reported but do not fail; a peer that
+# crashes or errors fails (the harness must drive it correctly).
+# One JUnit testcase per (scene, peer). Skipped when the peers are not installed.
+set -euo pipefail
+cd "$ROOT"
+N=${LOCD_BENCH_SMOKE_N:-2000}
+JUNIT="$LOCD_RESULTS/bench-smoke.junit.xml"
+OUT="$ROOT/build-ci/bench-smoke"
+rm -rf "$OUT"
+mkdir -p "$OUT"
+
+# 10-c.sh's build already holds bench/peers when the peers are installed.
+BUILD="$ROOT/build-ci/c"
+if [ ! -f "$BUILD/build.ninja" ]; then
+  BUILD="$ROOT/build-ci/bench"
+  meson setup "$BUILD" --buildtype=release -Dbench_peers=auto -Dtests=disabled -Dexamples=false >/dev/null
+fi
+if ! ninja -C "$BUILD" -t targets all 2>/dev/null | grep -q '^bench/peers:'; then
+  echo "bench/peers is not configured (libfcl-dev, libbullet-dev, libcgal-dev missing?): skipped"
+  python3 - "$JUNIT" <<'EOF'
+import sys
+open(sys.argv[1], "w").write('<?xml version="1.0" encoding="utf-8"?>\n<testsuites><testsuite name="bench-smoke" '
+    'tests="1" skipped="1"><testcase classname="bench-smoke" name="peers"><skipped message="peers not installed"/>'
+    '</testcase></testsuite></testsuites>\n')
+EOF
+  exit 0
+fi
+ninja -C "$BUILD" -j "$JOBS" tools/locd bench/peers
+
+rc=0
+for kind in uniform clustered mixed lattice far; do
+  "$BUILD/tools/locd" gen "$kind" "$N" --seed 7 -o "$OUT/$kind.aabb" >/dev/null
+  "$BUILD/bench/peers" --reps 1 --budget 20 --scene-name "$kind" --csv "$OUT/peers.csv" --check-exact \
+    "$OUT/$kind.aabb" || rc=1
+done
+
+py_rc=0
+python3 - "$OUT/peers.csv" "$JUNIT" <<'EOF' || py_rc=$?
+import csv, sys
+from xml.sax.saxutils import escape, quoteattr
+MUST = {"locd", "locd_1t", "cgal_closed", "brute_force"}
+rows = list(csv.DictReader(open(sys.argv[1], newline="")))
+cases, failures = [], 0
+for r in rows:
+    name = "%s n=%s %s" % (r["scene"], r["n"], r["peer"])
+    msg = "%s: %s (%s pairs, locd %s)" % (r["status"], r["note"], r["pairs"], r["ref_pairs"])
+    bad = r["status"] in ("crashed", "error") or (
+        r["peer"] in MUST and r["status"] != "skipped" and (r["status"] != "ok" or r["exact"] != "1"))
+    failures += bad
+    body = ("<failure message=%s>%s</failure>" % (quoteattr(msg[:200]), escape(msg)) if bad
+            else "<system-out>%s</system-out>" % escape(msg))
+    cases.append('<testcase classname="bench-smoke" name=%s time="%s">%s</testcase>'
+                 % (quoteattr(name), float(r["total_ms"] or 0) / 1000, body))
+    print(("FAIL " if bad else "ok   ") + name + ": " + r["note"])
+if not rows:
+    failures = 1
+    cases.append('<testcase classname="bench-smoke" name="peers"><failure message="no results"/></testcase>')
+open(sys.argv[2], "w").write('<?xml version="1.0" encoding="utf-8"?>\n<testsuites><testsuite name="bench-smoke" '
+    'tests="%d" failures="%d">%s</testsuite></testsuites>\n' % (len(cases), failures, "".join(cases)))
+sys.exit(1 if failures else 0)
+EOF
+[ $rc -eq 0 ] && [ $py_rc -eq 0 ]
