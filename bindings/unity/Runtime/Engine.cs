@@ -420,6 +420,7 @@ namespace Locd
                     : Native.locd_engine_submit_f64(e, d, (UIntPtr)(ulong)n, (uint)flags, &j);
                 if (st != Native.LOCD_OK)
                     throw LocdException.FromLastError(st);
+                handle.NoteJob();
                 jh.Own(j, handle);
                 added = false;
                 return new Job(jh);

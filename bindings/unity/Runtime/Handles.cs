@@ -19,14 +19,28 @@ namespace Locd
 
         public override bool IsInvalid { get { return handle == IntPtr.Zero; } }
 
+        int hadJobs;
+
         internal void Own(IntPtr engine)
         {
             SetHandle(engine);
             Interlocked.Increment(ref live);
         }
 
-        protected override bool ReleaseHandle()
+        internal void NoteJob() { Interlocked.Exchange(ref hadJobs, 1); }
+
+        protected override unsafe bool ReleaseHandle()
         {
+            // A released job's thread may still be inside the engine (levels 1
+            // and 2 cannot interrupt it). Destroying the engine under it would be
+            // a use-after-free, so wait until the engine is no longer busy: an
+            // empty find is refused with Busy exactly while that thread runs.
+            if (Volatile.Read(ref hadJobs) != 0) {
+                UIntPtr count;
+                while (Native.locd_engine_find_pairs_f32_into(handle, null, UIntPtr.Zero, 0, null, UIntPtr.Zero, &count)
+                       == (int)Status.Busy)
+                    Thread.Sleep(1);
+            }
             Native.locd_engine_destroy(handle);
             Interlocked.Decrement(ref live);
             return true;
