@@ -1,12 +1,448 @@
-/* locd simulate: placeholder until the filter pipeline lands. */
+/* locd simulate SCENE.json --steps N: advances a JSON scene through the
+ * filter pipeline (only the stages and effects the scene declares), prints
+ * one JSON line of per-stage statistics per step and a summary line, and
+ * optionally renders PNG frames or a GIF through scripts/render_scene.py. */
 #include "cli.h"
+#include "sim_scene.h"
 
+#include <errno.h>
+#include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#ifndef LOCD_RENDER_SCRIPT
+#define LOCD_RENDER_SCRIPT "scripts/render_scene.py"
+#endif
+
+/* Objects drawn at most (the million-box scene is for statistics). */
+#define SIM_RENDER_MAX 5000
+
+typedef struct sim_args {
+    const char *scene, *frames, *gif, *dump;
+    int steps, every, quiet;
+    int continuous; /* -1 = as the scene says */
+    long threads;   /* -1 = as the scene says */
+} sim_args;
+
+static void usage(FILE *f)
+{
+    fprintf(f, "usage: locd simulate SCENE.json [--steps N] [--continuous on|off|auto] [--threads K]\n"
+               "                     [--frames DIR | --gif FILE] [--every K] [--dump FILE] [--quiet]\n"
+               "  Runs the scene through the pipeline; one JSON line per step on stdout (its 'stages'\n"
+               "  object: calls, ms, pairs_in, pairs_out per stage), then a 'summary' line.\n"
+               "  --frames/--gif record every K-th step (default 1) and render them with\n"
+               "  python3 + matplotlib (LOCD_PYTHON, LOCD_RENDER_SCRIPT override the defaults).\n"
+               "  --dump writes the recorded positions (JSON lines) without rendering.\n"
+               "  --quiet prints the summary line only. Scene format: docs/pipeline.md.\n");
+}
+
+static int parse_args(int argc, char **argv, sim_args *a)
+{
+    int i;
+    memset(a, 0, sizeof *a);
+    a->steps = -1;
+    a->every = 1;
+    a->continuous = -1;
+    a->threads = -1;
+    for (i = 1; i < argc; i++) {
+        const char *o = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(o, "--help") || !strcmp(o, "-h")) {
+            usage(stdout);
+            exit(0);
+        } else if (!strcmp(o, "--quiet")) {
+            a->quiet = 1;
+        } else if (o[0] == '-' && o[1] == '-' && !v) {
+            cli_die("simulate: %s needs a value", o);
+        } else if (!strcmp(o, "--steps")) {
+            a->steps = atoi(argv[++i]);
+        } else if (!strcmp(o, "--every")) {
+            a->every = atoi(argv[++i]);
+        } else if (!strcmp(o, "--threads")) {
+            a->threads = atol(argv[++i]);
+        } else if (!strcmp(o, "--frames")) {
+            a->frames = argv[++i];
+        } else if (!strcmp(o, "--gif")) {
+            a->gif = argv[++i];
+        } else if (!strcmp(o, "--dump")) {
+            a->dump = argv[++i];
+        } else if (!strcmp(o, "--continuous")) {
+            v = argv[++i];
+            a->continuous = !strcmp(v, "on") ? LOCD_SWEPT_ON : !strcmp(v, "off") ? LOCD_SWEPT_OFF
+                            : !strcmp(v, "auto")                           ? LOCD_SWEPT_AUTO
+                                                                           : -2;
+            if (a->continuous == -2)
+                cli_die("simulate: --continuous is on, off or auto");
+        } else if (o[0] == '-') {
+            cli_die("simulate: unknown option %s (see --help)", o);
+        } else if (!a->scene) {
+            a->scene = o;
+        } else {
+            cli_die("simulate: one scene only");
+        }
+    }
+    if (!a->scene) {
+        usage(stderr);
+        return -1;
+    }
+    if (a->every < 1)
+        a->every = 1;
+    return 0;
+}
+
+static const char *swept_name(int mode)
+{
+    return mode == LOCD_SWEPT_ON ? "on" : mode == LOCD_SWEPT_OFF ? "off" : "auto";
+}
+
+static void print_stage(FILE *f, const char *name, const locd_stage_stats *s, int last)
+{
+    fprintf(f, "\"%s\":{\"calls\":%llu,\"ms\":%.4f,\"pairs_in\":%llu,\"pairs_out\":%llu,\"tests\":%llu}%s", name,
+            (unsigned long long)s->calls, s->ms, (unsigned long long)s->pairs_in, (unsigned long long)s->pairs_out,
+            (unsigned long long)s->tests, last ? "" : ",");
+}
+
+static void print_stages(FILE *f, const locd_pipeline_stats *s)
+{
+    fputs("\"stages\":{", f);
+    print_stage(f, "broad", &s->broad, 0);
+    print_stage(f, "shape", &s->shape, 0);
+    print_stage(f, "swept", &s->swept, 0);
+    print_stage(f, "contact", &s->contact, 1);
+    fprintf(f, "},\"tests\":{\"closed\":%llu,\"ccd\":%llu,\"fcl\":%llu}", (unsigned long long)s->tests_closed,
+            (unsigned long long)s->tests_ccd, (unsigned long long)s->tests_fcl);
+}
+
+static void add_stage(locd_stage_stats *acc, const locd_stage_stats *s)
+{
+    acc->calls += s->calls;
+    acc->ms += s->ms;
+    acc->pairs_in += s->pairs_in;
+    acc->pairs_out += s->pairs_out;
+    acc->tests += s->tests;
+}
+
+static void accumulate(locd_pipeline_stats *acc, const locd_pipeline_stats *s)
+{
+    add_stage(&acc->broad, &s->broad);
+    add_stage(&acc->shape, &s->shape);
+    add_stage(&acc->swept, &s->swept);
+    add_stage(&acc->contact, &s->contact);
+    acc->tests_closed += s->tests_closed;
+    acc->tests_ccd += s->tests_ccd;
+    acc->tests_fcl += s->tests_fcl;
+    acc->ms_total += s->ms_total;
+}
+
+/* ---- simple response: equal masses, restitution, push-apart ---- */
+
+typedef struct sim_state {
+    sim_scene *sc;
+    double *frac;   /* fraction of the step travelled before a swept impact */
+    double *vold;   /* velocities before the response (3 per object) */
+    uint32_t *hits; /* contacts per object over the run */
+    double *min_z;
+} sim_state;
+
+static void respond(sim_state *st, const locd_contacts *c)
+{
+    sim_scene *s = st->sc;
+    size_t k, m = locd_contacts_count(c);
+    const uint32_t *pairs = locd_contacts_pairs(c);
+    const double *toi = locd_contacts_toi(c), *depth = locd_contacts_depth(c), *normal = locd_contacts_normal(c);
+    for (k = 0; k < m; k++) {
+        uint32_t i = pairs[2 * k], j = pairs[2 * k + 1];
+        st->hits[i]++;
+        st->hits[j]++;
+    }
+    if (!s->response || !normal)
+        return;
+    for (k = 0; k < m; k++) {
+        uint32_t i = pairs[2 * k], j = pairs[2 * k + 1];
+        double wi = s->dynamic[i], wj = s->dynamic[j], *vi = s->vel + 6 * (size_t)i, *vj = s->vel + 6 * (size_t)j;
+        const double *n = normal + 3 * k;
+        double vn;
+        int a;
+        if (wi + wj == 0.0)
+            continue;
+        vn = (vj[0] - vi[0]) * n[0] + (vj[1] - vi[1]) * n[1] + (vj[2] - vi[2]) * n[2];
+        if (vn < 0.0) {
+            double J = -(1.0 + s->restitution) * vn / (wi + wj);
+            for (a = 0; a < 3; a++) {
+                vi[a] -= J * wi * n[a];
+                vj[a] += J * wj * n[a];
+            }
+        }
+        if (toi[k] > 0.0) {
+            if (wi > 0.0 && toi[k] < st->frac[i])
+                st->frac[i] = toi[k];
+            if (wj > 0.0 && toi[k] < st->frac[j])
+                st->frac[j] = toi[k];
+        } else {
+            /* Push apart 80% of the depth beyond a small slop. */
+            double corr = fmax(depth[k] - 1e-4, 0.0) * 0.8 / (wi + wj);
+            for (a = 0; a < 3; a++) {
+                s->poses[7 * (size_t)i + a] -= corr * wi * n[a];
+                s->poses[7 * (size_t)j + a] += corr * wj * n[a];
+            }
+        }
+    }
+}
+
+static void integrate(sim_state *st)
+{
+    sim_scene *s = st->sc;
+    size_t i;
+    int a;
+    for (i = 0; i < s->n; i++) {
+        double *p = s->poses + 7 * i, *v = s->vel + 6 * i;
+        if (!s->dynamic[i])
+            continue;
+        if (st->frac[i] < 1.0) {
+            /* Travel to the impact, then on with the new velocity. */
+            for (a = 0; a < 3; a++)
+                p[a] += st->vold[3 * i + a] * s->dt * st->frac[i] + v[a] * s->dt * (1.0 - st->frac[i]);
+            st->frac[i] = 1.0;
+        } else {
+            for (a = 0; a < 3; a++)
+                p[a] += v[a] * s->dt;
+        }
+        if (p[2] < st->min_z[i])
+            st->min_z[i] = p[2];
+    }
+}
+
+/* ---- recording and rendering ---- */
+
+static void write_header(FILE *f, const sim_scene *s)
+{
+    size_t i, k, n = s->n < SIM_RENDER_MAX ? s->n : SIM_RENDER_MAX;
+    fprintf(f, "{\"header\":{\"scene\":\"%s\",\"dt\":%.9g,\"objects\":%zu,\"shown\":%zu,\"shape_of\":[", s->name, s->dt,
+            s->n, n);
+    for (i = 0; i < n; i++)
+        fprintf(f, "%s%u", i ? "," : "", s->shape_of[i]);
+    fputs("],\"static\":[", f);
+    for (i = 0; i < n; i++)
+        fprintf(f, "%s%d", i ? "," : "", !s->dynamic[i]);
+    fputs("],\"shapes\":[", f);
+    for (k = 0; k < s->nshapes; k++) {
+        const sim_shape *sh = &s->shapes[k];
+        fprintf(f, "%s{\"kind\":\"%s\",\"radius\":%.9g,\"half\":[%.9g,%.9g,%.9g],\"points\":[", k ? "," : "",
+                sim_kind_name(sh->kind), sh->radius, sh->half[0], sh->half[1], sh->half[2]);
+        for (i = 0; i < 3 * sh->npoints; i++)
+            fprintf(f, "%s%.6g", i ? "," : "", sh->points[i]);
+        fputs("],\"triangles\":[", f);
+        for (i = 0; i < 3 * sh->ntris; i++)
+            fprintf(f, "%s%u", i ? "," : "", sh->tris[i]);
+        fputs("]}", f);
+    }
+    fputs("]}}\n", f);
+}
+
+static void write_positions(FILE *f, const sim_scene *s, int step)
+{
+    size_t i, n = s->n < SIM_RENDER_MAX ? s->n : SIM_RENDER_MAX;
+    fprintf(f, "{\"step\":%d,\"t\":%.6g,\"p\":[", step, step * s->dt);
+    for (i = 0; i < n; i++) {
+        const double *p = s->poses + 7 * i;
+        fprintf(f, "%s%.5g,%.5g,%.5g,%.5g,%.5g,%.5g,%.5g", i ? "," : "", p[0], p[1], p[2], p[3], p[4], p[5], p[6]);
+    }
+    fputs("]}\n", f);
+}
+
+static int render(const char *dump, const sim_args *a)
+{
+    const char *py = getenv("LOCD_PYTHON"), *script = getenv("LOCD_RENDER_SCRIPT");
+    char *argv[6];
+    pid_t pid;
+    int status;
+    argv[0] = (char *)(py && *py ? py : "python3");
+    argv[1] = (char *)(script && *script ? script : LOCD_RENDER_SCRIPT);
+    argv[2] = (char *)dump;
+    argv[3] = (char *)(a->gif ? "--gif" : "--frames");
+    argv[4] = (char *)(a->gif ? a->gif : a->frames);
+    argv[5] = NULL;
+    fflush(stdout);
+    pid = fork();
+    if (pid < 0)
+        return -1;
+    if (pid == 0) {
+        /* The renderer's progress goes to stderr: stdout stays JSON lines. */
+        dup2(2, 1);
+        execvp(argv[0], argv);
+        fprintf(stderr, "locd: cannot run %s: %s\n", argv[0], strerror(errno));
+        _exit(127);
+    }
+    if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        fprintf(stderr, "locd: rendering failed; the positions are in %s (run: %s %s %s %s %s)\n", dump, argv[0],
+                argv[1], dump, argv[3], argv[4]);
+        return -1;
+    }
+    return 0;
+}
+
+/* ---- the run ---- */
+
+static int setup_world(sim_scene *s, long threads, locd_world **w)
+{
+    locd_engine_config cfg;
+    size_t i;
+    locd_status st;
+    locd_engine_config_init(&cfg);
+    cfg.threads = threads >= 0 ? (uint32_t)threads : s->threads;
+    if ((st = locd_world_create(&cfg, w)) != LOCD_OK) {
+        fprintf(stderr, "locd: %s\n", locd_last_error());
+        return -1;
+    }
+    for (i = 0; i < s->n; i++)
+        if ((st = locd_world_add(*w, s->shapes[s->shape_of[i]].handle, s->poses + 7 * i, s->vel + 6 * i, NULL)) !=
+            LOCD_OK) {
+            fprintf(stderr, "locd: object %zu: %s\n", i, locd_last_error());
+            return -1;
+        }
+    return 0;
+}
+
+static void print_summary(const sim_scene *s, const sim_state *st, const locd_pipeline_options *o, int steps,
+                          const locd_pipeline_stats *total, double ms_wall)
+{
+    size_t i;
+    int first = 1;
+    printf("{\"summary\":{\"scene\":\"%s\",\"steps\":%d,\"objects\":%zu,\"continuous\":\"%s\",\"shape_tests\":%s,"
+           "\"contacts\":%s,\"response\":%s,",
+           s->name, steps, s->n, swept_name(o->swept), (o->stages & LOCD_STAGE_SHAPE) ? "true" : "false",
+           (o->stages & LOCD_STAGE_CONTACT) ? "true" : "false", s->response ? "true" : "false");
+    print_stages(stdout, total);
+    printf(",\"ms_pipeline\":%.3f,\"ms_wall\":%.3f,\"tracked\":{", total->ms_total, ms_wall);
+    for (i = 0; i < s->n; i++) {
+        const double *p = s->poses + 7 * i;
+        if (!s->names[i])
+            continue;
+        printf("%s\"%s\":{\"position\":[%.6g,%.6g,%.6g],\"min_z\":%.6g,\"contacts\":%u}", first ? "" : ",",
+               s->names[i], p[0], p[1], p[2], st->min_z[i], st->hits[i]);
+        first = 0;
+    }
+    printf("}}}\n");
+}
 
 int cmd_simulate(int argc, char **argv)
 {
-    (void)argc;
-    (void)argv;
-    fprintf(stderr, "locd: 'simulate' (the filter pipeline) is not available in this build yet\n");
-    return 2;
+    sim_args a;
+    sim_scene s;
+    sim_state st;
+    locd_world *w = NULL;
+    locd_contacts *c = NULL;
+    locd_pipeline_options o;
+    locd_pipeline_stats ps, total;
+    char err[512], dump_path[4096];
+    FILE *rec = NULL;
+    int steps, step, rc = 1;
+    size_t i;
+    double t_start;
+
+    if (parse_args(argc, argv, &a) != 0)
+        return 2;
+    if (sim_scene_load(a.scene, &s, err, sizeof err) != 0) {
+        fprintf(stderr, "locd: %s\n", err);
+        return 2;
+    }
+    steps = a.steps >= 0 ? a.steps : s.steps;
+    memset(&st, 0, sizeof st);
+    st.sc = &s;
+    st.frac = malloc(s.n * sizeof(double) + 1);
+    st.vold = malloc(3 * s.n * sizeof(double) + 1);
+    st.hits = calloc(s.n + 1, sizeof(uint32_t));
+    st.min_z = malloc(s.n * sizeof(double) + 1);
+    if (!st.frac || !st.vold || !st.hits || !st.min_z)
+        cli_die("out of memory");
+    for (i = 0; i < s.n; i++) {
+        st.frac[i] = 1.0;
+        st.min_z[i] = s.poses[7 * i + 2];
+    }
+    if (setup_world(&s, a.threads, &w) != 0 || locd_contacts_create(&c) != LOCD_OK)
+        goto done;
+
+    locd_pipeline_options_init(&o);
+    o.dt = s.dt;
+    o.swept = a.continuous >= 0 ? a.continuous : s.continuous;
+    o.swept_threshold = s.swept_threshold;
+    o.stages = (s.shape_tests ? LOCD_STAGE_SHAPE : 0u) | (s.contacts ? LOCD_STAGE_CONTACT : 0u);
+    o.find_flags = LOCD_FIND_SORTED; /* the response order, and so the run, is deterministic */
+
+    if (a.frames || a.gif || a.dump) {
+        if (a.dump)
+            snprintf(dump_path, sizeof dump_path, "%s", a.dump);
+        else if (a.frames) {
+            mkdir(a.frames, 0777);
+            snprintf(dump_path, sizeof dump_path, "%s/positions.jsonl", a.frames);
+        } else
+            snprintf(dump_path, sizeof dump_path, "%s.positions.jsonl", a.gif);
+        if (!(rec = fopen(dump_path, "w"))) {
+            fprintf(stderr, "locd: cannot create %s: %s\n", dump_path, strerror(errno));
+            goto done;
+        }
+        write_header(rec, &s);
+        write_positions(rec, &s, 0);
+    }
+
+    locd_pipeline_stats_init(&total);
+    t_start = cli_now_ms();
+    for (step = 1; step <= steps; step++) {
+        locd_status rs;
+        for (i = 0; i < s.n; i++)
+            if (s.dynamic[i]) {
+                double *v = s.vel + 6 * i;
+                v[0] += s.gravity[0] * s.dt;
+                v[1] += s.gravity[1] * s.dt;
+                v[2] += s.gravity[2] * s.dt;
+            }
+        if ((rs = locd_world_set_velocities(w, s.vel, s.n)) != LOCD_OK) {
+            fprintf(stderr, "locd: step %d: %s\n", step, locd_last_error());
+            goto done;
+        }
+        locd_pipeline_stats_init(&ps);
+        if ((rs = locd_world_collide(w, &o, c, &ps)) != LOCD_OK) {
+            fprintf(stderr, "locd: step %d: %s\n", step, locd_last_error());
+            goto done;
+        }
+        for (i = 0; i < s.n; i++)
+            memcpy(st.vold + 3 * i, s.vel + 6 * i, 3 * sizeof(double));
+        respond(&st, c);
+        integrate(&st);
+        if ((rs = locd_world_set_poses(w, s.poses, s.n)) != LOCD_OK) {
+            fprintf(stderr, "locd: step %d: %s (the scene blew up)\n", step, locd_last_error());
+            goto done;
+        }
+        accumulate(&total, &ps);
+        if (!a.quiet) {
+            printf("{\"step\":%d,\"t\":%.6g,\"objects\":%zu,\"pairs\":%zu,\"swept_objects\":%u,", step, step * s.dt, s.n,
+                   locd_contacts_count(c), ps.swept_objects);
+            print_stages(stdout, &ps);
+            printf(",\"ms_total\":%.4f}\n", ps.ms_total);
+        }
+        if (rec && step % a.every == 0)
+            write_positions(rec, &s, step);
+    }
+    print_summary(&s, &st, &o, steps, &total, cli_now_ms() - t_start);
+    rc = 0;
+    if (rec) {
+        fclose(rec);
+        rec = NULL;
+        if ((a.frames || a.gif) && render(dump_path, &a) != 0)
+            rc = 1;
+    }
+done:
+    if (rec)
+        fclose(rec);
+    locd_contacts_destroy(c);
+    locd_world_destroy(w);
+    sim_scene_free(&s);
+    free(st.frac);
+    free(st.vold);
+    free(st.hits);
+    free(st.min_z);
+    return rc;
 }

@@ -1,0 +1,420 @@
+/* Loads a JSON scene (docs/pipeline.md): global effects, listed objects and
+ * generated ones (random or grid layouts, rocks, height-field terrain). */
+#include "sim_scene.h"
+
+#include "cli.h"
+#include "json.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SIM_PI 3.14159265358979323846
+
+static int bad(char *err, size_t errlen, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err, errlen, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+const char *sim_kind_name(int32_t kind)
+{
+    switch (kind) {
+    case LOCD_SHAPE_SPHERE: return "sphere";
+    case LOCD_SHAPE_BOX: return "box";
+    case LOCD_SHAPE_CAPSULE: return "capsule";
+    case LOCD_SHAPE_CONVEX: return "convex";
+    case LOCD_SHAPE_MESH: return "mesh";
+    default: return "?";
+    }
+}
+
+static int add_shape(sim_scene *s, const sim_shape *sh)
+{
+    if (s->nshapes == s->shapes_cap) {
+        size_t cap = s->shapes_cap ? 2 * s->shapes_cap : 8;
+        sim_shape *q = realloc(s->shapes, cap * sizeof *q);
+        if (!q)
+            return -1;
+        s->shapes = q;
+        s->shapes_cap = cap;
+    }
+    s->shapes[s->nshapes++] = *sh;
+    return 0;
+}
+
+/* Random convex "rock": points on a sphere, pushed in by up to 30%. */
+static double *rock_points(double radius, size_t count, uint64_t seed)
+{
+    cli_rng r;
+    size_t i;
+    double *p = malloc(3 * count * sizeof(double));
+    if (!p)
+        return NULL;
+    cli_rng_seed(&r, seed);
+    for (i = 0; i < count; i++) {
+        double z = 2.0 * cli_rng_uniform(&r) - 1.0, a = 2.0 * SIM_PI * cli_rng_uniform(&r);
+        double rr = radius * (0.7 + 0.3 * cli_rng_uniform(&r)), q = sqrt(1.0 - z * z);
+        p[3 * i] = rr * q * cos(a);
+        p[3 * i + 1] = rr * q * sin(a);
+        p[3 * i + 2] = rr * z;
+    }
+    return p;
+}
+
+/* Height field: size[0] x size[1] centred on the origin, cells[0] x cells[1]
+ * quads, heights a sum of three random waves of the given amplitude. */
+static int terrain_mesh(const json_value *o, sim_shape *sh, char *err, size_t errlen)
+{
+    double size[2] = {20.0, 20.0}, cells[2] = {32, 32}, amp = 1.0, seedd = 1.0, ph[6], fr[6];
+    size_t nx, ny, i, j, t = 0;
+    cli_rng r;
+    int k;
+    if (json_get_vec(o, "size", size, 2) < 0 || json_get_vec(o, "cells", cells, 2) < 0 ||
+        json_get_number(o, "amplitude", &amp) < 0 || json_get_number(o, "seed", &seedd) < 0)
+        return bad(err, errlen, "terrain: size [x, y], cells [nx, ny], amplitude, seed are numbers");
+    if (!(cells[0] >= 1 && cells[1] >= 1 && cells[0] <= 2048 && cells[1] <= 2048))
+        return bad(err, errlen, "terrain: cells must be 1..2048");
+    nx = (size_t)cells[0];
+    ny = (size_t)cells[1];
+    cli_rng_seed(&r, (uint64_t)seedd);
+    for (k = 0; k < 6; k++) {
+        ph[k] = 2.0 * SIM_PI * cli_rng_uniform(&r);
+        fr[k] = (0.5 + 1.5 * cli_rng_uniform(&r)) * 2.0 * SIM_PI / fmax(size[0], size[1]) * (1 + k / 2);
+    }
+    sh->npoints = (nx + 1) * (ny + 1);
+    sh->ntris = 2 * nx * ny;
+    sh->points = malloc(3 * sh->npoints * sizeof(double));
+    sh->tris = malloc(3 * sh->ntris * sizeof(uint32_t));
+    if (!sh->points || !sh->tris)
+        return bad(err, errlen, "out of memory");
+    for (i = 0; i <= nx; i++)
+        for (j = 0; j <= ny; j++) {
+            double x = size[0] * ((double)i / (double)nx - 0.5), y = size[1] * ((double)j / (double)ny - 0.5), z = 0;
+            double *p = sh->points + 3 * (i * (ny + 1) + j);
+            for (k = 0; k < 3; k++)
+                z += amp / (1 + k) * sin(fr[2 * k] * x + ph[2 * k]) * cos(fr[2 * k + 1] * y + ph[2 * k + 1]);
+            p[0] = x;
+            p[1] = y;
+            p[2] = z;
+        }
+    for (i = 0; i < nx; i++)
+        for (j = 0; j < ny; j++) {
+            uint32_t a = (uint32_t)(i * (ny + 1) + j), b = a + 1, c = a + (uint32_t)(ny + 1), d = c + 1;
+            uint32_t *q = sh->tris + 3 * t;
+            q[0] = a, q[1] = c, q[2] = b, q[3] = b, q[4] = c, q[5] = d;
+            t += 2;
+        }
+    sh->kind = LOCD_SHAPE_MESH;
+    return 0;
+}
+
+static int read_point_list(const json_value *arr, double **out, size_t *count)
+{
+    size_t i;
+    int k;
+    if (!arr || arr->type != JSON_ARRAY || arr->count == 0)
+        return -1;
+    *out = malloc(3 * arr->count * sizeof(double));
+    if (!*out)
+        return -1;
+    for (i = 0; i < arr->count; i++) {
+        const json_value *p = &arr->items[i];
+        if (p->type != JSON_ARRAY || p->count != 3)
+            return -1;
+        for (k = 0; k < 3; k++) {
+            if (p->items[k].type != JSON_NUMBER)
+                return -1;
+            (*out)[3 * i + (size_t)k] = p->items[k].number;
+        }
+    }
+    *count = arr->count;
+    return 0;
+}
+
+/* Builds the shape described by o's "shape" member (variant picks a rock). */
+static int make_shape(const json_value *o, int variant, sim_shape *sh, char *err, size_t errlen)
+{
+    const char *kind = NULL;
+    locd_status st = LOCD_OK;
+    memset(sh, 0, sizeof *sh);
+    if (json_get_string(o, "shape", &kind) != 1)
+        return bad(err, errlen, "missing \"shape\" (sphere, box, capsule, convex, rock, mesh, terrain)");
+    sh->radius = 0.5;
+    sh->half[0] = sh->half[1] = sh->half[2] = 0.5;
+    if (json_get_number(o, "radius", &sh->radius) < 0 || json_get_vec(o, "half", sh->half, 3) < 0 ||
+        json_get_number(o, "half_length", &sh->half[2]) < 0)
+        return bad(err, errlen, "%s: radius, half [x, y, z] and half_length are numbers", kind);
+    if (!strcmp(kind, "sphere")) {
+        sh->kind = LOCD_SHAPE_SPHERE;
+        st = locd_shape_sphere(sh->radius, &sh->handle);
+    } else if (!strcmp(kind, "box")) {
+        sh->kind = LOCD_SHAPE_BOX;
+        st = locd_shape_box(sh->half[0], sh->half[1], sh->half[2], &sh->handle);
+    } else if (!strcmp(kind, "capsule")) {
+        sh->kind = LOCD_SHAPE_CAPSULE;
+        if (!json_get(o, "half_length"))
+            sh->half[2] = sh->radius;
+        st = locd_shape_capsule(sh->radius, sh->half[2], &sh->handle);
+    } else if (!strcmp(kind, "convex")) {
+        sh->kind = LOCD_SHAPE_CONVEX;
+        if (read_point_list(json_get(o, "points"), &sh->points, &sh->npoints) != 0)
+            return bad(err, errlen, "convex: \"points\" is a non-empty list of [x, y, z]");
+        st = locd_shape_convex(sh->points, sh->npoints, &sh->handle);
+    } else if (!strcmp(kind, "rock")) {
+        double count = 14, seed = 1;
+        if (json_get_number(o, "points", &count) < 0 || json_get_number(o, "seed", &seed) < 0 || count < 4 ||
+            count > 1000)
+            return bad(err, errlen, "rock: points is 4..1000, seed a number");
+        sh->kind = LOCD_SHAPE_CONVEX;
+        sh->npoints = (size_t)count;
+        sh->points = rock_points(sh->radius, sh->npoints, (uint64_t)seed * 7919u + (uint64_t)variant);
+        if (!sh->points)
+            return bad(err, errlen, "out of memory");
+        st = locd_shape_convex(sh->points, sh->npoints, &sh->handle);
+    } else if (!strcmp(kind, "mesh")) {
+        const json_value *tris = json_get(o, "triangles");
+        size_t i;
+        double *tmp = NULL;
+        sh->kind = LOCD_SHAPE_MESH;
+        if (read_point_list(json_get(o, "vertices"), &sh->points, &sh->npoints) != 0 ||
+            read_point_list(tris, &tmp, &sh->ntris) != 0)
+            return bad(err, errlen, "mesh: \"vertices\" and \"triangles\" are lists of triples");
+        sh->tris = malloc(3 * sh->ntris * sizeof(uint32_t));
+        for (i = 0; sh->tris && i < 3 * sh->ntris; i++)
+            sh->tris[i] = tmp[i] >= 0 && tmp[i] < 4294967295.0 ? (uint32_t)tmp[i] : UINT32_MAX;
+        free(tmp);
+        if (!sh->tris)
+            return bad(err, errlen, "out of memory");
+        st = locd_shape_mesh(sh->points, sh->npoints, sh->tris, sh->ntris, &sh->handle);
+    } else if (!strcmp(kind, "terrain")) {
+        if (terrain_mesh(o, sh, err, errlen) != 0)
+            return -1;
+        st = locd_shape_mesh(sh->points, sh->npoints, sh->tris, sh->ntris, &sh->handle);
+    } else {
+        return bad(err, errlen, "unknown shape \"%s\"", kind);
+    }
+    if (st != LOCD_OK)
+        return bad(err, errlen, "%s: %s", kind, locd_last_error());
+    return 0;
+}
+
+static int grow_objects(sim_scene *s, size_t extra)
+{
+    size_t n = s->n + extra;
+    double *poses = realloc(s->poses, 7 * n * sizeof(double));
+    double *vel = poses ? realloc(s->vel, 6 * n * sizeof(double)) : NULL;
+    uint8_t *dyn;
+    uint32_t *sof;
+    char **names;
+    if (poses)
+        s->poses = poses;
+    if (vel)
+        s->vel = vel;
+    dyn = vel ? realloc(s->dynamic, n) : NULL;
+    if (dyn)
+        s->dynamic = dyn;
+    sof = dyn ? realloc(s->shape_of, n * sizeof(uint32_t)) : NULL;
+    if (sof)
+        s->shape_of = sof;
+    names = sof ? realloc(s->names, n * sizeof(char *)) : NULL;
+    if (names)
+        s->names = names;
+    return names ? 0 : -1;
+}
+
+/* Pose, velocity and flags shared by objects and generators. */
+typedef struct placement {
+    double pos[3], quat[4], vel[3], angular[3];
+    int is_static;
+} placement;
+
+static int read_placement(const json_value *o, placement *p, char *err, size_t errlen)
+{
+    memset(p, 0, sizeof *p);
+    p->quat[3] = 1.0;
+    if (json_get_vec(o, "position", p->pos, 3) < 0 || json_get_vec(o, "orientation", p->quat, 4) < 0 ||
+        json_get_vec(o, "velocity", p->vel, 3) < 0 || json_get_vec(o, "angular_velocity", p->angular, 3) < 0 ||
+        json_get_bool(o, "static", &p->is_static) < 0)
+        return bad(err, errlen, "position [3], orientation [x, y, z, w], velocity [3], static (bool)");
+    return 0;
+}
+
+static void put_object(sim_scene *s, const placement *p, const double *pos, const double *vel, uint32_t shape,
+                       const char *name)
+{
+    size_t i = s->n++;
+    memcpy(s->poses + 7 * i, pos, 3 * sizeof(double));
+    memcpy(s->poses + 7 * i + 3, p->quat, 4 * sizeof(double));
+    memcpy(s->vel + 6 * i, vel, 3 * sizeof(double));
+    memcpy(s->vel + 6 * i + 3, p->angular, 3 * sizeof(double));
+    s->dynamic[i] = !p->is_static;
+    if (p->is_static)
+        memset(s->vel + 6 * i, 0, 6 * sizeof(double));
+    s->shape_of[i] = shape;
+    s->names[i] = name ? strdup(name) : NULL;
+}
+
+static int load_objects(const json_value *list, sim_scene *s, char *err, size_t errlen)
+{
+    size_t k;
+    if (!list)
+        return 0;
+    if (list->type != JSON_ARRAY)
+        return bad(err, errlen, "\"objects\" is a list");
+    for (k = 0; k < list->count; k++) {
+        const json_value *o = &list->items[k];
+        sim_shape sh;
+        placement p;
+        const char *name = NULL;
+        char sub[200];
+        if (make_shape(o, 0, &sh, sub, sizeof sub) != 0 || read_placement(o, &p, sub, sizeof sub) != 0 ||
+            json_get_string(o, "name", &name) < 0)
+            return bad(err, errlen, "objects[%zu]: %s", k, sub);
+        if (add_shape(s, &sh) != 0 || grow_objects(s, 1) != 0)
+            return bad(err, errlen, "out of memory");
+        put_object(s, &p, p.pos, p.vel, (uint32_t)(s->nshapes - 1), name);
+    }
+    return 0;
+}
+
+static int load_generators(const json_value *list, sim_scene *s, char *err, size_t errlen)
+{
+    size_t k, i;
+    if (!list)
+        return 0;
+    if (list->type != JSON_ARRAY)
+        return bad(err, errlen, "\"generate\" is a list");
+    for (k = 0; k < list->count; k++) {
+        const json_value *g = &list->items[k];
+        double count = 0, lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1}, grid[3] = {0, 0, 0}, seed = 1, jitter = 0, variants = 1;
+        const char *layout = "random";
+        placement p;
+        cli_rng r;
+        uint32_t first_shape;
+        char sub[200];
+        int v;
+        if (json_get_number(g, "count", &count) < 0 || json_get_vec(g, "min", lo, 3) < 0 ||
+            json_get_vec(g, "max", hi, 3) < 0 || json_get_vec(g, "grid", grid, 3) < 0 ||
+            json_get_number(g, "seed", &seed) < 0 || json_get_number(g, "velocity_jitter", &jitter) < 0 ||
+            json_get_number(g, "variants", &variants) < 0 || json_get_string(g, "layout", &layout) < 0)
+            return bad(err, errlen, "generate[%zu]: count, min, max, grid, seed, velocity_jitter, variants, layout",
+                       k);
+        if (!strcmp(layout, "grid"))
+            count = grid[0] * grid[1] * grid[2];
+        if (!(count >= 0 && count <= 1e8) || !(variants >= 1 && variants <= 64))
+            return bad(err, errlen, "generate[%zu]: count 0..1e8, variants 1..64", k);
+        if (read_placement(g, &p, sub, sizeof sub) != 0)
+            return bad(err, errlen, "generate[%zu]: %s", k, sub);
+        first_shape = (uint32_t)s->nshapes;
+        for (v = 0; v < (int)variants; v++) {
+            sim_shape sh;
+            if (make_shape(g, v, &sh, sub, sizeof sub) != 0)
+                return bad(err, errlen, "generate[%zu]: %s", k, sub);
+            if (add_shape(s, &sh) != 0)
+                return bad(err, errlen, "out of memory");
+        }
+        if (grow_objects(s, (size_t)count) != 0)
+            return bad(err, errlen, "out of memory for %.0f objects", count);
+        cli_rng_seed(&r, (uint64_t)seed);
+        for (i = 0; i < (size_t)count; i++) {
+            double pos[3], vel[3];
+            int a;
+            if (!strcmp(layout, "grid")) {
+                size_t gx = (size_t)grid[0], gy = (size_t)grid[1];
+                size_t idx[3] = {i % gx, (i / gx) % gy, i / (gx * gy)};
+                for (a = 0; a < 3; a++)
+                    pos[a] = lo[a] + ((double)idx[a] + 0.5) * (hi[a] - lo[a]) / grid[a];
+            } else {
+                for (a = 0; a < 3; a++)
+                    pos[a] = lo[a] + (hi[a] - lo[a]) * cli_rng_uniform(&r);
+            }
+            for (a = 0; a < 3; a++)
+                vel[a] = p.vel[a] + jitter * cli_rng_normal(&r);
+            put_object(s, &p, pos, vel, first_shape + (uint32_t)(i % (size_t)variants), NULL);
+        }
+    }
+    return 0;
+}
+
+static int read_globals(const json_value *root, sim_scene *s, char *err, size_t errlen)
+{
+    const char *name = "scene", *cont = "auto";
+    double steps = 100, threads = 0;
+    s->dt = 1.0 / 60.0;
+    s->gravity[2] = -9.81;
+    s->restitution = 0.5;
+    s->swept_threshold = 0.25;
+    s->shape_tests = s->contacts = s->response = 1;
+    if (json_get_string(root, "name", &name) < 0 || json_get_number(root, "dt", &s->dt) < 0 ||
+        json_get_vec(root, "gravity", s->gravity, 3) < 0 || json_get_number(root, "restitution", &s->restitution) < 0 ||
+        json_get_number(root, "swept_threshold", &s->swept_threshold) < 0 ||
+        json_get_string(root, "continuous", &cont) < 0 || json_get_bool(root, "shape_tests", &s->shape_tests) < 0 ||
+        json_get_bool(root, "contacts", &s->contacts) < 0 || json_get_bool(root, "response", &s->response) < 0 ||
+        json_get_number(root, "steps", &steps) < 0 || json_get_number(root, "threads", &threads) < 0)
+        return bad(err, errlen, "a top-level member has the wrong type (docs/pipeline.md lists them)");
+    snprintf(s->name, sizeof s->name, "%s", name);
+    if (!strcmp(cont, "on"))
+        s->continuous = LOCD_SWEPT_ON;
+    else if (!strcmp(cont, "off"))
+        s->continuous = LOCD_SWEPT_OFF;
+    else if (!strcmp(cont, "auto"))
+        s->continuous = LOCD_SWEPT_AUTO;
+    else
+        return bad(err, errlen, "continuous is \"on\", \"off\" or \"auto\"");
+    if (!(s->dt > 0) || !(steps >= 0) || !(threads >= 0))
+        return bad(err, errlen, "dt > 0, steps >= 0, threads >= 0");
+    s->steps = (int)steps;
+    s->threads = (uint32_t)threads;
+    return 0;
+}
+
+int sim_scene_load(const char *path, sim_scene *s, char *err, size_t errlen)
+{
+    char sub[256];
+    json_value *root;
+    int rc;
+    memset(s, 0, sizeof *s);
+    root = json_parse_file(path, sub, sizeof sub);
+    if (!root)
+        return bad(err, errlen, "%s: %s", path, sub);
+    if (root->type != JSON_OBJECT) {
+        json_free(root);
+        return bad(err, errlen, "%s: the scene is a JSON object", path);
+    }
+    rc = read_globals(root, s, sub, sizeof sub);
+    if (rc == 0)
+        rc = load_objects(json_get(root, "objects"), s, sub, sizeof sub);
+    if (rc == 0)
+        rc = load_generators(json_get(root, "generate"), s, sub, sizeof sub);
+    json_free(root);
+    if (rc != 0) {
+        sim_scene_free(s);
+        return bad(err, errlen, "%s: %s", path, sub);
+    }
+    return 0;
+}
+
+void sim_scene_free(sim_scene *s)
+{
+    size_t i;
+    for (i = 0; i < s->n; i++)
+        free(s->names[i]);
+    for (i = 0; i < s->nshapes; i++) {
+        locd_shape_destroy(s->shapes[i].handle);
+        free(s->shapes[i].points);
+        free(s->shapes[i].tris);
+    }
+    free(s->shapes);
+    free(s->names);
+    free(s->poses);
+    free(s->vel);
+    free(s->dynamic);
+    free(s->shape_of);
+    memset(s, 0, sizeof *s);
+}
