@@ -20,9 +20,12 @@ else
 fi
 ninja -C "$BUILD" -j "${JOBS:-2}" >/dev/null
 mkdir -p "$HERE/Plugins/x86_64"
-# A real file named liblocd.so (Unity copies plugins, not symlinks).
-cp -L "$BUILD/lib/liblocd.so" "$HERE/Plugins/x86_64/liblocd.so"
-strip --strip-unneeded "$HERE/Plugins/x86_64/liblocd.so"
+# A real file named liblocd.so (Unity copies plugins, not symlinks), replaced
+# atomically so a process loading it never sees half a file.
+tmp="$HERE/Plugins/x86_64/.liblocd.so.$$"
+cp -L "$BUILD/lib/liblocd.so" "$tmp"
+strip --strip-unneeded "$tmp"
+mv -f "$tmp" "$HERE/Plugins/x86_64/liblocd.so"
 if [ "$LIBKIND" = both ]; then
   # A host (Linux) archive: shows the static build works. An iOS player needs
   # the same build cross-compiled for arm64 (README.md, "iOS").

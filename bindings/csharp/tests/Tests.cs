@@ -646,7 +646,8 @@ namespace Locd.Tests
                 // Each 2-thread engine owns a pool thread: they must all be joined again.
                 Assert.True(after.Threads <= before.Threads, "threads back to " + before.Threads + " (now " + after.Threads + ")");
                 if (before.MallocBytes >= 0)
-                    Assert.True(after.MallocBytes - before.MallocBytes < 256 * 1024,
+                    // (mono mallocs a little itself; 100 leaked engines with their buffers are megabytes)
+                    Assert.True(after.MallocBytes - before.MallocBytes < 512 * 1024,
                                 "native heap back near its start (grew " + (after.MallocBytes - before.MallocBytes) + " B)");
             }
         }
