@@ -29,6 +29,7 @@ struct peer_times {
     double engine_ms = -1.0; // locd only: the engine's own ms_total
     double cold_ms = -1.0;   // locd only: the first call of a fresh engine
     unsigned threads = 0;    // threads used (0 = one)
+    long long hwm_kb = -1;   // peak RSS to report, when the peer measures it itself
 };
 
 typedef std::vector<std::uint64_t> peer_pairs;
@@ -55,5 +56,7 @@ int peer_bullet_dbvt_deferred(const peer_scene &, peer_pairs &, peer_times &, ch
 int peer_bullet_axis_sweep(const peer_scene &, peer_pairs &, peer_times &, char *, std::size_t);
 // CGAL box_self_intersection_d, closed boxes.
 int peer_cgal_closed(const peer_scene &, peer_pairs &, peer_times &, char *, std::size_t);
+// The same with Box_intersection_d::HALF_OPEN: touching boxes do not count.
+int peer_cgal_half_open(const peer_scene &, peer_pairs &, peer_times &, char *, std::size_t);
 
 #endif

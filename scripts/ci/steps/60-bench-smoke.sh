@@ -4,7 +4,9 @@
 # (locd at 1 and all threads, CGAL with closed boxes, the brute force) must
 # return exactly locd's 1-thread pairs; the others' differences (touching
 # boxes treated as open, ...) are reported but do not fail; a peer that
-# crashes or errors fails (the harness must drive it correctly).
+# crashes or errors fails (the harness must drive it correctly). CGAL's
+# half-open variant checks the attribution itself: on the lattice it must
+# miss touching pairs, and nothing else, anywhere.
 # One JUnit testcase per (scene, peer). Skipped when the peers are not installed.
 set -euo pipefail
 cd "$ROOT"
@@ -51,6 +53,12 @@ for r in rows:
     msg = "%s: %s (%s pairs, locd %s)" % (r["status"], r["note"], r["pairs"], r["ref_pairs"])
     bad = r["status"] in ("crashed", "error") or (
         r["peer"] in MUST and r["status"] != "skipped" and (r["status"] != "ok" or r["exact"] != "1"))
+    if r["status"] == "ok":
+        # locd_wrong: a pair the independent closed test contradicts.
+        bad = bad or r["locd_wrong"] != "0"
+        if r["peer"] == "cgal_half_open":  # checks the attribution: only touching pairs may go missing
+            bad = bad or any(r[c] != "0" for c in ("missing_overlap", "extra_disjoint", "duplicates")) or (
+                r["scene"] == "lattice" and r["missing_touching"] == "0")
     failures += bad
     body = ("<failure message=%s>%s</failure>" % (quoteattr(msg[:200]), escape(msg)) if bad
             else "<system-out>%s</system-out>" % escape(msg))
