@@ -58,6 +58,9 @@ namespace Locd.Tests
             h.Add("lifetime.finalizer_releases_native", FinalizerReleasesNative);
             h.Add("lifetime.10000_create_destroy_no_growth", CreateDestroyNoGrowth);
             h.Add("lifetime.reused_buffer_no_allocation", ReusedBufferNoAllocation);
+            // Levels 2 and 3
+            h.Add("levels.workers_same_as_level1", Levels.Workers);
+            h.Add("levels.service_same_as_level1_and_jobs", Levels.Service);
             // Jobs
             h.Add("jobs.result_equals_find", JobResultEqualsFind);
             h.Add("jobs.isdone_polling_and_wait_timeout", JobPollingAndTimeout);
@@ -440,6 +443,9 @@ namespace Locd.Tests
                 var buf = new uint[0];
                 Assert.Equal(0, e.FindPairs(new float[0], 0, buf), "n = 0 into an empty buffer");
                 Assert.Equal(0, e.FindPairs(Box(0, 0, 0, 1, 1, 1), 1, ref buf), "n = 1 into a growing buffer");
+                uint[] none = null;
+                Assert.Equal(0, e.FindPairs(new float[0], 0, ref none), "n = 0 into a null buffer");
+                Assert.True(none != null, "a null growing buffer is allocated even with no pairs");
             }
         }
 

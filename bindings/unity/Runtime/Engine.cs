@@ -263,7 +263,7 @@ namespace Locd
 
         /// <summary>Like FindPairs(boxes, boxCount, pairs) but grows the buffer (x1.5 of the
         /// need) when the pairs do not fit, so a buffer reused every frame stops
-        /// allocating once it is large enough.</summary>
+        /// allocating once it is large enough. pairs may be null; it never is afterwards.</summary>
         public int FindPairs(float[] boxes, int boxCount, ref uint[] pairs, FindFlags flags = FindFlags.None)
         {
             CheckRows(boxes == null ? 0 : boxes.Length, boxCount);
@@ -360,10 +360,12 @@ namespace Locd
         int GrowAndCopy(long m, ref uint[] pairs)
         {
             int have = pairs == null ? 0 : pairs.Length / 2;
-            if (m <= have)
+            if (m <= have && pairs != null)
                 return checked((int)m);
             long grown = Math.Max(m + m / 2, 16);
             pairs = new uint[checked(2 * grown)];
+            if (m == 0)
+                return 0; // a null buffer became an empty-but-usable one
             uint* src;
             long again = LastPairs(out src);
             fixed (uint* dst = pairs)
