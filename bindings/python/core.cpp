@@ -9,10 +9,12 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <chrono>
 #include <cstdint>
 #include <cstring>
 #include <mutex>
 #include <string>
+#include <thread>
 
 #include "locd/locd.h"
 
@@ -164,19 +166,16 @@ public:
             raise_status(st);
     }
 
-    ~Engine()
-    {
-        // Destroy without the GIL: stopping workers may wait for them.
-        py::gil_scoped_release nogil;
-        std::lock_guard<std::mutex> lock(mutex_);
-        locd_engine_destroy(engine_);
-        engine_ = nullptr;
-    }
+    ~Engine() { close(); }
 
     void close()
     {
+        // Without the GIL: stopping workers may wait for them.
         py::gil_scoped_release nogil;
         std::lock_guard<std::mutex> lock(mutex_);
+        if (!engine_)
+            return;
+        drain();
         locd_engine_destroy(engine_);
         engine_ = nullptr;
     }
@@ -228,6 +227,17 @@ public:
     std::mutex &mutex() { return mutex_; }
 
 private:
+    // A cancelled or released job of levels 1 and 2 keeps running inside
+    // the engine until its current call returns (lib/job.c), and
+    // locd_engine_destroy does not wait for it. An empty find succeeds only
+    // once the engine is free again, so wait for that before destroying.
+    void drain()
+    {
+        static const float none[6] = {0, 0, 0, 0, 0, 0};
+        while (locd_engine_find_pairs_f32(engine_, none, 0, 0u, pairs_.p) == LOCD_ERR_BUSY)
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+
     locd_engine *engine_ = nullptr;
     PairsBuffer pairs_;
     std::mutex mutex_;
@@ -350,6 +360,62 @@ Job *submit(Engine &engine, py::handle boxes_obj, bool sort)
     return new Job(job);
 }
 
+// The level-3 service hosted in this process: locd_service_run on a thread
+// of its own (no Python code runs there, so it never needs the GIL).
+class Service {
+public:
+    Service(py::object listen, py::object secret, uint32_t threads, uint32_t engine_threads)
+    {
+        locd_service_config cfg;
+        locd_service_config_init(&cfg);
+        std::string listen_s, secret_s;
+        if (!listen.is_none()) {
+            listen_s = listen.cast<std::string>();
+            cfg.listen = listen_s.c_str();
+        }
+        if (!secret.is_none()) {
+            secret_s = secret.cast<std::string>();
+            cfg.secret = secret_s.c_str();
+        }
+        cfg.threads = threads;
+        cfg.engine_threads = engine_threads;
+        locd_status st;
+        {
+            py::gil_scoped_release nogil;
+            st = locd_service_create(&cfg, &service_);
+        }
+        if (st != LOCD_OK)
+            raise_status(st);
+        address_ = locd_service_address(service_);
+        thread_ = std::thread([this]() { run_status_ = locd_service_run(service_); });
+    }
+
+    ~Service() { stop(); }
+
+    void stop()
+    {
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!service_)
+            return;
+        locd_service_stop(service_);
+        thread_.join();
+        locd_service_destroy(service_);
+        service_ = nullptr;
+    }
+
+    const std::string &address() const { return address_; }
+    bool stopped() const { return service_ == nullptr; }
+    int32_t run_status() const { return run_status_; }
+
+private:
+    locd_service *service_ = nullptr;
+    std::string address_;
+    std::thread thread_;
+    std::mutex mutex_;
+    locd_status run_status_ = LOCD_OK;
+};
+
 py::array_t<uint32_t> brute_force(py::handle boxes_obj)
 {
     Boxes b = view_boxes(boxes_obj);
@@ -391,6 +457,14 @@ PYBIND11_MODULE(_core, m)
         .def_property_readonly("level", &Engine::level)
         .def_property_readonly("threads", &Engine::threads)
         .def("submit", &submit, py::arg("boxes"), py::arg("sort"), py::keep_alive<0, 1>());
+
+    py::class_<Service>(m, "Service")
+        .def(py::init<py::object, py::object, uint32_t, uint32_t>(), py::arg("listen"), py::arg("secret"),
+             py::arg("threads"), py::arg("engine_threads"))
+        .def("stop", &Service::stop)
+        .def_property_readonly("address", &Service::address)
+        .def_property_readonly("stopped", &Service::stopped)
+        .def_property_readonly("run_status", &Service::run_status);
 
     py::class_<Job>(m, "Job")
         .def("poll", &Job::poll)

@@ -26,9 +26,15 @@ def numpy_pairs(boxes):
     """
     b = np.asarray(boxes, dtype=np.float64)
     lo, hi = b[:, :3], b[:, 3:]
-    overlap = np.all((lo[:, None, :] <= hi[None, :, :]) & (lo[None, :, :] <= hi[:, None, :]), axis=2)
-    i, j = np.nonzero(np.triu(overlap, 1))
-    return np.stack([i, j], axis=1).astype(np.uint32).reshape(-1, 2)
+    out = [np.empty((0, 2), dtype=np.uint32)]
+    for start in range(0, len(b), 256):  # row blocks keep memory at 256 x n
+        rows = slice(start, start + 256)
+        overlap = np.all((lo[rows, None, :] <= hi[None, :, :]) & (lo[None, :, :] <= hi[rows, None, :]), axis=2)
+        i, j = np.nonzero(overlap)
+        i = i + start
+        keep = i < j
+        out.append(np.stack([i[keep], j[keep]], axis=1).astype(np.uint32))
+    return np.concatenate(out)
 
 
 def sorted_pairs(pairs):

@@ -7,7 +7,6 @@ failure fails the tests.
 import concurrent.futures
 import os
 import shutil
-import socket
 import subprocess
 import tempfile
 import time
@@ -103,9 +102,33 @@ def test_job_cancel():
             assert job.done() and job.cancelled()
         else:  # it had already finished: the result stands
             assert len(job.result()) > 0
-        # The engine is still usable afterwards.
+        # The engine is usable again once the cancelled run has returned.
         small = uniform_scene(100)
-        np.testing.assert_array_equal(sorted_pairs(engine.find_pairs(small)), numpy_pairs(small))
+        np.testing.assert_array_equal(sorted_pairs(find_when_free(engine, small)), numpy_pairs(small))
+
+
+def find_when_free(engine, boxes, limit=60.0):
+    deadline = time.time() + limit
+    while True:
+        try:
+            return engine.find_pairs(boxes)
+        except locd.Error as e:
+            if e.status != locd.STATUS["ERR_BUSY"] or time.time() > deadline:
+                raise
+            time.sleep(0.01)
+
+
+@needs_jobs
+def test_engine_is_busy_while_its_job_runs():
+    boxes = uniform_scene(1_000_000, seed=6)
+    with locd.Engine(threads=1) as engine:
+        job = engine.submit(boxes)
+        if not job.done():
+            with pytest.raises(locd.Error) as info:
+                engine.find_pairs(boxes[:10])
+            assert info.value.status == locd.STATUS["ERR_BUSY"]
+        expected = job.result(timeout=60)
+        np.testing.assert_array_equal(find_when_free(engine, boxes), expected)
 
 
 @needs_jobs
@@ -155,6 +178,65 @@ def test_workers_level_jobs():
 
 
 # -- level 3: service -----------------------------------------------------------------
+def _probe_service():
+    tmp = tempfile.mkdtemp(prefix="locd-py-")
+    try:
+        return _unsupported(lambda: locd.Service("unix:" + os.path.join(tmp, "probe.sock"), threads=1))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+SERVICE_MISSING = _probe_service()
+needs_service = pytest.mark.skipif(SERVICE_MISSING is not None, reason="service: %s" % SERVICE_MISSING)
+
+
+def check_service_engine(engine):
+    with locd.Engine(threads=1) as ref:
+        assert engine.level == "service"
+        for boxes in scenes():
+            got = engine.find_pairs(boxes)
+            np.testing.assert_array_equal(got, ref.find_pairs(boxes))  # same order too
+            np.testing.assert_array_equal(sorted_pairs(got), numpy_pairs(boxes))
+            assert engine.stats.pairs == len(got)
+        # Many jobs in flight on one service engine.
+        boxes = uniform_scene(20000, seed=8)
+        jobs = [engine.submit(boxes), engine.submit(boxes.astype(np.float64), sort=True), engine.submit(boxes[:500])]
+        np.testing.assert_array_equal(jobs[0].result(timeout=120), ref.find_pairs(boxes))
+        np.testing.assert_array_equal(jobs[1].result(timeout=120), ref.find_pairs(boxes, sort=True))
+        np.testing.assert_array_equal(jobs[2].result(timeout=120), ref.find_pairs(boxes[:500]))
+        assert jobs[0].stats.objects == len(boxes)
+        bad = uniform_scene(40)
+        bad[12, 4] = -np.inf
+        with pytest.raises(locd.InvalidBoxError) as info:
+            engine.find_pairs(bad)
+        assert info.value.index == 12
+
+
+@needs_service
+def test_service_in_process_unix_socket():
+    tmp = tempfile.mkdtemp(prefix="locd-py-")
+    try:
+        with locd.Service("unix:" + os.path.join(tmp, "locd.sock"), threads=2) as svc:
+            assert svc.address.startswith("unix:")
+            with locd.Engine(level="service", service=svc.address) as engine:
+                check_service_engine(engine)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+@needs_service
+def test_service_tcp_with_secret():
+    with locd.Service("tcp:127.0.0.1:0", secret="s3cret", threads=1) as svc:
+        assert svc.address.startswith("tcp:127.0.0.1:") and not svc.address.endswith(":0")
+        with locd.Engine(level="service", service=svc.address, secret="s3cret") as engine:
+            boxes = uniform_scene(2000, seed=12)
+            np.testing.assert_array_equal(sorted_pairs(engine.find_pairs(boxes)), numpy_pairs(boxes))
+        with pytest.raises(locd.Error) as info:
+            with locd.Engine(level="service", service=svc.address, secret="wrong") as engine:
+                engine.find_pairs(uniform_scene(10))
+        assert info.value.status == locd.STATUS["ERR_AUTH"]
+
+
 def _cli():
     for path in (os.environ.get("LOCD_CLI"), os.path.join(REPO_ROOT, "build-ci", "c", "tools", "locd"),
                  shutil.which("locd")):
@@ -163,36 +245,26 @@ def _cli():
     return None
 
 
-@pytest.fixture(scope="module")
-def service():
-    """A `locd serve` process on a Unix socket; skipped when the CLI or its service is not available."""
+@needs_service
+def test_service_in_another_process():
+    """`locd serve` from the C build (step 10 of CI) as a separate process."""
     cli = _cli()
     if cli is None:
-        pytest.skip("no locd CLI built (set LOCD_CLI); the service test needs `locd serve`")
+        pytest.skip("no locd CLI built (set LOCD_CLI)")
     tmp = tempfile.mkdtemp(prefix="locd-py-")
-    address = "unix:" + os.path.join(tmp, "locd.sock")
-    proc = subprocess.Popen([cli, "serve", address], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    sock = os.path.join(tmp, "locd.sock")
+    proc = subprocess.Popen([cli, "serve", "--listen", "unix:" + sock, "--threads", "2"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         deadline = time.time() + 20
-        while True:
+        while not os.path.exists(sock):
             if proc.poll() is not None:
-                out = proc.stdout.read()
-                if "not available" in out or proc.returncode == 2:
-                    pytest.skip("locd serve: %s" % out.strip())
-                raise RuntimeError("locd serve exited with %d: %s" % (proc.returncode, out))
-            if os.path.exists(address[5:]):
-                s = socket.socket(socket.AF_UNIX)
-                try:
-                    s.connect(address[5:])
-                    break
-                except OSError:
-                    pass
-                finally:
-                    s.close()
+                raise RuntimeError("locd serve exited with %d: %s" % (proc.returncode, proc.stdout.read()))
             if time.time() > deadline:
-                raise RuntimeError("locd serve did not listen on %s" % address)
+                raise RuntimeError("locd serve did not listen on %s" % sock)
             time.sleep(0.05)
-        yield address
+        with locd.Engine(level="service", service="unix:" + sock) as engine:
+            check_service_engine(engine)
     finally:
         proc.terminate()
         try:
@@ -200,19 +272,6 @@ def service():
         except subprocess.TimeoutExpired:
             proc.kill()
         shutil.rmtree(tmp, ignore_errors=True)
-
-
-def test_service_level(service):
-    with locd.Engine(level="service", service=service) as engine, locd.Engine(threads=1) as ref:
-        assert engine.level == "service"
-        for boxes in scenes():
-            got = engine.find_pairs(boxes)
-            np.testing.assert_array_equal(got, ref.find_pairs(boxes))
-            np.testing.assert_array_equal(sorted_pairs(got), numpy_pairs(boxes))
-        boxes = uniform_scene(20000, seed=8)
-        jobs = [engine.submit(boxes), engine.submit(boxes.astype(np.float64), sort=True)]
-        np.testing.assert_array_equal(jobs[0].result(timeout=120), ref.find_pairs(boxes))
-        np.testing.assert_array_equal(jobs[1].result(timeout=120), numpy_pairs(boxes))
 
 
 def test_service_unreachable_is_locd_error():

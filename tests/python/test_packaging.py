@@ -77,15 +77,17 @@ def _source_generator():
 
 def test_cdef_matches_the_public_header():
     from locd import _cdef
-    with open(os.path.join(REPO_ROOT, "include", "locd", "locd.h")) as f:
-        cdef, constants = _source_generator().convert(f.read())
-    assert _cdef.CDEF == cdef, "locd.abi was built from another header: reinstall (pip install .)"
+    include = os.path.join(REPO_ROOT, "include", "locd")
+    with open(os.path.join(include, "locd.h")) as f:
+        cdef, constants = _source_generator().convert(f.read(), include)
+    assert _cdef.CDEF == cdef, "locd.abi was built from other headers: reinstall (pip install .)"
     assert _cdef.CONSTANTS == constants
     # Spot checks against the header text itself (independent of the generator).
-    header = open(os.path.join(REPO_ROOT, "include", "locd", "locd.h")).read()
-    for name, value in re.findall(r"#define (LOCD_ERR_\w+) \((-\d+)\)", header):
+    headers = "".join(open(os.path.join(include, name)).read() for name in sorted(os.listdir(include))
+                      if name.endswith(".h"))
+    for name, value in re.findall(r"#define (LOCD_ERR_\w+) \((-\d+)\)", headers):
         assert constants[name] == int(value)
-    declared = set(re.findall(r"LOCD_API[^;(]*?\b(locd_\w+)\s*\(", header))
+    declared = set(re.findall(r"LOCD_API[^;(]*?\b(locd_\w+)\s*\(", headers))
     assert declared and declared == set(re.findall(r"\b(locd_\w+)\s*\(", cdef))
 
 

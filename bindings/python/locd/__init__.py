@@ -1,7 +1,8 @@
 """locd: exact all-pairs collision detection of axis-aligned boxes.
 
 Boxes are an (n, 6) numpy array, one row ``minx miny minz maxx maxy maxz``
-per object, float32 (read in place when C-contiguous) or float64. Two boxes
+per object, float32 (zero-copy: read in place when C-contiguous) or float64
+(computed in float64, also zero-copy when C-contiguous). Two boxes
 overlap iff on every axis ``a.min <= b.max and b.min <= a.max`` (closed
 intervals: touching faces, edges and corners count; zero-size boxes are
 valid). The result is exactly the overlapping pairs as an (m, 2) uint32 array,
@@ -41,7 +42,7 @@ import numpy as np
 from . import _core
 from ._errors import STATUS, Error, InvalidBoxError
 
-__all__ = ["find_pairs", "brute_force", "Engine", "Job", "Stats", "Error", "InvalidBoxError", "STATUS",
+__all__ = ["find_pairs", "brute_force", "Engine", "Job", "Service", "Stats", "Error", "InvalidBoxError", "STATUS",
            "LEVELS", "__version__"]
 
 #: Version of the loaded C library (the Meson project version).
@@ -102,6 +103,10 @@ class Engine:
     connection and its buffers). Use it as a context manager, or call
     :meth:`close`. An engine runs one call at a time; Python threads sharing it
     take turns (give each thread its own engine to run them in parallel).
+    At levels ``'inprocess'`` and ``'workers'`` a submitted :class:`Job`
+    occupies the engine until it finishes (a cancelled one until its current
+    step returns): a call meanwhile raises :class:`Error` with status
+    ``STATUS['ERR_BUSY']``. A ``'service'`` engine takes many jobs at once.
 
     Args:
         level: ``'inprocess'`` (threads in this process), ``'workers'`` (worker
@@ -270,6 +275,45 @@ class Job:
     def __repr__(self) -> str:
         state = "finished" if self._result is not None else "running" if not self.done() else "done"
         return "<locd.Job %s>" % state
+
+
+class Service:
+    """Hosts the level-3 service (what ``locd serve`` runs) in this process.
+
+    It listens on a background thread until :meth:`close`; engines created
+    with ``Engine(level='service', service=svc.address)`` (here or in other
+    processes of the same user) send it their work.
+
+    Args:
+        listen: ``"unix:/path/to.sock"`` or ``"tcp:host:port"`` (port 0 = any
+            free port; see :attr:`address`). None = the per-user default socket.
+        secret: shared secret clients must present (required for TCP).
+        threads: job runners (None = one per core).
+        engine_threads: threads of each runner's engine (None = 1).
+    """
+
+    def __init__(self, listen: Optional[str] = None, *, secret: Optional[str] = None,
+                 threads: Optional[int] = None, engine_threads: Optional[int] = None) -> None:
+        self._core = _core.Service(listen, secret, _count("threads", threads),
+                                   _count("engine_threads", engine_threads))
+
+    @property
+    def address(self) -> str:
+        """The address actually listened on (``"tcp:127.0.0.1:40123"`` for port 0)."""
+        return self._core.address
+
+    def close(self) -> None:
+        """Stops serving and closes every connection."""
+        self._core.stop()
+
+    def __enter__(self) -> "Service":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return "<locd.Service %s%s>" % (self.address, " stopped" if self._core.stopped else "")
 
 
 _local = threading.local()
