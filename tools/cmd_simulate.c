@@ -23,7 +23,8 @@
 
 typedef struct sim_args {
     const char *scene, *frames, *gif, *dump;
-    int steps, every, quiet;
+    int steps, every, quiet, ladder;
+    double dt; /* 0 = as the scene says */
     int continuous; /* -1 = as the scene says */
     long threads;   /* -1 = as the scene says */
 } sim_args;
@@ -32,12 +33,15 @@ static void usage(FILE *f)
 {
     fprintf(f, "usage: locd simulate SCENE.json [--steps N] [--continuous on|off|auto] [--threads K]\n"
                "                     [--frames DIR | --gif FILE] [--every K] [--dump FILE] [--quiet]\n"
+               "                     [--dt SECONDS] [--ladder]\n"
                "  Runs the scene through the pipeline; one JSON line per step on stdout (its 'stages'\n"
                "  object: calls, ms, pairs_in, pairs_out per stage), then a 'summary' line.\n"
                "  --frames/--gif record every K-th step (default 1) and render them with\n"
                "  python3 + matplotlib (LOCD_PYTHON, LOCD_RENDER_SCRIPT override the defaults).\n"
                "  --dump writes the recorded positions (JSON lines) without rendering.\n"
-               "  --quiet prints the summary line only. Scene format: docs/pipeline.md.\n");
+               "  --quiet prints the summary line only. Scene format: docs/pipeline.md.\n"
+               "  --ladder also runs, on every step's state, the pipeline as boxes only, + convex\n"
+               "  exact, + mesh exact, + swept, and reports pairs and time of each (docs/accuracy-pipeline.md).\n");
 }
 
 static int parse_args(int argc, char **argv, sim_args *a)
@@ -55,10 +59,16 @@ static int parse_args(int argc, char **argv, sim_args *a)
             exit(0);
         } else if (!strcmp(o, "--quiet")) {
             a->quiet = 1;
+        } else if (!strcmp(o, "--ladder")) {
+            a->ladder = 1;
         } else if (o[0] == '-' && o[1] == '-' && !v) {
             cli_die("simulate: %s needs a value", o);
         } else if (!strcmp(o, "--steps")) {
             a->steps = atoi(argv[++i]);
+        } else if (!strcmp(o, "--dt")) {
+            a->dt = atof(argv[++i]);
+            if (!(a->dt > 0.0))
+                cli_die("simulate: --dt must be > 0");
         } else if (!strcmp(o, "--every")) {
             a->every = atoi(argv[++i]);
         } else if (!strcmp(o, "--threads")) {
@@ -284,6 +294,105 @@ static int render(const char *dump, const sim_args *a)
     return 0;
 }
 
+/* ---- accuracy ladder: the same state through more and more stages ---- */
+
+#define LADDER_RUNGS 4
+static const char *const ladder_names[LADDER_RUNGS] = {"boxes", "convex", "mesh", "swept"};
+
+typedef struct ladder_totals {
+    uint64_t pairs[LADDER_RUNGS];
+    double ms[LADDER_RUNGS];
+    uint64_t swept_late;   /* swept hits inside the step that discrete stepping finds at the next step */
+    uint64_t swept_missed; /* swept hits that no longer overlap at the step's end: discrete misses them */
+} ladder_totals;
+
+static void ladder_options(const locd_pipeline_options *base, int rung, locd_pipeline_options *o)
+{
+    int k;
+    *o = *base;
+    o->stages = rung == 0 ? 0u : LOCD_STAGE_SHAPE;
+    o->swept = rung == 3 ? LOCD_SWEPT_ON : LOCD_SWEPT_OFF;
+    if (rung == 1)
+        for (k = 1; k <= LOCD_SHAPE_MESH; k++)
+            locd_pipeline_options_route(o, LOCD_SHAPE_MESH, k, LOCD_ROUTE_BOX);
+}
+
+/* 1 if objects i and j still overlap at the end of the step. */
+static int overlap_at_end(const sim_scene *s, uint32_t i, uint32_t j)
+{
+    double pi[7], pj[7];
+    int32_t hit = 0;
+    int a;
+    memcpy(pi, s->poses + 7 * (size_t)i, sizeof pi);
+    memcpy(pj, s->poses + 7 * (size_t)j, sizeof pj);
+    for (a = 0; a < 3; a++) {
+        pi[a] += s->vel[6 * (size_t)i + a] * s->dt;
+        pj[a] += s->vel[6 * (size_t)j + a] * s->dt;
+    }
+    locd_shape_collide(s->shapes[s->shape_of[i]].handle, pi, s->shapes[s->shape_of[j]].handle, pj, LOCD_ROUTE_AUTO,
+                       LOCD_CONTACT_EPA, &hit, NULL);
+    return hit;
+}
+
+static int run_ladder(locd_world *w, const sim_scene *s, const locd_pipeline_options *base, locd_contacts *c,
+                      ladder_totals *t, FILE *line)
+{
+    int rung;
+    if (line)
+        fputs("\"ladder\":{", line);
+    for (rung = 0; rung < LADDER_RUNGS; rung++) {
+        locd_pipeline_options o;
+        locd_pipeline_stats ps;
+        size_t k, m, late = 0, missed = 0;
+        double best = INFINITY;
+        int rep;
+        ladder_options(base, rung, &o);
+        /* Best of 3: these calls take micro- to milliseconds on a shared machine. */
+        for (rep = 0; rep < 3; rep++) {
+            locd_pipeline_stats_init(&ps);
+            if (locd_world_collide(w, &o, c, &ps) != LOCD_OK) {
+                fprintf(stderr, "locd: ladder: %s\n", locd_last_error());
+                return -1;
+            }
+            best = fmin(best, ps.ms_total);
+        }
+        ps.ms_total = best;
+        m = locd_contacts_count(c);
+        if (rung == 3)
+            for (k = 0; k < m; k++)
+                if (locd_contacts_toi(c)[k] > 0.0) {
+                    if (overlap_at_end(s, locd_contacts_pairs(c)[2 * k], locd_contacts_pairs(c)[2 * k + 1]))
+                        late++;
+                    else
+                        missed++;
+                }
+        t->pairs[rung] += m;
+        t->ms[rung] += ps.ms_total;
+        t->swept_late += late;
+        t->swept_missed += missed;
+        if (line) {
+            fprintf(line, "%s\"%s\":{\"pairs\":%zu,\"ms\":%.4f", rung ? "," : "", ladder_names[rung], m, ps.ms_total);
+            if (rung == 3)
+                fprintf(line, ",\"late\":%zu,\"missed_by_discrete\":%zu", late, missed);
+            fputc('}', line);
+        }
+    }
+    if (line)
+        fputs("},", line);
+    return 0;
+}
+
+static void print_ladder_totals(const ladder_totals *t)
+{
+    int rung;
+    fputs(",\"ladder\":{", stdout);
+    for (rung = 0; rung < LADDER_RUNGS; rung++)
+        printf("%s\"%s\":{\"pairs\":%llu,\"ms\":%.3f}", rung ? "," : "", ladder_names[rung],
+               (unsigned long long)t->pairs[rung], t->ms[rung]);
+    printf(",\"swept_late\":%llu,\"missed_by_discrete\":%llu}", (unsigned long long)t->swept_late,
+           (unsigned long long)t->swept_missed);
+}
+
 /* ---- the run ---- */
 
 static int setup_world(sim_scene *s, long threads, locd_world **w)
@@ -307,7 +416,7 @@ static int setup_world(sim_scene *s, long threads, locd_world **w)
 }
 
 static void print_summary(const sim_scene *s, const sim_state *st, const locd_pipeline_options *o, int steps,
-                          const locd_pipeline_stats *total, double ms_wall)
+                          const locd_pipeline_stats *total, double ms_wall, const ladder_totals *ladder)
 {
     size_t i;
     int first = 1;
@@ -316,7 +425,9 @@ static void print_summary(const sim_scene *s, const sim_state *st, const locd_pi
            s->name, steps, s->n, swept_name(o->swept), (o->stages & LOCD_STAGE_SHAPE) ? "true" : "false",
            (o->stages & LOCD_STAGE_CONTACT) ? "true" : "false", s->response ? "true" : "false");
     print_stages(stdout, total);
-    printf(",\"ms_pipeline\":%.3f,\"ms_wall\":%.3f,\"tracked\":{", total->ms_total, ms_wall);
+    if (ladder)
+        print_ladder_totals(ladder);
+    printf(",\"dt\":%.9g,\"ms_pipeline\":%.3f,\"ms_wall\":%.3f,\"tracked\":{", s->dt, total->ms_total, ms_wall);
     for (i = 0; i < s->n; i++) {
         const double *p = s->poses + 7 * i;
         if (!s->names[i])
@@ -334,9 +445,10 @@ int cmd_simulate(int argc, char **argv)
     sim_scene s;
     sim_state st;
     locd_world *w = NULL;
-    locd_contacts *c = NULL;
+    locd_contacts *c = NULL, *lc = NULL;
     locd_pipeline_options o;
     locd_pipeline_stats ps, total;
+    ladder_totals ladder;
     char err[512], dump_path[4096];
     FILE *rec = NULL;
     int steps, step, rc = 1;
@@ -350,6 +462,9 @@ int cmd_simulate(int argc, char **argv)
         return 2;
     }
     steps = a.steps >= 0 ? a.steps : s.steps;
+    if (a.dt > 0.0)
+        s.dt = a.dt;
+    memset(&ladder, 0, sizeof ladder);
     memset(&st, 0, sizeof st);
     st.sc = &s;
     st.frac = malloc(s.n * sizeof(double) + 1);
@@ -408,6 +523,13 @@ int cmd_simulate(int argc, char **argv)
             fprintf(stderr, "locd: step %d: %s\n", step, locd_last_error());
             goto done;
         }
+        if (!a.quiet)
+            printf("{\"step\":%d,\"t\":%.6g,\"objects\":%zu,\"pairs\":%zu,\"swept_objects\":%u,", step, step * s.dt,
+                   s.n, locd_contacts_count(c), ps.swept_objects);
+        /* The ladder has its own result buffer: c still holds the step's contacts. */
+        if (a.ladder && ((!lc && locd_contacts_create(&lc) != LOCD_OK) ||
+                         run_ladder(w, &s, &o, lc, &ladder, a.quiet ? NULL : stdout) != 0))
+            goto done;
         for (i = 0; i < s.n; i++)
             memcpy(st.vold + 3 * i, s.vel + 6 * i, 3 * sizeof(double));
         respond(&st, c);
@@ -418,15 +540,13 @@ int cmd_simulate(int argc, char **argv)
         }
         accumulate(&total, &ps);
         if (!a.quiet) {
-            printf("{\"step\":%d,\"t\":%.6g,\"objects\":%zu,\"pairs\":%zu,\"swept_objects\":%u,", step, step * s.dt, s.n,
-                   locd_contacts_count(c), ps.swept_objects);
             print_stages(stdout, &ps);
             printf(",\"ms_total\":%.4f}\n", ps.ms_total);
         }
         if (rec && step % a.every == 0)
             write_positions(rec, &s, step);
     }
-    print_summary(&s, &st, &o, steps, &total, cli_now_ms() - t_start);
+    print_summary(&s, &st, &o, steps, &total, cli_now_ms() - t_start, a.ladder ? &ladder : NULL);
     rc = 0;
     if (rec) {
         fclose(rec);
@@ -438,6 +558,7 @@ done:
     if (rec)
         fclose(rec);
     locd_contacts_destroy(c);
+    locd_contacts_destroy(lc);
     locd_world_destroy(w);
     sim_scene_free(&s);
     free(st.frac);
