@@ -31,6 +31,11 @@ MCS="mcs -langversion:7.2 -unsafe -warn:4 -warnaserror+ -nologo"
 $MCS -target:library -out:"$OUT/Locd.dll" bindings/unity/Runtime/*.cs
 $MCS -r:"$OUT/Locd.dll" -out:"$OUT/LocdTests.exe" bindings/csharp/tests/*.cs
 $MCS -r:"$OUT/Locd.dll" -out:"$OUT/LocdBench.exe" bindings/csharp/bench/*.cs
+# The iOS branch (DllImport("__Internal")) compiles too, and the package's
+# JSON files parse.
+$MCS -target:library -define:UNITY_IOS -out:"$OUT/Locd.ios.dll" bindings/unity/Runtime/*.cs
+python3 -m json.tool bindings/unity/package.json > /dev/null
+python3 -m json.tool bindings/unity/Runtime/Locd.asmdef > /dev/null
 # The Unity sample compiles against a stub of the UnityEngine API it uses.
 $MCS -target:library -out:"$OUT/UnityEngine.dll" bindings/csharp/tests/unity-stub/*.cs
 $MCS -target:library -r:"$OUT/Locd.dll" -r:"$OUT/UnityEngine.dll" -out:"$OUT/LocdSample.dll" \
