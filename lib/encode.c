@@ -35,6 +35,15 @@ LC_INLINE uint32_t level_for(uint32_t w, int32_t bias, uint32_t depth)
             lo[a] = lc_quantize(g, (int)a, (double)b[a]);                                                    \
             hi[a] = lc_quantize(g, (int)a, (double)b[a + 3]);                                                \
         }                                                                                                    \
+        if (qbox) {                                                                                          \
+            int32_t *q = qbox + 6 * i;                                                                       \
+            q[0] = lo[0];                                                                                    \
+            q[1] = lo[1];                                                                                    \
+            q[2] = lo[2];                                                                                    \
+            q[3] = hi[0];                                                                                    \
+            q[4] = hi[1];                                                                                    \
+            q[5] = hi[2];                                                                                    \
+        }                                                                                                    \
         ext = (uint32_t)(hi[0] - lo[0]);                                                                     \
         if ((uint32_t)(hi[1] - lo[1]) > ext)                                                                 \
             ext = (uint32_t)(hi[1] - lo[1]);                                                                 \
@@ -54,11 +63,11 @@ LC_INLINE uint32_t level_for(uint32_t w, int32_t bias, uint32_t depth)
         }                                                                                                    \
         /* Bias >= 0 keeps c1 - c0 <= 1, but stay safe if a grid says otherwise. */                          \
         mx[0] = lc_morton_split3(c0[0]);                                                                     \
-        mx[1] = lc_morton_split3(c1[0]);                                                                     \
+        mx[1] = lc_morton_next3(mx[0]);                                                                     \
         my[0] = lc_morton_split3(c0[1]) << 1;                                                                \
-        my[1] = lc_morton_split3(c1[1]) << 1;                                                                \
+        my[1] = lc_morton_next3(my[0] >> 1) << 1;                                                                \
         mz[0] = lc_morton_split3(c0[2]) << 2;                                                                \
-        mz[1] = lc_morton_split3(c1[2]) << 2;                                                                \
+        mz[1] = lc_morton_next3(mz[0] >> 2) << 2;                                                                \
         base = (((uint64_t)lvl) << ib) | (uint64_t)i;                                                        \
         if (w + 8 > capacity) { /* slow path near the end of the buffer */                                   \
             size_t need = w + (size_t)(c1[0] - c0[0] + 1) * (c1[1] - c0[1] + 1) * (c1[2] - c0[2] + 1);       \
@@ -82,13 +91,13 @@ LC_INLINE uint32_t level_for(uint32_t w, int32_t bias, uint32_t depth)
     return w;
 
 size_t lc_encode_f32(const locd_grid *g, const float *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed)
+                     size_t capacity, size_t *needed, int32_t *qbox)
 {
     LC_ENCODE_BODY(float)
 }
 
 size_t lc_encode_f64(const locd_grid *g, const double *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed)
+                     size_t capacity, size_t *needed, int32_t *qbox)
 {
     LC_ENCODE_BODY(double)
 }
@@ -107,7 +116,7 @@ size_t lc_encode_f64(const locd_grid *g, const double *boxes, size_t first, size
         if (count && (first + count < first || (uint64_t)(first + count - 1) >> grid->index_bits))          \
             return lc_error(LOCD_ERR_INVALID_ARGUMENT, "object indices exceed the grid's %u index bits",    \
                             grid->index_bits);                                                               \
-        w = lc_encode_##SUFFIX(grid, boxes, first, count, entries, capacity, &need);                         \
+        w = lc_encode_##SUFFIX(grid, boxes, first, count, entries, capacity, &need, NULL);                   \
         if (w == (size_t)-1) {                                                                               \
             *written = need;                                                                                 \
             return lc_error(LOCD_ERR_BUFFER_TOO_SMALL, "entries need up to %zu slots, capacity %zu", need,  \

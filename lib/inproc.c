@@ -13,6 +13,7 @@
 typedef struct lc_inproc {
     lc_pool *pool;
     lc_buf ent, scr; /* uint64 entries: thread regions, then merge output */
+    lc_buf qbox;     /* int32 x 6 per object: quantized boxes, reused by the sweep */
     lc_sweep_out sw[LC_MAX_THREADS];
     double per_object; /* entries per object seen last time */
 } lc_inproc;
@@ -63,9 +64,9 @@ static void task_encode_sort(void *arg, uint32_t t, uint32_t k)
     uint64_t *res;
     double t0 = lc_now_ms(), t1;
     if (c->f64)
-        w = lc_encode_f64(&c->grid, c->boxes, b, e - b, ent, c->cap[t], &c->need[t]);
+        w = lc_encode_f64(&c->grid, c->boxes, b, e - b, ent, c->cap[t], &c->need[t], c->ip->qbox.data);
     else
-        w = lc_encode_f32(&c->grid, c->boxes, b, e - b, ent, c->cap[t], &c->need[t]);
+        w = lc_encode_f32(&c->grid, c->boxes, b, e - b, ent, c->cap[t], &c->need[t], c->ip->qbox.data);
     if (w == (size_t)-1) {
         c->overflow[t] = 1;
         return;
@@ -99,9 +100,9 @@ static void task_sweep(void *arg, uint32_t t, uint32_t k)
     o->count = 0;
     o->candidates = o->exact_tests = 0;
     if (c->f64)
-        c->status[t] = lc_sweep_range_f64(&c->grid, c->boxes, c->sorted, c->total, b, e, o);
+        c->status[t] = lc_sweep_range_f64(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, b, e, o);
     else
-        c->status[t] = lc_sweep_range_f32(&c->grid, c->boxes, c->sorted, c->total, b, e, o);
+        c->status[t] = lc_sweep_range_f32(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, b, e, o);
 }
 
 static void task_gather(void *arg, uint32_t t, uint32_t k)
@@ -146,6 +147,7 @@ static void inproc_close(locd_engine *e)
         lc_sweep_out_fini(&ip->sw[t]);
     lc_buf_release(&e->alloc, &ip->ent, sizeof(uint64_t));
     lc_buf_release(&e->alloc, &ip->scr, sizeof(uint64_t));
+    lc_buf_release(&e->alloc, &ip->qbox, 6 * sizeof(int32_t));
     lc_free(&e->alloc, ip, sizeof *ip);
     e->backend = NULL;
 }
@@ -160,6 +162,8 @@ static locd_status layout(locd_engine *e, lc_job_ctx *c)
         c->off[t] = total;
         total += c->cap[t];
     }
+    if ((st = lc_buf_reserve(&e->alloc, &c->ip->qbox, 6 * sizeof(int32_t), c->n)) != LOCD_OK)
+        return st;
     if ((st = lc_buf_reserve(&e->alloc, &c->ip->ent, sizeof(uint64_t), total)) != LOCD_OK)
         return st;
     return lc_buf_reserve(&e->alloc, &c->ip->scr, sizeof(uint64_t), total);

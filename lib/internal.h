@@ -87,8 +87,8 @@ locd_status lc_grid_check(const locd_grid *g);
 LC_INLINE int32_t lc_quantize(const locd_grid *g, int axis, double x)
 {
     double t = ((x * 0.5 - g->origin[axis]) * g->scale_a) * g->scale_b;
-    t = t < 0.0 ? 0.0 : t;
-    t = t > LC_QMAX ? LC_QMAX : t;
+    t = t > 0.0 ? t : 0.0; /* written so that compilers emit maxsd/minsd, not branches */
+    t = t < LC_QMAX ? t : LC_QMAX;
     return (int32_t)t;
 }
 
@@ -97,10 +97,11 @@ LC_INLINE int32_t lc_quantize(const locd_grid *g, int axis, double x)
 #define LC_LEVEL_BITS 5
 /* Encodes boxes [first, first+count); returns entries written or, when
  * capacity is too small, (size_t)-1 with *needed set. */
+/* qbox, when not NULL, receives each object's quantized box at 6 * index. */
 size_t lc_encode_f32(const locd_grid *g, const float *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed);
+                     size_t capacity, size_t *needed, int32_t *qbox);
 size_t lc_encode_f64(const locd_grid *g, const double *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed);
+                     size_t capacity, size_t *needed, int32_t *qbox);
 /* Radix sort; returns the buffer holding the result (entries or scratch). */
 uint64_t *lc_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits);
 /* Multiway merge of runs restricted to [begin[r], end[r]) into out. */
@@ -111,20 +112,23 @@ void lc_merge_split(const uint64_t *const *runs, const size_t *counts, size_t k,
 /* ---- sweep (sweep.c) ---- */
 typedef struct lc_sweep_out {
     const locd_allocator *alloc;
-    lc_buf pairs; /* uint32 x 2 */
-    size_t count;
-    lc_buf cand;  /* candidate records */
-    lc_buf segs;  /* segment stack */
+    lc_buf pairs; /* uint32, two per pair */
+    size_t count; /* pairs */
+    int32_t *cand;   /* candidate records, 7 columns of cand_cap: lo xyz, hi xyz, index */
+    size_t cand_cap;
+    void (*filter)(void); /* the segment filter kernel for this CPU (sweep.c casts it back) */
     uint64_t candidates;
     uint64_t exact_tests;
 } lc_sweep_out;
 void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a);
 void lc_sweep_out_fini(lc_sweep_out *o);
 /* Sweeps entries [begin, end) of the whole sorted array (entries before
- * `begin` rebuild the state), appending pairs to o. */
-locd_status lc_sweep_range_f32(const locd_grid *g, const float *boxes, const uint64_t *entries, size_t count,
+ * `begin` rebuild the state), appending pairs to o. qbox, when not NULL,
+ * holds each object's quantized box (6 int32: lo xyz, hi xyz) as encode
+ * computed it; otherwise the sweep quantizes again (bit-identically). */
+locd_status lc_sweep_range_f32(const locd_grid *g, const float *boxes, const int32_t *qbox, const uint64_t *entries,
                                size_t begin, size_t end, lc_sweep_out *o);
-locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const uint64_t *entries, size_t count,
+locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const int32_t *qbox, const uint64_t *entries,
                                size_t begin, size_t end, lc_sweep_out *o);
 
 /* ---- thread pool (pool.c) ---- */

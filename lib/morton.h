@@ -15,6 +15,12 @@ static __inline__ uint64_t lc_morton_split3(uint32_t a)
     return x;
 }
 
+/* split3(c + 1) from split3(c), without undoing the interleave. */
+static __inline__ uint64_t lc_morton_next3(uint64_t dilated)
+{
+    return ((dilated | ~0x1249249249249249ULL) + 1) & 0x1249249249249249ULL;
+}
+
 static __inline__ uint32_t lc_morton_compact3(uint64_t x)
 {
     x &= 0x1249249249249249ULL;

@@ -5,27 +5,111 @@
  * entries whose quantized box overlaps the cell, then the cell's own entries:
  * exactly the objects a new entry of that cell must be tested against. A
  * pair is reported only in the cell that holds the low corner of the two
- * boxes' quantized intersection, so it is reported once, with no hash set. */
+ * boxes' quantized intersection, so it is reported once, with no hash set
+ * (docs/encoding.md has the proof). Records are stored by column so that
+ * the test of one entry against its candidates runs 8 at a time (AVX2). */
 #include "internal.h"
 #include "morton.h"
 
-#define LC_MAX_SEGS 24
-#define LC_PREFETCH 8
+#include <stdlib.h>
 
-typedef struct lc_rec {
-    int32_t lo[3];
-    int32_t hi[3];
-    uint32_t idx;
-    uint32_t pad;
-} lc_rec;
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#include <immintrin.h>
+#define LC_HAVE_AVX2_KERNEL 1
+#endif
+
+#define LC_MAX_SEGS 24
+#define LC_PREFETCH 12
 
 typedef struct lc_seg {
-    uint64_t cm;   /* Morton code of the cell at its own level */
-    size_t start;  /* first record of the segment */
+    uint64_t cm;  /* Morton code of the cell at its own level */
+    size_t start; /* first record of the segment */
     uint32_t level;
 } lc_seg;
 
-static size_t lc_lower_bound(const uint64_t *a, size_t n, uint64_t v)
+/* Column views of the candidate records. */
+typedef struct lc_cols {
+    int32_t *lo[3], *hi[3];
+    uint32_t *idx;
+} lc_cols;
+
+/* One entry being tested against its candidates. */
+typedef struct lc_scan {
+    lc_cols c;
+    int32_t lo[3], hi[3];
+    uint32_t idx;
+    uint32_t s;       /* LC_QBITS - level of the entry's cell */
+    int32_t cell[3];  /* the cell's integer coordinates at that level */
+    const void *boxes;
+    int f64;
+} lc_scan;
+
+typedef size_t (*lc_scan_fn)(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np,
+                             uint64_t *exact);
+
+/* Each column has LC_PAD spare slots so the vector kernel may read a whole
+ * vector past the last record (lanes it then ignores). */
+#define LC_PAD 8
+#define LC_STRIDE(cap) ((cap) + LC_PAD)
+
+static void cols_of(const lc_sweep_out *o, lc_cols *c)
+{
+    const size_t stride = LC_STRIDE(o->cand_cap);
+    int a;
+    for (a = 0; a < 3; a++) {
+        c->lo[a] = o->cand + (size_t)a * stride;
+        c->hi[a] = o->cand + (size_t)(a + 3) * stride;
+    }
+    c->idx = (uint32_t *)(o->cand + 6 * stride);
+}
+
+/* Grows the record columns to hold `need` records, keeping [0, used). */
+static locd_status cand_reserve(lc_sweep_out *o, size_t used, size_t need)
+{
+    size_t cap = o->cand_cap * 2, bytes, col;
+    int32_t *block;
+    if (need <= o->cand_cap)
+        return LOCD_OK;
+    if (cap < need)
+        cap = need;
+    if (cap < 256)
+        cap = 256;
+    if (!lc_mul_size(LC_STRIDE(cap), 7 * sizeof(int32_t), &bytes))
+        return lc_error(LOCD_ERR_NO_MEMORY, "candidate list of %zu records overflows size_t", cap);
+    block = lc_alloc(o->alloc, bytes);
+    if (!block)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate %zu bytes for candidates", bytes);
+    memset(block, 0, bytes); /* padding lanes are read, never used: keep them defined */
+    for (col = 0; col < 7 && used; col++)
+        memcpy(block + col * LC_STRIDE(cap), o->cand + col * LC_STRIDE(o->cand_cap), used * sizeof(int32_t));
+    if (o->cand)
+        lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * 7 * sizeof(int32_t));
+    o->cand = block;
+    o->cand_cap = cap;
+    return LOCD_OK;
+}
+
+static void cand_put(const lc_cols *c, size_t r, const int32_t q[6], uint32_t idx)
+{
+    c->lo[0][r] = q[0];
+    c->lo[1][r] = q[1];
+    c->lo[2][r] = q[2];
+    c->hi[0][r] = q[3];
+    c->hi[1][r] = q[4];
+    c->hi[2][r] = q[5];
+    c->idx[r] = idx;
+}
+
+/* The integer coordinates of an entry's cell at shift s: the box's first or
+ * second cell on each axis, as the Morton code's lowest bit per axis says. */
+LC_INLINE void lc_cell_of(const int32_t q[6], uint64_t cm, uint32_t s, int32_t cell[3])
+{
+    cell[0] = (q[0] >> s) + (((q[0] >> s) ^ (int32_t)cm) & 1);
+    cell[1] = (q[1] >> s) + (((q[1] >> s) ^ (int32_t)(cm >> 1)) & 1);
+    cell[2] = (q[2] >> s) + (((q[2] >> s) ^ (int32_t)(cm >> 2)) & 1);
+}
+
+static size_t lower_bound64(const uint64_t *a, size_t n, uint64_t v)
 {
     size_t lo = 0, hi = n;
     while (lo < hi) {
@@ -38,53 +122,207 @@ static size_t lc_lower_bound(const uint64_t *a, size_t n, uint64_t v)
     return lo;
 }
 
-static size_t lc_upper_bound(const uint64_t *a, size_t n, uint64_t v)
+/* Copies the records of [from, to) that overlap the box [lo, hi] to w... */
+LC_INLINE void copy_row(const lc_cols *c, size_t from, size_t to)
 {
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (a[mid] <= v)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
+    c->lo[0][to] = c->lo[0][from];
+    c->lo[1][to] = c->lo[1][from];
+    c->lo[2][to] = c->lo[2][from];
+    c->hi[0][to] = c->hi[0][from];
+    c->hi[1][to] = c->hi[1][from];
+    c->hi[2][to] = c->hi[2][from];
+    c->idx[to] = c->idx[from];
 }
 
-/* Opens the segment of cell (pm, level) under the current top segment:
- * copies the top segment's records that overlap the cell, and reserves room
- * for `extra` more records. */
-static locd_status lc_open_segment(const locd_grid *g, lc_sweep_out *o, lc_rec **cand, lc_seg *segs, uint32_t *nseg,
-                                   size_t *ncand, uint64_t pm, uint32_t level, size_t extra)
+typedef size_t (*lc_filter_fn)(const lc_cols *c, size_t from, size_t to, const int32_t lo[3], const int32_t hi[3],
+                               size_t w);
+
+static size_t filter_scalar(const lc_cols *c, size_t from, size_t to, const int32_t lo[3], const int32_t hi[3],
+                            size_t w)
+{
+    size_t r;
+    for (r = from; r < to; r++)
+        if (c->lo[0][r] <= hi[0] && c->hi[0][r] >= lo[0] && c->lo[1][r] <= hi[1] && c->hi[1][r] >= lo[1] &&
+            c->lo[2][r] <= hi[2] && c->hi[2][r] >= lo[2])
+            copy_row(c, r, w++);
+    return w;
+}
+
+#ifdef LC_HAVE_AVX2_KERNEL
+/* Lanes of records r..r+7 whose box overlaps [lo, hi] (closed). */
+__attribute__((target("avx2"))) LC_INLINE unsigned overlap8(const lc_cols *c, size_t r, __m256i lo0, __m256i lo1,
+                                                            __m256i lo2, __m256i hi0, __m256i hi1, __m256i hi2)
+{
+    __m256i rej = _mm256_cmpgt_epi32(lo0, _mm256_loadu_si256((const __m256i *)(c->hi[0] + r)));
+    rej = _mm256_or_si256(rej, _mm256_cmpgt_epi32(_mm256_loadu_si256((const __m256i *)(c->lo[0] + r)), hi0));
+    rej = _mm256_or_si256(rej, _mm256_cmpgt_epi32(lo1, _mm256_loadu_si256((const __m256i *)(c->hi[1] + r))));
+    rej = _mm256_or_si256(rej, _mm256_cmpgt_epi32(_mm256_loadu_si256((const __m256i *)(c->lo[1] + r)), hi1));
+    rej = _mm256_or_si256(rej, _mm256_cmpgt_epi32(lo2, _mm256_loadu_si256((const __m256i *)(c->hi[2] + r))));
+    rej = _mm256_or_si256(rej, _mm256_cmpgt_epi32(_mm256_loadu_si256((const __m256i *)(c->lo[2] + r)), hi2));
+    return ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(rej)) & 0xffu;
+}
+
+__attribute__((target("avx2"))) static size_t filter_avx2(const lc_cols *c, size_t from, size_t to,
+                                                          const int32_t lo[3], const int32_t hi[3], size_t w)
+{
+    const __m256i lo0 = _mm256_set1_epi32(lo[0]), lo1 = _mm256_set1_epi32(lo[1]), lo2 = _mm256_set1_epi32(lo[2]);
+    const __m256i hi0 = _mm256_set1_epi32(hi[0]), hi1 = _mm256_set1_epi32(hi[1]), hi2 = _mm256_set1_epi32(hi[2]);
+    size_t r;
+    /* Reads may run up to 7 records past `to` (padding or rows this call
+       already wrote): those lanes are masked off. */
+    for (r = from; r < to; r += 8) {
+        unsigned m = overlap8(c, r, lo0, lo1, lo2, hi0, hi1, hi2);
+        if (to - r < 8)
+            m &= (1u << (to - r)) - 1u;
+        while (m) {
+            copy_row(c, r + (size_t)__builtin_ctz(m), w++);
+            m &= m - 1;
+        }
+    }
+    return w;
+}
+#endif
+
+static lc_filter_fn pick_filter(void);
+
+/* Pushes the segment of cell `cell` (integer coordinates) at `level`: the
+ * records of the current top segment that overlap the cell. */
+static locd_status push_filtered(const locd_grid *g, lc_sweep_out *o, lc_seg *segs, uint32_t *nseg, size_t *ncand,
+                                 uint64_t pm, uint32_t level, const int32_t cell[3], size_t extra)
 {
     const uint32_t s = LC_QBITS - level;
-    const uint64_t cm = pm >> (3u * (g->depth - level));
-    size_t start = *ncand, pstart = *nseg ? segs[*nseg - 1].start : start, r, w;
-    int64_t clo[3], chi[3];
-    int a;
-    if (start + (start - pstart) + extra > o->cand.cap) {
-        locd_status st = lc_buf_reserve(o->alloc, &o->cand, sizeof(lc_rec), start + (start - pstart) + extra);
-        if (st)
-            return st;
-        *cand = (lc_rec *)o->cand.data;
-    }
-    for (a = 0; a < 3; a++) {
-        clo[a] = (int64_t)lc_morton_compact3(cm >> a) << s;
-        chi[a] = clo[a] + ((int64_t)1 << s) - 1;
-    }
-    w = start;
-    for (r = pstart; r < start; r++) {
-        const lc_rec *c = &(*cand)[r];
-        if (c->lo[0] <= chi[0] && c->hi[0] >= clo[0] && c->lo[1] <= chi[1] && c->hi[1] >= clo[1] &&
-            c->lo[2] <= chi[2] && c->hi[2] >= clo[2])
-            (*cand)[w++] = *c;
-    }
-    segs[*nseg].cm = cm;
+    size_t start = *ncand, pstart = *nseg ? segs[*nseg - 1].start : start;
+    segs[*nseg].cm = pm >> (3u * (g->depth - level));
     segs[*nseg].start = start;
     segs[*nseg].level = level;
     (*nseg)++;
-    *ncand = w;
+    if (start + (start - pstart) + extra > o->cand_cap) {
+        locd_status st = cand_reserve(o, start, start + (start - pstart) + extra);
+        if (st)
+            return st;
+    }
+    if (start > pstart) {
+        int32_t clo[3], chi[3];
+        lc_cols c;
+        int a;
+        cols_of(o, &c);
+        for (a = 0; a < 3; a++) {
+            clo[a] = (int32_t)((uint32_t)cell[a] << s);
+            chi[a] = (int32_t)(((int64_t)clo[a] + ((int64_t)1 << s)) - 1);
+        }
+        *ncand = ((lc_filter_fn)o->filter)(&c, pstart, start, clo, chi, start);
+    }
     return LOCD_OK;
+}
+
+/* Opens the segment of cell (pm, level, cell) under the current top segment
+ * and reserves room for `extra` more records. When the top segment is more
+ * than one level up and long, the cell's parent gets a segment too, so that
+ * sibling cells filter a short list instead of the long one (the records,
+ * and their order, are the same either way). */
+#define LC_FILTER_STEP_MIN 16
+static locd_status open_segment(const locd_grid *g, lc_sweep_out *o, lc_seg *segs, uint32_t *nseg, size_t *ncand,
+                                uint64_t pm, uint32_t level, const int32_t cell[3], size_t extra)
+{
+    if (*nseg && segs[*nseg - 1].level + 1 < level && *ncand - segs[*nseg - 1].start >= LC_FILTER_STEP_MIN) {
+        const int32_t parent[3] = {cell[0] >> 1, cell[1] >> 1, cell[2] >> 1};
+        locd_status st = push_filtered(g, o, segs, nseg, ncand, pm, level - 1, parent, 0);
+        if (st)
+            return st;
+    }
+    return push_filtered(g, o, segs, nseg, ncand, pm, level, cell, extra);
+}
+
+static int exact_overlap(const void *boxes, int f64, uint32_t i, uint32_t j)
+{
+    if (f64) {
+        const double *a = (const double *)boxes + 6 * (size_t)i, *b = (const double *)boxes + 6 * (size_t)j;
+        return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+    } else {
+        const float *a = (const float *)boxes + 6 * (size_t)i, *b = (const float *)boxes + 6 * (size_t)j;
+        return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+    }
+}
+
+/* Candidate r passed the quantized reject test: report it if this cell is
+ * the pair's canonical cell and the boxes really overlap. */
+LC_INLINE size_t emit_if_canonical(const lc_scan *sc, size_t r, uint32_t *pairs, size_t np, uint64_t *exact)
+{
+    const int32_t l0 = sc->c.lo[0][r], l1 = sc->c.lo[1][r], l2 = sc->c.lo[2][r];
+    const int32_t h0 = sc->c.hi[0][r], h1 = sc->c.hi[1][r], h2 = sc->c.hi[2][r];
+    const int32_t m0 = l0 > sc->lo[0] ? l0 : sc->lo[0], m1 = l1 > sc->lo[1] ? l1 : sc->lo[1],
+                  m2 = l2 > sc->lo[2] ? l2 : sc->lo[2];
+    const uint32_t j = sc->c.idx[r];
+    if (((m0 >> sc->s) != sc->cell[0]) | ((m1 >> sc->s) != sc->cell[1]) | ((m2 >> sc->s) != sc->cell[2]))
+        return np; /* reported in another cell */
+    /* Strictly inside each other's quantized range: the quantization is
+       monotone, so the boxes overlap. Equal ends need the exact test. */
+    if (!((h0 > sc->lo[0]) & (sc->hi[0] > l0) & (h1 > sc->lo[1]) & (sc->hi[1] > l1) & (h2 > sc->lo[2]) &
+          (sc->hi[2] > l2))) {
+        ++*exact;
+        if (!exact_overlap(sc->boxes, sc->f64, sc->idx, j))
+            return np;
+    }
+    pairs[2 * np] = j < sc->idx ? j : sc->idx;
+    pairs[2 * np + 1] = j < sc->idx ? sc->idx : j;
+    return np + 1;
+}
+
+static size_t scan_scalar(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np, uint64_t *exact)
+{
+    size_t r;
+    for (r = first; r < end; r++) {
+        if ((sc->c.hi[0][r] < sc->lo[0]) | (sc->hi[0] < sc->c.lo[0][r]) | (sc->c.hi[1][r] < sc->lo[1]) |
+            (sc->hi[1] < sc->c.lo[1][r]) | (sc->c.hi[2][r] < sc->lo[2]) | (sc->hi[2] < sc->c.lo[2][r]))
+            continue;
+        np = emit_if_canonical(sc, r, pairs, np, exact);
+    }
+    return np;
+}
+
+#ifdef LC_HAVE_AVX2_KERNEL
+__attribute__((target("avx2"))) static size_t scan_avx2(const lc_scan *sc, size_t first, size_t end,
+                                                        uint32_t *pairs, size_t np, uint64_t *exact)
+{
+    const __m256i lo0 = _mm256_set1_epi32(sc->lo[0]), lo1 = _mm256_set1_epi32(sc->lo[1]),
+                  lo2 = _mm256_set1_epi32(sc->lo[2]);
+    const __m256i hi0 = _mm256_set1_epi32(sc->hi[0]), hi1 = _mm256_set1_epi32(sc->hi[1]),
+                  hi2 = _mm256_set1_epi32(sc->hi[2]);
+    size_t r;
+    /* Past `end` lie padding or stale rows: masked off. */
+    for (r = first; r < end; r += 8) {
+        unsigned m = overlap8(&sc->c, r, lo0, lo1, lo2, hi0, hi1, hi2);
+        if (end - r < 8)
+            m &= (1u << (end - r)) - 1u;
+        while (m) {
+            np = emit_if_canonical(sc, r + (size_t)__builtin_ctz(m), pairs, np, exact);
+            m &= m - 1;
+        }
+    }
+    return np;
+}
+#endif
+
+/* The kernel for this CPU; LOCD_SCALAR=1 in the environment forces the
+ * portable one (the tests compare both). */
+static lc_filter_fn pick_filter(void)
+{
+#ifdef LC_HAVE_AVX2_KERNEL
+    const char *force = getenv("LOCD_SCALAR");
+    if (!(force && force[0] == '1') && __builtin_cpu_supports("avx2"))
+        return filter_avx2;
+#endif
+    return filter_scalar;
+}
+
+static lc_scan_fn pick_scan(void)
+{
+#ifdef LC_HAVE_AVX2_KERNEL
+    const char *force = getenv("LOCD_SCALAR");
+    if (!(force && force[0] == '1') && __builtin_cpu_supports("avx2"))
+        return scan_avx2;
+#endif
+    return scan_scalar;
 }
 
 #define LC_T float
@@ -103,12 +341,16 @@ void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a)
 {
     memset(o, 0, sizeof *o);
     o->alloc = a;
+    o->filter = (void (*)(void))pick_filter();
 }
 
 void lc_sweep_out_fini(lc_sweep_out *o)
 {
     lc_buf_release(o->alloc, &o->pairs, sizeof(uint32_t));
-    lc_buf_release(o->alloc, &o->cand, sizeof(lc_rec));
+    if (o->cand)
+        lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * 7 * sizeof(int32_t));
+    o->cand = NULL;
+    o->cand_cap = 0;
 }
 
 static int entries_sorted(const uint64_t *e, size_t count)
@@ -141,7 +383,7 @@ static int entries_sorted(const uint64_t *e, size_t count)
             if ((entries[i] & ((1ull << grid->index_bits) - 1)) >= n)                                        \
                 return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entry %zu names object >= n", i);               \
         lc_sweep_out_init(&o, &out->alloc);                                                                  \
-        st = lc_sweep_range_##SUFFIX(grid, boxes, entries, count, 0, count, &o);                            \
+        st = lc_sweep_range_##SUFFIX(grid, boxes, NULL, entries, 0, count, &o);                              \
         if (!st)                                                                                             \
             st = lc_pairs_reserve(out, o.count);                                                             \
         if (!st) {                                                                                           \
