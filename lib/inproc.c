@@ -177,7 +177,8 @@ static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int 
     lc_bounds all;
     locd_status st = LOCD_OK;
     double t0, t1;
-    size_t npairs = 0;
+    size_t npairs = 0, order_bytes = 0;
+    uint64_t *order_tmp = NULL;
     uint32_t t, k;
     int retry;
 
@@ -289,6 +290,14 @@ static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int 
     }
     if (st)
         goto done;
+    /* Everything that can fail happens before `out` is touched. */
+    if ((flags & LOCD_FIND_SORTED) && npairs > 1) {
+        if (!lc_mul_size(npairs, 2 * sizeof(uint64_t), &order_bytes) ||
+            !(order_tmp = lc_alloc(&e->alloc, order_bytes))) {
+            st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the buffer to sort %zu pairs", npairs);
+            goto done;
+        }
+    }
     if ((st = lc_pairs_reserve(out, npairs)) != LOCD_OK)
         goto done;
     c->dst = out->data;
@@ -297,9 +306,13 @@ static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int 
     stats->pairs = npairs;
     t0 = lc_now_ms();
     stats->ms_sweep = t0 - t1;
-    if (flags & LOCD_FIND_SORTED)
-        st = lc_order_pairs(out, stats);
+    if (order_tmp) {
+        lc_sort_pair_array(out->data, npairs, order_tmp, order_tmp + npairs);
+        stats->ms_order = lc_now_ms() - t0;
+    }
 done:
+    if (order_tmp)
+        lc_free(&e->alloc, order_tmp, order_bytes);
     lc_free(&e->alloc, c, sizeof *c);
     return st;
 }
