@@ -3,7 +3,7 @@
  * (pairs buffer or caller buffer), whether the engine is fresh or has run
  * other scenes, or the run. Scenes are large enough for the work to be split
  * between threads. The CLI-level check across integration levels is in
- * scripts/ci/steps/60-determinism.sh.
+ * scripts/ci/steps/45-determinism.sh.
  *
  * LOCD_TEST_HEAVY=0 (set by the sanitizer runs) shrinks the scenes. */
 #include <setjmp.h>

@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# The ABI baseline of liblocd (docs/abi.md).
+#   scripts/abi.sh build    builds build-ci/abi (debugoptimized, -g: abidw reads the DWARF)
+#   scripts/abi.sh update   builds, then writes the baseline abi/liblocd.abi
+#   scripts/abi.sh check    builds, then compares the library with the baseline:
+#                           any incompatible change (removed or changed function,
+#                           changed layout of a public type) fails; added
+#                           functions pass (--no-added-syms)
+# Env: LOCD_ABI_BUILD (default build-ci/abi), JOBS.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+BUILD=${LOCD_ABI_BUILD:-build-ci/abi}
+BASELINE=abi/liblocd.abi
+HEADERS=include/locd
+# Only what the public headers expose through exported functions: without
+# these the dump also holds every FCL/Eigen type the C++ glue uses (4 MB).
+DUMP_OPTS=(--no-corpus-path --no-comp-dir-path --headers-dir "$HEADERS" --drop-private-types
+           --exported-interfaces-only --drop-undefined-syms)
+
+build() {
+  # -g is debugoptimized's default; said again because an ABI dump of a
+  # library without debug info is empty and would "pass" every check.
+  local opts=(--buildtype=debugoptimized -Dc_args=-g -Dtests=disabled -Dbench_peers=disabled -Dpython=false)
+  if [ -f "$BUILD/build.ninja" ]; then
+    meson setup --reconfigure "$BUILD" "${opts[@]}" >/dev/null || meson setup --wipe "$BUILD" "${opts[@]}"
+  else
+    meson setup "$BUILD" "${opts[@]}" >/dev/null
+  fi
+  ninja -C "$BUILD" -j "${JOBS:-2}" >/dev/null
+}
+
+# The real file behind the soname link (liblocd.so.MAJOR -> liblocd.so.X.Y.Z).
+library() {
+  local lib
+  lib=$(readlink -f "$BUILD/lib/liblocd.so")
+  [ -f "$lib" ] || { echo "abi: no $BUILD/lib/liblocd.so" >&2; exit 1; }
+  echo "$lib"
+}
+
+# A dump without function declarations means the debug info was missing.
+guard() {
+  if ! grep -q '<function-decl' "$1"; then
+    echo "abi: $1 holds no <function-decl>: the library was built without debug info (-g)" >&2
+    exit 1
+  fi
+}
+
+case "${1:-}" in
+  build)
+    build
+    library
+    ;;
+  update)
+    build
+    lib=$(library)
+    mkdir -p abi
+    abidw "${DUMP_OPTS[@]}" --out-file "$BASELINE" "$lib"
+    guard "$BASELINE"
+    echo "abi: wrote $BASELINE from $lib ($(grep -c '<function-decl' "$BASELINE") function declarations," \
+      "$(grep -o "soname='[^']*'" "$BASELINE" | head -1))"
+    ;;
+  check)
+    [ -f "$BASELINE" ] || { echo "abi: no baseline $BASELINE (run scripts/abi.sh update)" >&2; exit 1; }
+    guard "$BASELINE"
+    build
+    lib=$(library)
+    # The library under test must have debug info too: dump it and guard.
+    tmp=$(mktemp)
+    trap 'rm -f "$tmp"' EXIT
+    abidw "${DUMP_OPTS[@]}" --out-file "$tmp" "$lib"
+    guard "$tmp"
+    # abidiff's exit status is a bit field (1 error, 2 usage, 4 change, 8
+    # incompatible change); with --no-added-syms only real breaks remain, so
+    # any non-zero status fails.
+    set +e
+    abidiff --no-added-syms --drop-private-types --exported-interfaces-only "$BASELINE" "$lib" --hd2 "$HEADERS"
+    rc=$?
+    set -e
+    if [ $rc -ne 0 ]; then
+      echo "abi: INCOMPATIBLE with $BASELINE (abidiff exit $rc). If the break is intended, follow docs/abi.md." >&2
+      exit 1
+    fi
+    echo "abi: $lib is compatible with $BASELINE"
+    ;;
+  *)
+    sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'
+    exit 2
+    ;;
+esac

@@ -1,0 +1,86 @@
+#!/usr/bin/env bash
+# The whole C test suite again under the sanitizers, each in its own build
+# directory (docs/ci.md):
+#   build-ci/asan  AddressSanitizer + UndefinedBehaviorSanitizer, no recovery:
+#                  any out-of-bounds access, use-after-free, leak or UB report
+#                  ends the test with a failure;
+#   build-ci/tsan  ThreadSanitizer: any data race fails the test.
+# Heavy scenes run only once, in the normal build (10-c): the tests read
+# LOCD_TEST_HEAVY=0 and shrink their scenes (tests/README.md).
+# LOCD_SANITIZERS="asan" or "tsan" runs one of the two.
+set -uo pipefail
+cd "$ROOT"
+JOBS=${JOBS:-2}
+export LOCD_TEST_HEAVY=0
+# halt_on_error: the first report fails the test. detect_leaks: LeakSanitizer
+# is ASan's default on Linux; said here so nobody turns it off by accident.
+export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:detect_stack_use_after_return=1:check_initialization_order=1:strict_init_order=1"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
+export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:history_size=4"
+
+# Options that do not change what the tests cover but keep the builds short:
+# the benchmark peers (FCL, Bullet, CGAL comparisons) have no tests.
+common=(--buildtype=debugoptimized -Dtests=enabled -Dbench_peers=disabled -Dpython=false)
+
+# Configures DIR with the given options (reconfigures an existing one, so a
+# local rerun only recompiles what changed) and builds it.
+build() {
+  local dir=$1
+  shift
+  if [ -f "$dir/build.ninja" ]; then
+    meson setup --reconfigure "$dir" "${common[@]}" "$@" >/dev/null ||
+      meson setup --wipe "$dir" "${common[@]}" "$@" || return 1
+  else
+    meson setup "$dir" "${common[@]}" "$@" || return 1
+  fi
+  ninja -C "$dir" -j "$JOBS"
+}
+
+# Runs the suite of DIR and keeps its JUnit file as $LOCD_RESULTS/NAME.junit.xml.
+# Sanitizers slow the tests down: their timeouts are multiplied.
+run_suite() {
+  local dir=$1 name=$2 rc=0
+  shift 2
+  "$@" meson test -C "$dir" --print-errorlogs --num-processes "$JOBS" --timeout-multiplier 4 || rc=$?
+  if [ -f "$dir/meson-logs/testlog.junit.xml" ]; then
+    # Distinct suite names, so the summary tells the three runs of a test apart.
+    sed "s/<testsuite name=\"/<testsuite name=\"$name:/; s/classname=\"/classname=\"$name:/g" \
+      "$dir/meson-logs/testlog.junit.xml" > "$LOCD_RESULTS/$name.junit.xml"
+  else
+    python3 "$ROOT/scripts/ci/junit.py" case "$name" "meson test" failed "no testlog.junit.xml in $dir" \
+      > "$LOCD_RESULTS/$name.junit.xml"
+    rc=1
+  fi
+  return $rc
+}
+
+# ThreadSanitizer needs the address-space layout it was built for; kernels
+# with high mmap randomization break it ("unexpected memory mapping"), so its
+# run goes without ASLR when setarch is there.
+norandom=()
+if setarch "$(uname -m)" -R true 2>/dev/null; then
+  norandom=(setarch "$(uname -m)" -R)
+fi
+
+rc=0
+which=${LOCD_SANITIZERS:-asan tsan}
+if [[ " $which " == *" asan "* ]]; then
+  echo "== ASan + UBSan: build-ci/asan"
+  if build build-ci/asan -Db_sanitize=address,undefined -Db_lundef=false -Dc_args=-fno-sanitize-recover=all \
+      -Dcpp_args=-fno-sanitize-recover=all; then
+    run_suite build-ci/asan asan || rc=1
+  else
+    python3 scripts/ci/junit.py case asan build failed "build-ci/asan did not build" > "$LOCD_RESULTS/asan.junit.xml"
+    rc=1
+  fi
+fi
+if [[ " $which " == *" tsan "* ]]; then
+  echo "== TSan: build-ci/tsan"
+  if build build-ci/tsan -Db_sanitize=thread -Db_lundef=false; then
+    run_suite build-ci/tsan tsan "${norandom[@]}" || rc=1
+  else
+    python3 scripts/ci/junit.py case tsan build failed "build-ci/tsan did not build" > "$LOCD_RESULTS/tsan.junit.xml"
+    rc=1
+  fi
+fi
+exit $rc
