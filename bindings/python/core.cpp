@@ -249,18 +249,16 @@ public:
     explicit Job(locd_job *job) : job_(job) {}
     ~Job() { release(); }
 
-    // The status codes LOCD_OK, LOCD_PENDING, LOCD_ERR_TIMEOUT and
-    // LOCD_ERR_CANCELLED are returned; other errors raise.
+    // The job's status as it is: LOCD_PENDING, LOCD_OK or its error.
     int32_t poll()
     {
-        locd_status st;
-        {
-            py::gil_scoped_release nogil;
-            std::lock_guard<std::mutex> lock(mutex_);
-            st = job_ ? locd_job_poll(job_) : LOCD_ERR_CANCELLED;
-        }
-        return checked(st);
+        py::gil_scoped_release nogil;
+        std::lock_guard<std::mutex> lock(mutex_);
+        return job_ ? locd_job_poll(job_) : LOCD_ERR_CANCELLED;
     }
+
+    // LOCD_OK, LOCD_ERR_TIMEOUT or LOCD_ERR_CANCELLED; the job's other
+    // errors raise.
 
     int32_t wait(int64_t timeout_ms)
     {
@@ -327,7 +325,7 @@ public:
 private:
     int32_t checked(locd_status st)
     {
-        if (st == LOCD_OK || st == LOCD_PENDING || st == LOCD_ERR_TIMEOUT || st == LOCD_ERR_CANCELLED)
+        if (st == LOCD_OK || st == LOCD_ERR_TIMEOUT || st == LOCD_ERR_CANCELLED)
             return st;
         raise_status(st);
     }

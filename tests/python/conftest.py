@@ -29,7 +29,10 @@ def numpy_pairs(boxes):
     out = [np.empty((0, 2), dtype=np.uint32)]
     for start in range(0, len(b), 256):  # row blocks keep memory at 256 x n
         rows = slice(start, start + 256)
-        overlap = np.all((lo[rows, None, :] <= hi[None, :, :]) & (lo[None, :, :] <= hi[rows, None, :]), axis=2)
+        overlap = np.ones((len(b[rows]), len(b)), dtype=bool)
+        for axis in range(3):  # 2-D comparisons per axis: far faster than a reduction over a length-3 axis
+            overlap &= lo[rows, axis, None] <= hi[None, :, axis]
+            overlap &= lo[None, :, axis] <= hi[rows, axis, None]
         i, j = np.nonzero(overlap)
         i = i + start
         keep = i < j

@@ -146,9 +146,17 @@ def test_job_bad_box_raises_on_submit_or_result():
     boxes = uniform_scene(50)
     boxes[7, 2] = np.inf
     with locd.Engine(threads=1) as engine:
+        try:
+            job = engine.submit(boxes)
+        except locd.InvalidBoxError as e:  # checked at submit
+            assert e.index == 7
+            return
         with pytest.raises(locd.InvalidBoxError) as info:
-            engine.submit(boxes).result(timeout=60)
+            job.result(timeout=60)
         assert info.value.index == 7
+        assert job.done() and not job.cancelled()
+        with pytest.raises(locd.InvalidBoxError):  # raised again, like a future
+            job.result()
 
 
 # -- level 2: worker processes --------------------------------------------------------
