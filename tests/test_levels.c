@@ -1,0 +1,430 @@
+/* Integration levels with real processes: level 2 (locd-worker processes)
+ * and level 3 (a `locd serve` process) return exactly level 1's pairs, in
+ * the same order; jobs work at every level; a worker killed mid-call never
+ * yields wrong pairs or a hang; a crashed host leaves nothing behind; 1,000
+ * engine create/destroy cycles leak no segment, fd or process. */
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <pthread.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "levels_util.h"
+#include "support.h"
+
+static char g_dir[256], g_addr[300], g_log[300];
+static pid_t g_service = -1;
+
+static locd_engine *make_engine(int level, uint32_t threads, const char *addr)
+{
+    locd_engine_config cfg;
+    locd_engine *e = NULL;
+    locd_status st;
+    locd_engine_config_init(&cfg);
+    cfg.level = level;
+    cfg.threads = threads;
+    cfg.service_address = addr;
+    st = locd_engine_create(&cfg, &e);
+    if (st != LOCD_OK)
+        fail_msg("level %d engine: %s", level, locd_last_error());
+    return e;
+}
+
+static double *to_f64(const float *b, size_t n)
+{
+    double *d = malloc((n ? n : 1) * 6 * sizeof *d);
+    size_t i;
+    for (i = 0; i < 6 * n; i++)
+        d[i] = b[i];
+    return d;
+}
+
+static void levels_give_identical_pairs(void **state)
+{
+    static const size_t sizes[] = {0, 1, 2, 17, 900, 5000, 30000};
+    locd_engine *e1 = make_engine(LOCD_LEVEL_INPROCESS, 2, NULL);
+    locd_engine *e2 = make_engine(LOCD_LEVEL_WORKERS, 2, NULL);
+    locd_engine *e2b = make_engine(LOCD_LEVEL_WORKERS, 3, NULL);
+    locd_engine *e3 = make_engine(LOCD_LEVEL_SERVICE, 0, g_addr);
+    locd_engine *others[3];
+    locd_pairs *ref, *got;
+    int kind, o;
+    size_t si;
+    (void)state;
+    others[0] = e2;
+    others[1] = e2b;
+    others[2] = e3;
+    assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
+    assert_int_equal(locd_pairs_create(NULL, &got), LOCD_OK);
+    for (kind = 0; kind < TS_SCENE_KINDS; kind++)
+        for (si = 0; si < sizeof sizes / sizeof sizes[0]; si++) {
+            size_t n = sizes[si];
+            float *b;
+            double *d;
+            if (n > 1500 && (kind == 1 || kind == 3 || kind == 4))
+                continue; /* dense kinds: millions of pairs, nothing more to learn */
+            b = ts_scene(kind, n ? n : 1, 77u * (uint64_t)kind + si);
+            d = to_f64(b, n);
+            assert_int_equal(locd_engine_find_pairs_f32(e1, b, n, 0, ref), LOCD_OK);
+            if (n <= 5000 && !ts_same_as_brute_f32(b, n, ref))
+                fail_msg("level 1 differs from brute force (kind %d n %zu)", kind, n);
+            for (o = 0; o < 3; o++) {
+                locd_status st = locd_engine_find_pairs_f32(others[o], b, n, 0, got);
+                if (st != LOCD_OK)
+                    fail_msg("engine %d kind %d n %zu: %s", o, kind, n, locd_last_error());
+                if (!lu_same_pairs(ref, got))
+                    fail_msg("engine %d (level %d) differs from level 1: kind %d n %zu (%zu vs %zu pairs)", o,
+                             locd_engine_level(others[o]), kind, n, locd_pairs_count(got), locd_pairs_count(ref));
+            }
+            /* float64 entry points, sorted order */
+            assert_int_equal(locd_engine_find_pairs_f64(e1, d, n, LOCD_FIND_SORTED, ref), LOCD_OK);
+            for (o = 0; o < 3; o++) {
+                assert_int_equal(locd_engine_find_pairs_f64(others[o], d, n, LOCD_FIND_SORTED, got), LOCD_OK);
+                if (!lu_same_pairs(ref, got))
+                    fail_msg("f64: engine %d differs from level 1: kind %d n %zu", o, kind, n);
+            }
+            free(b);
+            free(d);
+        }
+    locd_engine_destroy(e1);
+    locd_engine_destroy(e2);
+    locd_engine_destroy(e2b);
+    locd_engine_destroy(e3);
+    locd_pairs_destroy(ref);
+    locd_pairs_destroy(got);
+}
+
+static void invalid_boxes_same_error_at_every_level(void **state)
+{
+    int level;
+    (void)state;
+    for (level = 1; level <= 3; level++) {
+        locd_engine *e = make_engine(level, 2, level == 3 ? g_addr : NULL);
+        locd_pairs *p;
+        float *b = ts_scene(0, 6000, 5);
+        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        b[6 * 4321 + 2] = b[6 * 4321 + 5] + 1.0f; /* min > max */
+        assert_int_equal(locd_engine_find_pairs_f32(e, b, 6000, 0, p), LOCD_ERR_INVERTED_BOX);
+        assert_int_equal(locd_last_error_index(), 4321);
+        b[6 * 100] = 0.0f / 0.0f;
+        assert_int_equal(locd_engine_find_pairs_f32(e, b, 6000, 0, p), LOCD_ERR_NONFINITE);
+        assert_int_equal(locd_last_error_index(), 100);
+        free(b);
+        locd_pairs_destroy(p);
+        locd_engine_destroy(e);
+    }
+}
+
+static void jobs_at_every_level(void **state)
+{
+    int level;
+    (void)state;
+    for (level = 1; level <= 3; level++) {
+        locd_engine *e = make_engine(level, 2, level == 3 ? g_addr : NULL);
+        locd_engine *ref = make_engine(LOCD_LEVEL_INPROCESS, 1, NULL);
+        locd_pairs *want, *got;
+        locd_job *j = NULL, *j2 = NULL;
+        locd_stats st;
+        locd_status s;
+        size_t n = 40000;
+        float *b = ts_scene(0, n, 1234 + (uint64_t)level);
+        assert_int_equal(locd_pairs_create(NULL, &want), LOCD_OK);
+        assert_int_equal(locd_pairs_create(NULL, &got), LOCD_OK);
+        assert_int_equal(locd_engine_find_pairs_f32(ref, b, n, 0, want), LOCD_OK);
+
+        {
+            float *tmp = malloc(n * 6 * sizeof *tmp);
+            memcpy(tmp, b, n * 6 * sizeof *tmp);
+            assert_int_equal(locd_engine_submit_f32(e, tmp, n, 0, &j), LOCD_OK);
+            memset(tmp, 0xff, n * 6 * sizeof *tmp); /* NaNs: the job must own a copy */
+            free(tmp);
+        }
+        s = locd_job_poll(j);
+        assert_true(s == LOCD_OK || s == LOCD_PENDING);
+        if (level < 3) {
+            /* levels 1 and 2 run one job at a time per engine */
+            s = locd_engine_find_pairs_f32(e, b, n, 0, got);
+            assert_true(s == LOCD_ERR_BUSY || s == LOCD_OK);
+        }
+        assert_int_equal(locd_job_wait(j, -1), LOCD_OK);
+        assert_int_equal(locd_job_poll(j), LOCD_OK);
+        assert_int_equal(locd_job_take(j, got), LOCD_OK);
+        if (!lu_same_pairs(want, got))
+            fail_msg("level %d job result differs from level 1", level);
+        assert_int_equal(locd_job_take(j, got), LOCD_ERR_INVALID_ARGUMENT); /* taken once */
+        locd_stats_init(&st);
+        assert_int_equal(locd_job_stats(j, &st), LOCD_OK);
+        assert_int_equal(st.objects, n);
+        assert_int_equal(st.pairs, locd_pairs_count(want));
+        locd_job_release(j);
+
+        /* cancel: wait reports LOCD_ERR_CANCELLED unless it had finished */
+        assert_int_equal(locd_engine_submit_f32(e, b, n, 0, &j), LOCD_OK);
+        assert_int_equal(locd_job_cancel(j), LOCD_OK);
+        s = locd_job_wait(j, 10000);
+        assert_true(s == LOCD_ERR_CANCELLED || s == LOCD_OK);
+        locd_job_release(j);
+
+        /* timeout 0 on a fresh large job, then a bounded wait */
+        if (level < 3) {
+            double until = lu_now_ms() + 10000;
+            while (locd_engine_submit_f32(e, b, n, 0, &j2) == LOCD_ERR_BUSY && lu_now_ms() < until)
+                lu_sleep_ms(1); /* the cancelled job's thread is finishing */
+        } else {
+            assert_int_equal(locd_engine_submit_f32(e, b, n, LOCD_FIND_SORTED, &j2), LOCD_OK);
+        }
+        assert_non_null(j2);
+        s = locd_job_wait(j2, 0);
+        assert_true(s == LOCD_ERR_TIMEOUT || s == LOCD_OK);
+        assert_int_equal(locd_job_wait(j2, 60000), LOCD_OK);
+        assert_int_equal(locd_job_take(j2, got), LOCD_OK);
+        assert_int_equal(locd_pairs_count(got), locd_pairs_count(want));
+        locd_job_release(j2);
+
+        /* released without waiting: no leak, engine usable afterwards */
+        assert_int_equal(locd_engine_submit_f32(e, b, n, 0, &j), LOCD_OK);
+        locd_job_release(j);
+        {
+            double until = lu_now_ms() + 10000;
+            while ((s = locd_engine_find_pairs_f32(e, b, n, 0, got)) == LOCD_ERR_BUSY && lu_now_ms() < until)
+                lu_sleep_ms(1);
+            assert_int_equal(s, LOCD_OK);
+        }
+        /* errors travel through jobs with their index */
+        b[6 * 777 + 1] = 1.0f / 0.0f;
+        {
+            double until = lu_now_ms() + 10000;
+            while ((s = locd_engine_submit_f32(e, b, n, 0, &j)) == LOCD_ERR_BUSY && lu_now_ms() < until)
+                lu_sleep_ms(1);
+            assert_int_equal(s, LOCD_OK);
+        }
+        assert_int_equal(locd_job_wait(j, -1), LOCD_ERR_NONFINITE);
+        assert_int_equal(locd_last_error_index(), 777);
+        assert_int_equal(locd_job_take(j, got), LOCD_ERR_NONFINITE);
+        locd_job_release(j);
+
+        assert_int_equal(locd_job_poll(NULL), LOCD_ERR_INVALID_HANDLE);
+        locd_job_release(NULL);
+        free(b);
+        locd_pairs_destroy(want);
+        locd_pairs_destroy(got);
+        locd_engine_destroy(ref);
+        locd_engine_destroy(e);
+    }
+}
+
+typedef struct kill_ctx {
+    locd_engine *e;
+    const float *b;
+    size_t n;
+    const locd_pairs *want;
+    int calls, ok, worker_errors, wrong, other, ok_after;
+    volatile int stop, kills_done;
+} kill_ctx;
+
+static void *call_loop(void *arg)
+{
+    kill_ctx *k = arg;
+    locd_pairs *p;
+    locd_pairs_create(NULL, &p);
+    while (!k->stop) {
+        locd_status s = locd_engine_find_pairs_f32(k->e, k->b, k->n, 0, p);
+        k->calls++;
+        if (s == LOCD_OK) {
+            k->ok++;
+            k->ok_after += k->kills_done;
+            k->wrong += !lu_same_pairs(k->want, p);
+        }
+        else if (s == LOCD_ERR_WORKER)
+            k->worker_errors++;
+        else
+            k->other++;
+    }
+    locd_pairs_destroy(p);
+    return NULL;
+}
+
+static void worker_killed_mid_call(void **state)
+{
+    locd_engine *e = make_engine(LOCD_LEVEL_WORKERS, 2, NULL);
+    locd_engine *ref = make_engine(LOCD_LEVEL_INPROCESS, 1, NULL);
+    size_t n = 100000;
+    float *b = ts_scene(0, n, 99);
+    locd_pairs *want, *p;
+    kill_ctx k;
+    pthread_t th;
+    pid_t pids[8];
+    int round, got, killed = 0;
+    double t0;
+    (void)state;
+    assert_int_equal(locd_pairs_create(NULL, &want), LOCD_OK);
+    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    assert_int_equal(locd_engine_find_pairs_f32(ref, b, n, 0, want), LOCD_OK);
+    memset(&k, 0, sizeof k);
+    k.e = e;
+    k.b = b;
+    k.n = n;
+    k.want = want;
+    assert_int_equal(pthread_create(&th, NULL, call_loop, &k), 0);
+    t0 = lu_now_ms();
+    while (k.calls < 1 && lu_now_ms() - t0 < 20000)
+        lu_sleep_ms(5);
+    for (round = 0; round < 5; round++) {
+        lu_sleep_ms(20 + 25 * round);
+        got = lu_children_named("locd-worker", pids, 8);
+        if (got > 0 && kill(pids[round % got], SIGKILL) == 0)
+            killed++;
+    }
+    k.kills_done = 1;
+    t0 = lu_now_ms();
+    while (k.ok_after < 2 && lu_now_ms() - t0 < 30000) /* never a hang */
+        lu_sleep_ms(5);
+    k.stop = 1;
+    pthread_join(th, NULL);
+    assert_true(k.ok_after >= 2);
+    assert_true(killed > 0);
+    assert_int_equal(k.wrong, 0);
+    assert_int_equal(k.other, 0);
+    assert_true(k.ok > 0);
+    /* still usable, with a full set of live workers and no zombies */
+    assert_int_equal(locd_engine_find_pairs_f32(e, b, n, 0, p), LOCD_OK);
+    assert_true(lu_same_pairs(want, p));
+    assert_int_equal(lu_children_named("locd-worker", NULL, 0), 2);
+    locd_engine_destroy(e);
+    locd_engine_destroy(ref);
+    assert_int_equal(lu_children_named("locd-worker", NULL, 0), 0);
+    assert_int_equal(lu_count_children(), 1); /* the service only */
+    {
+        char prefix[64];
+        snprintf(prefix, sizeof prefix, "locd-%ld-", (long)getpid());
+        assert_int_equal(lu_count_shm(prefix), 0);
+    }
+    print_message("# %d calls: %d ok, %d LOCD_ERR_WORKER, %d workers killed\n", k.calls, k.ok, k.worker_errors,
+                  killed);
+    free(b);
+    locd_pairs_destroy(want);
+    locd_pairs_destroy(p);
+}
+
+/* A host that dies (SIGKILL) leaves no segment and no worker behind. */
+static void host_crash_leaves_nothing(void **state)
+{
+    char prefix[64], pidstr[32];
+    int pipefd[2], i;
+    pid_t child;
+    char c;
+    (void)state;
+    assert_int_equal(pipe(pipefd), 0);
+    child = fork();
+    if (child == 0) {
+        locd_engine_config cfg;
+        locd_engine *e = NULL;
+        locd_pairs *p = NULL;
+        float *b = ts_scene(0, 50000, 3);
+        locd_engine_config_init(&cfg);
+        cfg.level = LOCD_LEVEL_WORKERS;
+        cfg.threads = 2;
+        if (locd_engine_create(&cfg, &e) || locd_pairs_create(NULL, &p) ||
+            locd_engine_find_pairs_f32(e, b, 50000, 0, p))
+            _exit(1);
+        if (write(pipefd[1], "r", 1) != 1)
+            _exit(1);
+        for (;;)
+            pause();
+    }
+    close(pipefd[1]);
+    assert_int_equal(read(pipefd[0], &c, 1), 1);
+    close(pipefd[0]);
+    snprintf(prefix, sizeof prefix, "locd-%ld-", (long)child);
+    snprintf(pidstr, sizeof pidstr, " %ld ", (long)child);
+    assert_int_equal(lu_count_processes_with("locd-worker", pidstr), 2);
+    kill(child, SIGKILL);
+    waitpid(child, NULL, 0);
+    for (i = 0; i < 400 && (lu_count_processes_with("locd-worker", pidstr) || lu_count_shm(prefix)); i++)
+        lu_sleep_ms(10); /* orphaned workers notice within a second */
+    assert_int_equal(lu_count_processes_with("locd-worker", pidstr), 0);
+    assert_int_equal(lu_count_shm(prefix), 0);
+}
+
+static void create_destroy_cycles_leak_nothing(void **state)
+{
+    char prefix[64];
+    int fds0 = lu_count_fds(), children0 = lu_count_children(), i;
+    float *b = ts_scene(2, 5000, 8);
+    locd_pairs *p;
+    (void)state;
+    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    snprintf(prefix, sizeof prefix, "locd-%ld-", (long)getpid());
+    for (i = 0; i < 1000; i++) {
+        /* one worker each: process start-up dominates on a loaded CI machine */
+        locd_engine *e = make_engine(LOCD_LEVEL_WORKERS, 1, NULL);
+        if (i % 50 == 0)
+            assert_int_equal(locd_engine_find_pairs_f32(e, b, 5000, 0, p), LOCD_OK);
+        locd_engine_destroy(e);
+    }
+    assert_int_equal(lu_count_shm(prefix), 0);
+    assert_int_equal(lu_count_fds(), fds0);
+    assert_int_equal(lu_count_children(), children0);
+    free(b);
+    locd_pairs_destroy(p);
+}
+
+static void bad_worker_path_is_an_error(void **state)
+{
+    locd_engine_config cfg;
+    locd_engine *e = NULL;
+    (void)state;
+    locd_engine_config_init(&cfg);
+    cfg.level = LOCD_LEVEL_WORKERS;
+    cfg.worker_path = "/nonexistent/locd-worker";
+    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_INVALID_ARGUMENT);
+    assert_null(e);
+    cfg.worker_path = "/bin/true"; /* exits at once: a worker error, not a hang */
+    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_WORKER);
+    assert_null(e);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    lu_setup();
+    lu_temp_dir(g_dir, sizeof g_dir);
+    snprintf(g_log, sizeof g_log, "%s/serve.log", g_dir);
+    {
+        char listen[300];
+        snprintf(listen, sizeof listen, "unix:%s/s.sock", g_dir);
+        g_service = lu_start_service(listen, NULL, 2, g_log, g_addr, sizeof g_addr);
+    }
+    return g_service > 0 ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    if (g_service > 0)
+        lu_stop_service(g_service, SIGTERM);
+    lu_cleanup_dir(g_dir);
+    return 0;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(levels_give_identical_pairs, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(invalid_boxes_same_error_at_every_level, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(jobs_at_every_level, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(worker_killed_mid_call, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(host_crash_leaves_nothing, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(bad_worker_path_is_an_error, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(create_destroy_cycles_leak_nothing, lu_timer_start, lu_timer_print),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}

@@ -1,0 +1,420 @@
+/* Level 3 with a real `locd serve` process: garbage, oversized and
+ * truncated messages drop only the guilty connection; a killed service
+ * gives clear errors and a restarted one is picked up again; 16 concurrent
+ * clients x 50 jobs are all correct; TCP needs the shared secret; 1,000
+ * engine create/destroy cycles leak no fd and no segment. */
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <pthread.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "levels_util.h"
+#include "support.h"
+
+static char g_dir[256], g_addr[300], g_log[300];
+static pid_t g_service = -1;
+
+static locd_status make_engine(const char *addr, const char *secret, locd_engine **e)
+{
+    locd_engine_config cfg;
+    locd_engine_config_init(&cfg);
+    cfg.level = LOCD_LEVEL_SERVICE;
+    cfg.service_address = addr;
+    cfg.service_secret = secret;
+    return locd_engine_create(&cfg, e);
+}
+
+/* One small scene through the service, checked against brute force. */
+static int service_works(const char *addr, const char *secret)
+{
+    locd_engine *e = NULL;
+    locd_pairs *p = NULL;
+    float *b = ts_scene(1, 700, 31);
+    int ok = make_engine(addr, secret, &e) == LOCD_OK && locd_pairs_create(NULL, &p) == LOCD_OK &&
+             locd_engine_find_pairs_f32(e, b, 700, 0, p) == LOCD_OK && ts_same_as_brute_f32(b, 700, p);
+    locd_pairs_destroy(p);
+    locd_engine_destroy(e);
+    free(b);
+    return ok;
+}
+
+static int raw_connect(const char *addr)
+{
+    struct sockaddr_un sa;
+    int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    memset(&sa, 0, sizeof sa);
+    sa.sun_family = AF_UNIX;
+    snprintf(sa.sun_path, sizeof sa.sun_path, "%.100s", addr + 5);
+    if (connect(fd, (struct sockaddr *)&sa, sizeof sa) != 0) {
+        close(fd);
+        return -1;
+    }
+    return fd;
+}
+
+/* 1 when the service closes the connection within timeout_ms. */
+static int closed_by_peer(int fd, int timeout_ms)
+{
+    char buf[256];
+    double until = lu_now_ms() + timeout_ms;
+    while (lu_now_ms() < until) {
+        struct pollfd p;
+        ssize_t r;
+        p.fd = fd;
+        p.events = POLLIN;
+        if (poll(&p, 1, 100) <= 0)
+            continue;
+        r = recv(fd, buf, sizeof buf, 0);
+        if (r <= 0)
+            return 1;
+    }
+    return 0;
+}
+
+static void put_header(uint8_t *h, uint16_t type, uint64_t len)
+{
+    uint32_t magic = 0x5344434cu;
+    uint16_t ver = 1;
+    uint64_t id = 1;
+    memcpy(h, &magic, 4);
+    memcpy(h + 4, &ver, 2);
+    memcpy(h + 6, &type, 2);
+    memcpy(h + 8, &id, 8);
+    memcpy(h + 16, &len, 8);
+}
+
+/* Sends an empty-secret HELLO and reads the WELCOME (closing a socket with
+ * unread data would reset it instead of closing it cleanly). */
+static void hello(int fd)
+{
+    uint8_t h[24 + 4], w[28];
+    size_t got = 0;
+    put_header(h, 1, 4);
+    memset(h + 24, 0, 4);
+    assert_int_equal(send(fd, h, sizeof h, MSG_NOSIGNAL), (ssize_t)sizeof h);
+    while (got < sizeof w) {
+        ssize_t r = recv(fd, w + got, sizeof w - got, 0);
+        assert_true(r > 0);
+        got += (size_t)r;
+    }
+}
+
+static void garbage_drops_only_that_connection(void **state)
+{
+    ts_rng r;
+    uint8_t junk[4096], h[24 + 4];
+    locd_engine *e = NULL;
+    locd_pairs *p;
+    float *b = ts_scene(0, 3000, 4);
+    int fd, i;
+    (void)state;
+    ts_seed(&r, 2024);
+    /* a client that stays connected through all of it */
+    assert_int_equal(make_engine(g_addr, NULL, &e), LOCD_OK);
+    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+
+    for (i = 0; i < (int)sizeof junk; i++)
+        junk[i] = (uint8_t)ts_next(&r);
+    fd = raw_connect(g_addr);
+    assert_true(fd >= 0);
+    assert_int_equal(send(fd, junk, sizeof junk, MSG_NOSIGNAL), (ssize_t)sizeof junk);
+    assert_true(closed_by_peer(fd, 5000));
+    close(fd);
+
+    /* valid HELLO, then an oversized SUBMIT header */
+    fd = raw_connect(g_addr);
+    hello(fd);
+    put_header(h, 3, (uint64_t)1 << 50);
+    assert_int_equal(send(fd, h, 24, MSG_NOSIGNAL), 24);
+    assert_true(closed_by_peer(fd, 5000));
+    close(fd);
+
+    /* a truncated message: the header promises more than ever comes */
+    fd = raw_connect(g_addr);
+    hello(fd);
+    put_header(h, 3, 1000);
+    assert_int_equal(send(fd, h, 24, MSG_NOSIGNAL), 24);
+    assert_int_equal(send(fd, junk, 10, MSG_NOSIGNAL), 10);
+    close(fd);
+
+    /* a SUBMIT whose length does not match its box count */
+    fd = raw_connect(g_addr);
+    hello(fd);
+    {
+        uint8_t m[24 + 36];
+        uint64_t n = 1000;
+        memset(m, 0, sizeof m);
+        put_header(m, 3, 36 + 12);
+        memcpy(m + 24 + 8, &n, 8);
+        assert_int_equal(send(fd, m, sizeof m, MSG_NOSIGNAL), (ssize_t)sizeof m);
+    }
+    assert_true(closed_by_peer(fd, 5000));
+    close(fd);
+
+    /* the well-behaved client and new ones are still served */
+    assert_int_equal(locd_engine_find_pairs_f32(e, b, 3000, 0, p), LOCD_OK);
+    assert_true(ts_same_as_brute_f32(b, 3000, p));
+    assert_true(service_works(g_addr, NULL));
+    lu_sleep_ms(100);
+    assert_true(lu_wait_file_contains(g_log, "bad magic", 5000));
+    assert_true(lu_wait_file_contains(g_log, "exceeds the limit", 5000));
+    assert_true(lu_wait_file_contains(g_log, "truncated message", 5000));
+    assert_true(lu_wait_file_contains(g_log, "does not match", 5000));
+    locd_engine_destroy(e);
+    locd_pairs_destroy(p);
+    free(b);
+}
+
+typedef struct client_ctx {
+    int index;
+    int ok, wrong, failed;
+} client_ctx;
+
+static void *client_main(void *arg)
+{
+    client_ctx *c = arg;
+    locd_engine *e = NULL;
+    locd_pairs *p = NULL;
+    locd_job *jobs[10];
+    float *scenes[10];
+    size_t sizes[10];
+    int batch, i;
+    if (make_engine(g_addr, NULL, &e) != LOCD_OK || locd_pairs_create(NULL, &p) != LOCD_OK) {
+        c->failed = 50;
+        return NULL;
+    }
+    for (batch = 0; batch < 5; batch++) {
+        for (i = 0; i < 10; i++) {
+            uint64_t seed = (uint64_t)c->index * 1000 + (uint64_t)batch * 10 + (uint64_t)i;
+            sizes[i] = 50 + (size_t)(seed * 7919 % 400);
+            scenes[i] = ts_scene((int)(seed % TS_SCENE_KINDS), sizes[i], seed);
+            if (locd_engine_submit_f32(e, scenes[i], sizes[i], 0, &jobs[i]) != LOCD_OK)
+                jobs[i] = NULL;
+        }
+        for (i = 0; i < 10; i++) {
+            if (!jobs[i] || locd_job_wait(jobs[i], 60000) != LOCD_OK || locd_job_take(jobs[i], p) != LOCD_OK)
+                c->failed++;
+            else if (ts_same_as_brute_f32(scenes[i], sizes[i], p))
+                c->ok++;
+            else
+                c->wrong++;
+            locd_job_release(jobs[i]);
+            free(scenes[i]);
+        }
+    }
+    locd_pairs_destroy(p);
+    locd_engine_destroy(e);
+    return NULL;
+}
+
+static void sixteen_clients_fifty_jobs_each(void **state)
+{
+    pthread_t th[16];
+    client_ctx c[16];
+    int i, ok = 0;
+    (void)state;
+    for (i = 0; i < 16; i++) {
+        memset(&c[i], 0, sizeof c[i]);
+        c[i].index = i;
+        assert_int_equal(pthread_create(&th[i], NULL, client_main, &c[i]), 0);
+    }
+    for (i = 0; i < 16; i++) {
+        pthread_join(th[i], NULL);
+        assert_int_equal(c[i].wrong, 0);
+        assert_int_equal(c[i].failed, 0);
+        ok += c[i].ok;
+    }
+    assert_int_equal(ok, 16 * 50);
+}
+
+static void client_leaving_with_jobs_in_flight(void **state)
+{
+    int i, k;
+    float *b = ts_scene(0, 100000, 12);
+    (void)state;
+    for (k = 0; k < 3; k++) {
+        locd_engine *e = NULL;
+        locd_job *j[8];
+        assert_int_equal(make_engine(g_addr, NULL, &e), LOCD_OK);
+        for (i = 0; i < 8; i++)
+            assert_int_equal(locd_engine_submit_f32(e, b, 100000, 0, &j[i]), LOCD_OK);
+        /* destroy first: pending jobs end with LOCD_ERR_CONNECTION */
+        locd_engine_destroy(e);
+        for (i = 0; i < 8; i++) {
+            locd_status s = locd_job_wait(j[i], 10000);
+            assert_true(s == LOCD_OK || s == LOCD_ERR_CONNECTION);
+            locd_job_release(j[i]);
+        }
+    }
+    free(b);
+    assert_true(service_works(g_addr, NULL));
+}
+
+static void service_killed_then_restarted(void **state)
+{
+    char dir[256], listen[300], addr[300], log[300], prefix[64];
+    locd_engine *e = NULL;
+    locd_job *j = NULL;
+    locd_status s;
+    float *b = ts_scene(0, 300000, 6);
+    pid_t svc;
+    (void)state;
+    lu_temp_dir(dir, sizeof dir);
+    snprintf(listen, sizeof listen, "unix:%s/k.sock", dir);
+    snprintf(log, sizeof log, "%s/k.log", dir);
+    svc = lu_start_service(listen, NULL, 1, log, addr, sizeof addr);
+    assert_true(svc > 0);
+    assert_int_equal(make_engine(addr, NULL, &e), LOCD_OK);
+    assert_int_equal(locd_engine_submit_f32(e, b, 300000, 0, &j), LOCD_OK);
+    lu_stop_service(svc, SIGKILL);
+    s = locd_job_wait(j, 10000);
+    assert_true(s == LOCD_ERR_CONNECTION || s == LOCD_OK); /* it may have finished first */
+    locd_job_release(j);
+    /* the service is gone: a clear error, not a hang */
+    s = locd_engine_submit_f32(e, b, 1000, 0, &j);
+    assert_int_equal(s, LOCD_ERR_CONNECTION);
+    assert_null(j);
+    {
+        locd_pairs *p;
+        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        assert_int_equal(locd_engine_find_pairs_f32(e, b, 1000, 0, p), LOCD_ERR_CONNECTION);
+        /* a new service on the same path (its stale socket is replaced) */
+        svc = lu_start_service(listen, NULL, 1, log, addr, sizeof addr);
+        assert_true(svc > 0);
+        assert_int_equal(locd_engine_find_pairs_f32(e, b, 1000, 0, p), LOCD_OK);
+        assert_true(ts_same_as_brute_f32(b, 1000, p));
+        locd_pairs_destroy(p);
+    }
+    locd_engine_destroy(e);
+    lu_stop_service(svc, SIGTERM);
+    snprintf(prefix, sizeof prefix, "locd-c%ld-", (long)getpid());
+    assert_int_equal(lu_count_shm(prefix), 0);
+    assert_int_equal(make_engine(addr, NULL, &e), LOCD_ERR_CONNECTION); /* nobody listens */
+    assert_null(e);
+    lu_cleanup_dir(dir);
+    free(b);
+}
+
+static void tcp_needs_the_secret(void **state)
+{
+    char dir[256], log[300], addr[300];
+    locd_engine *e = NULL;
+    pid_t svc;
+    (void)state;
+    lu_temp_dir(dir, sizeof dir);
+    snprintf(log, sizeof log, "%s/t.log", dir);
+    /* refused without a secret */
+    assert_true(lu_start_service("tcp:127.0.0.1:0", NULL, 1, log, addr, sizeof addr) < 0);
+    assert_true(lu_wait_file_contains(log, "secret", 5000));
+    svc = lu_start_service("tcp:127.0.0.1:0", "s3cret", 2, log, addr, sizeof addr);
+    assert_true(svc > 0);
+    assert_true(strncmp(addr, "tcp:127.0.0.1:", 14) == 0);
+    assert_int_equal(make_engine(addr, NULL, &e), LOCD_ERR_AUTH);
+    assert_int_equal(make_engine(addr, "wrong", &e), LOCD_ERR_AUTH);
+    assert_true(service_works(addr, "s3cret"));
+    {
+        /* large boxes stream over TCP */
+        locd_engine *e1 = NULL;
+        locd_pairs *want, *got;
+        float *b = ts_scene(2, 60000, 17);
+        locd_engine_config cfg;
+        locd_engine_config_init(&cfg);
+        assert_int_equal(locd_engine_create(&cfg, &e1), LOCD_OK);
+        assert_int_equal(make_engine(addr, "s3cret", &e), LOCD_OK);
+        assert_int_equal(locd_pairs_create(NULL, &want), LOCD_OK);
+        assert_int_equal(locd_pairs_create(NULL, &got), LOCD_OK);
+        assert_int_equal(locd_engine_find_pairs_f32(e1, b, 60000, 0, want), LOCD_OK);
+        assert_int_equal(locd_engine_find_pairs_f32(e, b, 60000, 0, got), LOCD_OK);
+        assert_true(lu_same_pairs(want, got));
+        locd_engine_destroy(e1);
+        locd_engine_destroy(e);
+        locd_pairs_destroy(want);
+        locd_pairs_destroy(got);
+        free(b);
+    }
+    lu_stop_service(svc, SIGTERM);
+    lu_cleanup_dir(dir);
+}
+
+static void socket_directory_must_be_private(void **state)
+{
+    char dir[256], listen[300], log[300], addr[300];
+    (void)state;
+    lu_temp_dir(dir, sizeof dir);
+    snprintf(log, sizeof log, "%s/p.log", dir);
+    chmod(dir, 0755);
+    snprintf(listen, sizeof listen, "unix:%s/p.sock", dir);
+    assert_true(lu_start_service(listen, NULL, 1, log, addr, sizeof addr) < 0);
+    assert_true(lu_wait_file_contains(log, "0700", 5000));
+    lu_cleanup_dir(dir);
+}
+
+static void create_destroy_cycles_leak_nothing(void **state)
+{
+    char prefix[64];
+    int fds0 = lu_count_fds(), children0 = lu_count_children(), i;
+    float *b = ts_scene(0, 20000, 8);
+    locd_pairs *p;
+    (void)state;
+    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    for (i = 0; i < 1000; i++) {
+        locd_engine *e = NULL;
+        assert_int_equal(make_engine(g_addr, NULL, &e), LOCD_OK);
+        if (i % 50 == 0) /* 20000 boxes go through shared memory */
+            assert_int_equal(locd_engine_find_pairs_f32(e, b, 20000, 0, p), LOCD_OK);
+        locd_engine_destroy(e);
+    }
+    snprintf(prefix, sizeof prefix, "locd-c%ld-", (long)getpid());
+    assert_int_equal(lu_count_shm(prefix), 0);
+    assert_int_equal(lu_count_fds(), fds0);
+    assert_int_equal(lu_count_children(), children0);
+    free(b);
+    locd_pairs_destroy(p);
+}
+
+static int setup(void **state)
+{
+    char listen[300];
+    (void)state;
+    lu_setup();
+    lu_temp_dir(g_dir, sizeof g_dir);
+    snprintf(g_log, sizeof g_log, "%s/serve.log", g_dir);
+    snprintf(listen, sizeof listen, "unix:%s/s.sock", g_dir);
+    g_service = lu_start_service(listen, NULL, 2, g_log, g_addr, sizeof g_addr);
+    return g_service > 0 ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    if (g_service > 0)
+        lu_stop_service(g_service, SIGTERM);
+    lu_cleanup_dir(g_dir);
+    return 0;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(garbage_drops_only_that_connection, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(sixteen_clients_fifty_jobs_each, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(client_leaving_with_jobs_in_flight, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(service_killed_then_restarted, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(tcp_needs_the_secret, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(socket_directory_must_be_private, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(create_destroy_cycles_leak_nothing, lu_timer_start, lu_timer_print),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
