@@ -23,6 +23,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -55,7 +56,7 @@ typedef struct hc_runner {
 static hc_runner runners[HC_MAX_RUNNERS];
 static int nrunners;
 static pid_t service_pid = -1;
-static char service_path[128];
+static char service_dir[64], service_path[128];
 static const char *level2_note = "not probed";
 static const char *level3_note = "not probed";
 static int verbose;
@@ -145,12 +146,18 @@ static void probe_level3(void)
             level3_note = "level 3 unavailable: no locd executable in the build tree";
             return;
         }
-        snprintf(service_path, sizeof service_path, "/tmp/locd-hard-%ld.sock", (long)getpid());
-        unlink(service_path);
+        /* The service wants a private (0700) socket directory: mkdtemp's. */
+        snprintf(service_dir, sizeof service_dir, "/tmp/locd-hard-XXXXXX");
+        if (!mkdtemp(service_dir)) {
+            level3_note = "level 3 unavailable: mkdtemp failed";
+            return;
+        }
+        snprintf(service_path, sizeof service_path, "%s/s.sock", service_dir);
         snprintf(addr, sizeof addr, "unix:%s", service_path);
         service_pid = fork();
         if (service_pid == 0) {
             int fd = open("/dev/null", O_WRONLY);
+            prctl(PR_SET_PDEATHSIG, SIGKILL); /* a crashed test leaves no service behind */
             if (fd >= 0) {
                 dup2(fd, 1);
                 dup2(fd, 2);
@@ -159,7 +166,7 @@ static void probe_level3(void)
             _exit(127);
         }
     }
-    for (tries = 0; tries < 40 && !e; tries++) {
+    for (tries = 0; tries < 200 && !e; tries++) { /* up to 10 s on a busy machine */
         int status;
         e = make_engine(LOCD_LEVEL_SERVICE, 2, 1, 0, 0, NULL, addr, &st);
         if (e)
@@ -177,6 +184,10 @@ static void probe_level3(void)
             kill(service_pid, SIGTERM);
             waitpid(service_pid, NULL, 0);
             service_pid = -1;
+        }
+        if (service_dir[0]) {
+            unlink(service_path);
+            rmdir(service_dir);
         }
         return;
     }
@@ -234,6 +245,7 @@ static int group_teardown(void **state)
         kill(service_pid, SIGTERM);
         waitpid(service_pid, NULL, 0);
         unlink(service_path);
+        rmdir(service_dir);
     }
     return 0;
 }
