@@ -212,6 +212,18 @@ static void other_shapes_match_their_equivalents(void **state)
         want_b = test_hit(box, pa, probe, pb, LOCD_ROUTE_CLOSED);
         assert_int_equal(test_hit(cap0, pa, probe, pb, LOCD_ROUTE_CCD), want_s);
         assert_int_equal(test_hit(cap0, pa, probe, pb, LOCD_ROUTE_FCL), want_s);
+        if (want_s) {
+            /* Capsule contacts (FCL, the default route) against the sphere's closed form. */
+            double ref[7], got[7];
+            int32_t h;
+            assert_int_equal(locd_shape_collide(sphere, pa, probe, pb, LOCD_ROUTE_CLOSED, 0, &h, ref), LOCD_OK);
+            assert_int_equal(locd_shape_collide(cap0, pa, probe, pb, LOCD_ROUTE_AUTO, 0, &h, got), LOCD_OK);
+            assert_int_equal(h, 1);
+            if (fabs(got[0] - ref[0]) > DEPTH_TOL * ref[0] + TOUCH_TOL)
+                fail_msg("capsule depth %.9g, sphere %.9g", got[0], ref[0]);
+            if (ref[0] > 1e-3 && got[1] * ref[1] + got[2] * ref[2] + got[3] * ref[3] < 0.999)
+                fail_msg("capsule normal differs from the sphere's");
+        }
         assert_int_equal(test_hit(hull, pa, probe, pb, LOCD_ROUTE_CCD), want_b);
         /* A mesh is a surface: compare only probes whose centre is outside the box. */
         for (k = 0; k < 3; k++)

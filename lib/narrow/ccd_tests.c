@@ -113,7 +113,9 @@ static void center(const void *obj, ccd_vec3_t *c)
     ccdVec3Set(c, w[0] + 0.5 * o->sweep[0], w[1] + 0.5 * o->sweep[1], w[2] + 0.5 * o->sweep[2]);
 }
 
-/* Tolerances scale with the shapes: 1e-9 of their size. */
+/* Tolerances scale with the shapes: 1e-9 of their size. (libccd's EPA
+ * has no iteration limit and converges slowly on curved surfaces: the
+ * default routes send spheres and capsules to closed forms or FCL.) */
 static void ccd_setup(ccd_t *ccd, const lc_placed *a, const lc_placed *b)
 {
     double scale = fmax(a->s->bound_radius, b->s->bound_radius);
@@ -162,7 +164,7 @@ static int ccd_pair(const ccd_obj *oa, const ccd_obj *ob, const ccd_t *ccd, int 
      * direction when EPA's turns out longer than EPA claimed. */
     {
         double v = overlap_along(oa, ob, &dir);
-        if (method != LOCD_CONTACT_MPR && v > depth + ccd->epa_tolerance * 10.0) {
+        if (method != LOCD_CONTACT_MPR && v > depth + ccd->epa_tolerance * 10.0 + ccd->dist_tolerance) {
             ccd_real_t d2;
             ccd_vec3_t dir2, pos2;
             if (ccdMPRPenetration(oa, ob, ccd, &d2, &dir2, &pos2) == 0) {

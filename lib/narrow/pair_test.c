@@ -7,7 +7,6 @@
 
 int32_t lc_route_resolve(int32_t route, int32_t ka, int32_t kb)
 {
-    int mesh = ka == LOCD_SHAPE_MESH || kb == LOCD_SHAPE_MESH;
     int hull = ka == LOCD_SHAPE_CONVEX || kb == LOCD_SHAPE_CONVEX;
     int two_meshes = ka == LOCD_SHAPE_MESH && kb == LOCD_SHAPE_MESH;
     switch (route) {
@@ -26,7 +25,9 @@ int32_t lc_route_resolve(int32_t route, int32_t ka, int32_t kb)
     }
     if (lc_closed_supported(ka, kb))
         return LOCD_ROUTE_CLOSED;
-    if (mesh && !hull)
+    /* Meshes and capsules without a hull: FCL has dedicated tests for them
+     * (and libccd's EPA is slow on curved surfaces). Hulls: libccd. */
+    if (!hull)
         return LOCD_ROUTE_FCL;
     return LOCD_ROUTE_CCD;
 }
