@@ -56,7 +56,8 @@ typedef struct lc_workers {
     int data_linked;
     int running;
     char exe[PATH_MAX];
-    lc_buf merged; /* uint64 entries */
+    lc_buf merged;    /* uint64 entries */
+    locd_pairs pairs; /* the sweep's output before it is handed over */
     double per_object;
 } lc_workers;
 
@@ -373,6 +374,7 @@ static locd_status workers_open(locd_engine *e)
     memset(w, 0, sizeof *w);
     w->k = e->threads;
     w->per_object = 3.0;
+    lc_pairs_init_embedded(&w->pairs, &e->alloc);
     if ((st = find_worker(e, w->exe, sizeof w->exe)) != LOCD_OK || (st = start_workers(w)) != LOCD_OK) {
         lc_free(&e->alloc, w, sizeof *w);
         return st;
@@ -393,6 +395,7 @@ static void workers_close(locd_engine *e)
         nanosleep(&pause, NULL);
     stop_workers(w, 1);
     lc_buf_release(&e->alloc, &w->merged, sizeof(uint64_t));
+    lc_pairs_fini_embedded(&w->pairs);
     lc_free(&e->alloc, w, sizeof *w);
     e->backend = NULL;
 }
@@ -518,6 +521,34 @@ static locd_status run_round(lc_workers *w, const void *boxes, size_t n, int f64
     return LOCD_OK;
 }
 
+static int same_allocator(const locd_allocator *a, const locd_allocator *b)
+{
+    return a->alloc == b->alloc && a->free == b->free && a->user == b->user;
+}
+
+/* Moves the pairs of `from` into *out: a swap of buffers when both use the
+ * same allocator, else a copy (out unchanged if it cannot grow). */
+static locd_status give_pairs(locd_pairs *from, locd_pairs *out)
+{
+    locd_status st;
+    if (same_allocator(&from->alloc, &out->alloc)) {
+        locd_pairs t = *out;
+        out->data = from->data;
+        out->cap = from->cap;
+        out->count = from->count;
+        from->data = t.data;
+        from->cap = t.cap;
+        from->count = 0;
+        return LOCD_OK;
+    }
+    if ((st = lc_pairs_reserve(out, from->count)) != LOCD_OK)
+        return st;
+    if (from->count)
+        memcpy(out->data, from->data, from->count * 2 * sizeof(uint32_t));
+    out->count = from->count;
+    return LOCD_OK;
+}
+
 static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
                                 locd_pairs *out, locd_stats *stats)
 {
@@ -576,18 +607,20 @@ static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int
     t1 = lc_now_ms();
     stats->ms_merge = t1 - t0;
 
+    /* Into the engine's own buffer first: a failure (even in the ordering)
+       must leave *out as it was. */
     locd_stats_init(&sw);
-    st = f64 ? locd_sweep_f64(&grid, boxes, n, sorted, r.total, out, &sw)
-             : locd_sweep_f32(&grid, boxes, n, sorted, r.total, out, &sw);
+    st = f64 ? locd_sweep_f64(&grid, boxes, n, sorted, r.total, &w->pairs, &sw)
+             : locd_sweep_f32(&grid, boxes, n, sorted, r.total, &w->pairs, &sw);
     if (st)
         return st;
     stats->pairs = sw.pairs;
     stats->candidates = sw.candidates;
     stats->exact_tests = sw.exact_tests;
     stats->ms_sweep = lc_now_ms() - t1;
-    if (flags & LOCD_FIND_SORTED)
-        return lc_order_pairs(out, stats);
-    return LOCD_OK;
+    if ((flags & LOCD_FIND_SORTED) && (st = lc_order_pairs(&w->pairs, stats)) != LOCD_OK)
+        return st;
+    return give_pairs(&w->pairs, out);
 }
 
 const lc_backend lc_workers_backend = {"worker processes", workers_open, workers_close, workers_find, NULL};
