@@ -12,6 +12,8 @@ set -uo pipefail
 cd "$ROOT"
 JOBS=${JOBS:-2}
 export LOCD_TEST_HEAVY=0
+# test_hard_cases' randomized search: its full 3 s budget runs in 10-c.
+export LOCD_HARD_BUDGET_MS=${LOCD_HARD_BUDGET_MS:-500}
 # halt_on_error: the first report fails the test. detect_leaks: LeakSanitizer
 # is ASan's default on Linux; said here so nobody turns it off by accident.
 export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:detect_stack_use_after_return=1:check_initialization_order=1:strict_init_order=1"
