@@ -81,12 +81,21 @@ static locd_job *take_pending(lc_svc_conn *c, uint64_t id)
     return j;
 }
 
-static void job_done(locd_job *j, locd_status st, const char *msg, int64_t index)
+/* Removes the job's input segment name, if any (it may still be there
+ * when the service never opened it). */
+static void drop_segment(locd_job *j)
 {
+    pthread_mutex_lock(&j->mu);
     if (j->shm_name[0]) {
         shm_unlink(j->shm_name);
         j->shm_name[0] = '\0';
     }
+    pthread_mutex_unlock(&j->mu);
+}
+
+static void job_done(locd_job *j, locd_status st, const char *msg, int64_t index)
+{
+    drop_segment(j);
     lc_job_finish(j, st, msg, index);
     lc_job_unref(j);
 }
@@ -531,14 +540,12 @@ void lc_service_job_cancel(locd_job *j)
 void lc_service_job_released(locd_job *j)
 {
     lc_svc_conn *c = j->conn;
-    int pending;
     pthread_mutex_lock(&j->mu);
-    pending = j->status == LOCD_PENDING;
-    pthread_mutex_unlock(&j->mu);
-    if (j->shm_name[0] && !pending) {
+    if (j->shm_name[0] && j->status != LOCD_PENDING) {
         shm_unlink(j->shm_name);
         j->shm_name[0] = '\0';
     }
+    pthread_mutex_unlock(&j->mu);
     j->conn = NULL;
     if (c)
         conn_unref(c);

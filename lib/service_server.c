@@ -225,7 +225,7 @@ static void run_job(runner *r, srv_job *j)
 {
     locd_stats st;
     locd_status rc;
-    if (j->cancelled) {
+    if (__atomic_load_n(&j->cancelled, __ATOMIC_ACQUIRE)) {
         send_result(j->c, j->id, LOCD_ERR_CANCELLED, "cancelled", -1, NULL, NULL, 0);
         return;
     }
@@ -237,7 +237,7 @@ static void run_job(runner *r, srv_job *j)
         send_result(j->c, j->id, rc, locd_last_error(), locd_last_error_index(), NULL, NULL, 0);
         return;
     }
-    if (j->cancelled) { /* cancelled while running: the result is dropped */
+    if (__atomic_load_n(&j->cancelled, __ATOMIC_ACQUIRE)) { /* cancelled while running: dropped */
         send_result(j->c, j->id, LOCD_ERR_CANCELLED, "cancelled", -1, NULL, NULL, 0);
         return;
     }
@@ -443,7 +443,7 @@ static void cancel_job(srv_conn *c, uint64_t id)
     pthread_mutex_lock(&c->s->mu);
     for (j = c->jobs; j; j = j->cnext)
         if (j->id == id)
-            j->cancelled = 1;
+            __atomic_store_n(&j->cancelled, 1, __ATOMIC_RELEASE);
     pthread_mutex_unlock(&c->s->mu);
 }
 
@@ -537,7 +537,7 @@ static void *conn_main(void *arg)
     pthread_mutex_unlock(&c->wmu);
     pthread_mutex_lock(&s->mu);
     for (j = c->jobs; j; j = j->cnext)
-        j->cancelled = 1;
+        __atomic_store_n(&j->cancelled, 1, __ATOMIC_RELEASE);
     for (pp = &s->conns; *pp; pp = &(*pp)->next)
         if (*pp == c) {
             *pp = c->next;

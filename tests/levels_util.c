@@ -324,3 +324,9 @@ int lu_timer_print(void **state)
     fflush(stdout);
     return 0;
 }
+
+int lu_heavy(void)
+{
+    const char *v = getenv("LOCD_TEST_HEAVY");
+    return !(v && v[0] == '0');
+}

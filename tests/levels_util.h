@@ -44,6 +44,9 @@ int lu_timer_print(void **state);
 /* Exactly equal pair lists (same pairs, same order). */
 int lu_same_pairs(const locd_pairs *a, const locd_pairs *b);
 
+/* 0 when LOCD_TEST_HEAVY=0 (sanitizer builds): shrink loops and scenes. */
+int lu_heavy(void);
+
 double lu_now_ms(void);
 void lu_sleep_ms(int ms);
 

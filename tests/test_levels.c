@@ -50,6 +50,7 @@ static double *to_f64(const float *b, size_t n)
 static void levels_give_identical_pairs(void **state)
 {
     static const size_t sizes[] = {0, 1, 2, 17, 900, 5000, 30000};
+    size_t nsizes = lu_heavy() ? sizeof sizes / sizeof sizes[0] : 6;
     locd_engine *e1 = make_engine(LOCD_LEVEL_INPROCESS, 2, NULL);
     locd_engine *e2 = make_engine(LOCD_LEVEL_WORKERS, 2, NULL);
     locd_engine *e2b = make_engine(LOCD_LEVEL_WORKERS, 3, NULL);
@@ -65,7 +66,7 @@ static void levels_give_identical_pairs(void **state)
     assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
     assert_int_equal(locd_pairs_create(NULL, &got), LOCD_OK);
     for (kind = 0; kind < TS_SCENE_KINDS; kind++)
-        for (si = 0; si < sizeof sizes / sizeof sizes[0]; si++) {
+        for (si = 0; si < nsizes; si++) {
             size_t n = sizes[si];
             float *b;
             double *d;
@@ -134,7 +135,7 @@ static void jobs_at_every_level(void **state)
         locd_job *j = NULL, *j2 = NULL;
         locd_stats st;
         locd_status s;
-        size_t n = 40000;
+        size_t n = lu_heavy() ? 40000 : 8000;
         float *b = ts_scene(0, n, 1234 + (uint64_t)level);
         assert_int_equal(locd_pairs_create(NULL, &want), LOCD_OK);
         assert_int_equal(locd_pairs_create(NULL, &got), LOCD_OK);
@@ -226,8 +227,8 @@ typedef struct kill_ctx {
     const float *b;
     size_t n;
     const locd_pairs *want;
-    int calls, ok, worker_errors, wrong, other, ok_after;
-    volatile int stop, kills_done;
+    int calls, ok, worker_errors, wrong, other, ok_after; /* read across threads with __atomic */
+    int stop, kills_done;
 } kill_ctx;
 
 static void *call_loop(void *arg)
@@ -235,18 +236,19 @@ static void *call_loop(void *arg)
     kill_ctx *k = arg;
     locd_pairs *p;
     locd_pairs_create(NULL, &p);
-    while (!k->stop) {
+    while (!__atomic_load_n(&k->stop, __ATOMIC_ACQUIRE)) {
         locd_status s = locd_engine_find_pairs_f32(k->e, k->b, k->n, 0, p);
-        k->calls++;
+        __atomic_add_fetch(&k->calls, 1, __ATOMIC_RELEASE);
         if (s == LOCD_OK) {
             k->ok++;
-            k->ok_after += k->kills_done;
+            if (__atomic_load_n(&k->kills_done, __ATOMIC_ACQUIRE))
+                __atomic_add_fetch(&k->ok_after, 1, __ATOMIC_RELEASE);
             k->wrong += !lu_same_pairs(k->want, p);
-        }
-        else if (s == LOCD_ERR_WORKER)
+        } else if (s == LOCD_ERR_WORKER) {
             k->worker_errors++;
-        else
+        } else {
             k->other++;
+        }
     }
     locd_pairs_destroy(p);
     return NULL;
@@ -256,7 +258,7 @@ static void worker_killed_mid_call(void **state)
 {
     locd_engine *e = make_engine(LOCD_LEVEL_WORKERS, 2, NULL);
     locd_engine *ref = make_engine(LOCD_LEVEL_INPROCESS, 1, NULL);
-    size_t n = 100000;
+    size_t n = lu_heavy() ? 100000 : 20000;
     float *b = ts_scene(0, n, 99);
     locd_pairs *want, *p;
     kill_ctx k;
@@ -275,7 +277,7 @@ static void worker_killed_mid_call(void **state)
     k.want = want;
     assert_int_equal(pthread_create(&th, NULL, call_loop, &k), 0);
     t0 = lu_now_ms();
-    while (k.calls < 1 && lu_now_ms() - t0 < 20000)
+    while (__atomic_load_n(&k.calls, __ATOMIC_ACQUIRE) < 1 && lu_now_ms() - t0 < 60000)
         lu_sleep_ms(5);
     for (round = 0; round < 5; round++) {
         lu_sleep_ms(20 + 25 * round);
@@ -283,11 +285,11 @@ static void worker_killed_mid_call(void **state)
         if (got > 0 && kill(pids[round % got], SIGKILL) == 0)
             killed++;
     }
-    k.kills_done = 1;
+    __atomic_store_n(&k.kills_done, 1, __ATOMIC_RELEASE);
     t0 = lu_now_ms();
-    while (k.ok_after < 2 && lu_now_ms() - t0 < 30000) /* never a hang */
+    while (__atomic_load_n(&k.ok_after, __ATOMIC_ACQUIRE) < 2 && lu_now_ms() - t0 < 60000) /* never a hang */
         lu_sleep_ms(5);
-    k.stop = 1;
+    __atomic_store_n(&k.stop, 1, __ATOMIC_RELEASE);
     pthread_join(th, NULL);
     assert_true(k.ok_after >= 2);
     assert_true(killed > 0);
@@ -363,7 +365,8 @@ static void create_destroy_cycles_leak_nothing(void **state)
     (void)state;
     assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
     snprintf(prefix, sizeof prefix, "locd-%ld-", (long)getpid());
-    for (i = 0; i < 1000; i++) {
+    int cycles = lu_heavy() ? 1000 : 100;
+    for (i = 0; i < cycles; i++) {
         /* one worker each: process start-up dominates on a loaded CI machine */
         locd_engine *e = make_engine(LOCD_LEVEL_WORKERS, 1, NULL);
         if (i % 50 == 0)

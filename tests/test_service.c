@@ -242,14 +242,15 @@ static void sixteen_clients_fifty_jobs_each(void **state)
 static void client_leaving_with_jobs_in_flight(void **state)
 {
     int i, k;
-    float *b = ts_scene(0, 100000, 12);
+    size_t nb = lu_heavy() ? 100000 : 20000;
+    float *b = ts_scene(0, nb, 12);
     (void)state;
     for (k = 0; k < 3; k++) {
         locd_engine *e = NULL;
         locd_job *j[8];
         assert_int_equal(make_engine(g_addr, NULL, &e), LOCD_OK);
         for (i = 0; i < 8; i++)
-            assert_int_equal(locd_engine_submit_f32(e, b, 100000, 0, &j[i]), LOCD_OK);
+            assert_int_equal(locd_engine_submit_f32(e, b, nb, 0, &j[i]), LOCD_OK);
         /* destroy first: pending jobs end with LOCD_ERR_CONNECTION */
         locd_engine_destroy(e);
         for (i = 0; i < 8; i++) {
@@ -268,7 +269,8 @@ static void service_killed_then_restarted(void **state)
     locd_engine *e = NULL;
     locd_job *j = NULL;
     locd_status s;
-    float *b = ts_scene(0, 300000, 6);
+    size_t nb = lu_heavy() ? 300000 : 50000;
+    float *b = ts_scene(0, nb, 6);
     pid_t svc;
     (void)state;
     lu_temp_dir(dir, sizeof dir);
@@ -277,7 +279,7 @@ static void service_killed_then_restarted(void **state)
     svc = lu_start_service(listen, NULL, 1, log, addr, sizeof addr);
     assert_true(svc > 0);
     assert_int_equal(make_engine(addr, NULL, &e), LOCD_OK);
-    assert_int_equal(locd_engine_submit_f32(e, b, 300000, 0, &j), LOCD_OK);
+    assert_int_equal(locd_engine_submit_f32(e, b, nb, 0, &j), LOCD_OK);
     lu_stop_service(svc, SIGKILL);
     s = locd_job_wait(j, 10000);
     assert_true(s == LOCD_ERR_CONNECTION || s == LOCD_OK); /* it may have finished first */
@@ -364,12 +366,12 @@ static void socket_directory_must_be_private(void **state)
 static void create_destroy_cycles_leak_nothing(void **state)
 {
     char prefix[64];
-    int fds0 = lu_count_fds(), children0 = lu_count_children(), i;
+    int fds0 = lu_count_fds(), children0 = lu_count_children(), i, cycles = lu_heavy() ? 1000 : 100;
     float *b = ts_scene(0, 20000, 8);
     locd_pairs *p;
     (void)state;
     assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
-    for (i = 0; i < 1000; i++) {
+    for (i = 0; i < cycles; i++) {
         locd_engine *e = NULL;
         assert_int_equal(make_engine(g_addr, NULL, &e), LOCD_OK);
         if (i % 50 == 0) /* 20000 boxes go through shared memory */
