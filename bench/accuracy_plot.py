@@ -90,7 +90,7 @@ def main():
             ax[2].text(x, bottom, vname, rotation=90, ha="center", va="bottom", fontsize=7)
     ax[2].set_xticks(range(len(scenes)))
     ax[2].set_xticklabels(scenes)
-    ax[2].set_ylabel("wall ms of the fastest call, by stage")
+    ax[2].set_ylabel("wall ms by stage (least over the calls)")
     ax[2].set_title("Where the time goes (%d objects)" % n)
     ax[2].legend(fontsize=8)
     ymax = ax[2].get_ylim()[1]
