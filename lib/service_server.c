@@ -172,7 +172,8 @@ static void send_result(srv_conn *c, uint64_t id, locd_status st, const char *ms
     lc_put_u64(buf + off + 4, (uint64_t)index);
     lc_put_u32(buf + off + 12, (uint32_t)mlen);
     off += 16;
-    memcpy(buf + off, msg, mlen);
+    if (mlen)
+        memcpy(buf + off, msg, mlen);
     off += mlen;
     lc_proto_put_stats(buf + off, stats);
     off += LC_PROTO_STATS_BYTES;

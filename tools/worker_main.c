@@ -139,7 +139,7 @@ int main(int argc, char **argv)
                 shm_unlink(w.ctl->ctl_name);
                 if (w.ctl->data_name[0])
                     shm_unlink(w.ctl->data_name);
-                return 0;
+                break;
             }
             continue;
         }
