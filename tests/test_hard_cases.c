@@ -469,7 +469,17 @@ static void check_both(const float *b, size_t n, const char *what)
 {
     double *d = widen(b, n);
     size_t m32 = check_f32(b, n, what), m64 = check_f64(d, n, what);
+    locd_pairs *p32, *p64;
     assert_int_equal(m32, m64);
+    /* docs/encoding.md: the same values give the same order in either precision. */
+    assert_int_equal(locd_pairs_create(NULL, &p32), LOCD_OK);
+    assert_int_equal(locd_pairs_create(NULL, &p64), LOCD_OK);
+    assert_int_equal(locd_engine_find_pairs_f32(runners[1].e, b, n, 0, p32), LOCD_OK);
+    assert_int_equal(locd_engine_find_pairs_f64(runners[1].e, d, n, 0, p64), LOCD_OK);
+    if (m32 && memcmp(locd_pairs_data(p32), locd_pairs_data(p64), m32 * 2 * sizeof(uint32_t)))
+        fail_msg("%s: float32 and float64 input of the same values give different pair orders", what);
+    locd_pairs_destroy(p32);
+    locd_pairs_destroy(p64);
     free(d);
 }
 
