@@ -103,6 +103,48 @@ static void levels_give_identical_pairs(void **state)
     locd_pairs_destroy(got);
 }
 
+/* The engine's octree settings travel to the workers' grid and to the
+ * service's engines: the order stays level 1's for every setting. */
+static void octree_settings_reach_every_level(void **state)
+{
+    static const struct {
+        uint32_t depth;
+        int32_t bias;
+        uint32_t flags;
+    } v[] = {{0, 1, LOCD_CONFIG_CUBES}, {8, 3, 0}, {3, 0, 0}, {21, 8, LOCD_CONFIG_CUBES}};
+    size_t i, n = 8000;
+    float *b = ts_scene(2, n, 555);
+    locd_pairs *ref, *got;
+    (void)state;
+    assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
+    assert_int_equal(locd_pairs_create(NULL, &got), LOCD_OK);
+    for (i = 0; i < sizeof v / sizeof v[0]; i++) {
+        int level;
+        for (level = 1; level <= 3; level++) {
+            locd_engine_config cfg;
+            locd_engine *e = NULL;
+            locd_engine_config_init(&cfg);
+            cfg.level = level;
+            cfg.threads = 2;
+            cfg.max_depth = v[i].depth;
+            cfg.cell_bias = v[i].bias;
+            cfg.flags = v[i].flags;
+            cfg.service_address = g_addr;
+            assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
+            assert_int_equal(locd_engine_find_pairs_f32(e, b, n, 0, level == 1 ? ref : got), LOCD_OK);
+            if (level > 1 && !lu_same_pairs(ref, got))
+                fail_msg("level %d differs from level 1 with depth %u bias %d flags %u", level, v[i].depth,
+                         (int)v[i].bias, v[i].flags);
+            if (level == 1 && !ts_same_as_brute_f32(b, n, ref))
+                fail_msg("level 1 differs from brute force with depth %u", v[i].depth);
+            locd_engine_destroy(e);
+        }
+    }
+    free(b);
+    locd_pairs_destroy(ref);
+    locd_pairs_destroy(got);
+}
+
 static void invalid_boxes_same_error_at_every_level(void **state)
 {
     int level;
@@ -422,6 +464,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(levels_give_identical_pairs, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(octree_settings_reach_every_level, lu_timer_start, lu_timer_print),
         cmocka_unit_test_setup_teardown(invalid_boxes_same_error_at_every_level, lu_timer_start, lu_timer_print),
         cmocka_unit_test_setup_teardown(jobs_at_every_level, lu_timer_start, lu_timer_print),
         cmocka_unit_test_setup_teardown(worker_killed_mid_call, lu_timer_start, lu_timer_print),
