@@ -223,6 +223,7 @@ static int group_setup(void **state)
     add_runner(make_engine(1, 8, 8, 3, 0, NULL, NULL, NULL), 2, 1, "level 1, 8 threads, bias 8, depth 3");
     add_runner(make_engine(1, 2, 3, 21, LOCD_CONFIG_CUBES, NULL, NULL, NULL), 3, 1,
                "level 1, 2 threads, cubes, bias 3, depth 21");
+    add_runner(make_engine(1, 3, 0, 1, 0, NULL, NULL, NULL), 4, 1, "level 1, 3 threads, bias 0, depth 1");
     probe_level2();
     probe_level3();
     print_message("# %s\n# %s\n", level2_note, level3_note);
@@ -1573,6 +1574,10 @@ static void randomized_search(void **state)
         /* Every tenth scene is big enough for the parallel path (not in the
            light run: its pair count may be quadratic). */
         n = it % 10 == 9 && heavy() ? HC_PAR + (size_t)rnd(&r, 1000) : 2 + (size_t)rnd(&r, 400);
+        if (it % 10 == 4) { /* around a power of two: the index bits and the automatic depth change there */
+            static const size_t edges[] = {2, 3, 4, 5, 255, 256, 257, 4096, 4097, 8192, 8193};
+            n = edges[rnd(&r, heavy() ? 11 : 7)];
+        }
         nv = random_table(&r, v, f64);
         add_table_boxes(&s, &r, n, v, nv, (size_t)rnd(&r, 5));
         /* Extra ingredients: duplicates, a container, a second table. */
