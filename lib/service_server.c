@@ -25,6 +25,7 @@
 #include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/time.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -792,6 +793,14 @@ static void accept_one(locd_service *s)
     pthread_mutex_init(&c->wmu, NULL);
     if (ss.ss_family != AF_UNIX)
         setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    {
+        /* A client that stops reading must not hold a runner forever: a
+           result that cannot be written in time drops the connection. */
+        struct timeval tv;
+        tv.tv_sec = LC_MSG_TIMEOUT_MS / 1000;
+        tv.tv_usec = 0;
+        setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    }
     peer_name(c, &ss, sl, ss.ss_family == AF_UNIX);
     pthread_mutex_lock(&s->mu);
     c->next = s->conns;
