@@ -3,6 +3,7 @@
 #include "engine_internal.h"
 
 #include <stdio.h>
+#include <time.h>
 
 void locd_engine_config_init(locd_engine_config *config)
 {
@@ -169,6 +170,13 @@ void locd_engine_destroy(locd_engine *engine)
 {
     if (!engine || engine->magic != LC_MAGIC_ENGINE)
         return;
+    /* A job released while still running (levels 1 and 2) keeps the engine
+       busy until its find returns: wait for it rather than free the engine
+       under its thread. */
+    while (__atomic_load_n(&engine->busy, __ATOMIC_ACQUIRE)) {
+        struct timespec pause = {0, 200000};
+        nanosleep(&pause, NULL);
+    }
     engine->ops->close(engine);
     engine_free(engine);
 }

@@ -126,6 +126,24 @@ static void touching_boxes_count_and_ulp_gaps_do_not(void **state)
     locd_engine_destroy(e);
 }
 
+/* A job released while it runs, then its engine destroyed: destroy must
+ * wait for the job's thread (the sanitizer build catches a use after free). */
+static void destroy_waits_for_a_released_running_job(void **state)
+{
+    size_t n = 200000;
+    float *b = ts_scene(0, n, 4);
+    int round;
+    (void)state;
+    for (round = 0; round < 3; round++) {
+        locd_engine *e = engine_with(2);
+        locd_job *job = NULL;
+        assert_int_equal(locd_engine_submit_f32(e, b, n, 0, &job), LOCD_OK);
+        locd_job_release(job);
+        locd_engine_destroy(e);
+    }
+    free(b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -133,6 +151,7 @@ int main(void)
         cmocka_unit_test(order_is_the_same_for_every_thread_count),
         cmocka_unit_test(f32_and_f64_agree),
         cmocka_unit_test(touching_boxes_count_and_ulp_gaps_do_not),
+        cmocka_unit_test(destroy_waits_for_a_released_running_job),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
