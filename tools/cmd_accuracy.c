@@ -404,9 +404,9 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
                "checks the sets against the brute force on the hard inputs (touching faces, cell boundaries, 1e30 "
                "offsets, +-FLT_MAX, subnormals, -0, degenerate and quadratic scenes).\n"
                "- **Determinism.** For given boxes and knobs (`max_depth`, `cell_bias`, `flags`), the pairs come out in "
-               "bitwise the same order on every run, at every thread count and at every integration level (in-process, "
-               "worker processes, service); the hard-case tests compare the raw output bytes across 1, 2, 3 and 8 "
-               "threads and across levels. The order is the sweep's (each pair once, i < j); `LOCD_FIND_SORTED` gives "
+               "bitwise the same order on every run, at every thread count, at every integration level (in-process, "
+               "worker processes, service), and for float32 or float64 input of the same values; the hard-case tests "
+               "compare the raw output bytes across 1, 2, 3 and 8 threads, across levels and across precisions. The order is the sweep's (each pair once, i < j); `LOCD_FIND_SORTED` gives "
                "(i, j) order. Different knobs give the same set in a different order.\n\n");
     fprintf(f, "## Columns\n\n"
                "- **entries / object**: (cell, object) entries after encoding, per object (cells per object).\n"
