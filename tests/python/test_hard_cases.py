@@ -14,6 +14,7 @@ twelve orders of magnitude, duplicates, containers); failures it finds
 become fixed cases here and in the C file.
 """
 import os
+import shutil
 import tempfile
 
 import numpy as np
@@ -79,6 +80,7 @@ def engines():
         e.close()
     for s in closers:
         s.__exit__(None, None, None)
+    shutil.rmtree(tmp, ignore_errors=True)
 
 
 def check(engines, boxes, what=""):
