@@ -65,7 +65,7 @@ typedef struct hc_runner {
 static hc_runner runners[HC_MAX_RUNNERS];
 static int nrunners;
 static pid_t service_pid = -1;
-static char service_dir[64], service_path[128];
+static char service_dir[64], service_path[128], service_log[128];
 static const char *level2_note = "not probed";
 static const char *level3_note = "not probed";
 static int verbose;
@@ -163,9 +163,10 @@ static void probe_level3(void)
         }
         snprintf(service_path, sizeof service_path, "%s/s.sock", service_dir);
         snprintf(addr, sizeof addr, "unix:%s", service_path);
+        snprintf(service_log, sizeof service_log, "%s/serve.log", service_dir);
         service_pid = fork();
         if (service_pid == 0) {
-            int fd = open("/dev/null", O_WRONLY);
+            int fd = open(service_log, O_WRONLY | O_CREAT | O_TRUNC, 0600);
             prctl(PR_SET_PDEATHSIG, SIGKILL); /* a crashed test leaves no service behind */
             if (fd >= 0) {
                 dup2(fd, 1);
@@ -196,6 +197,7 @@ static void probe_level3(void)
         }
         if (service_dir[0]) {
             unlink(service_path);
+            unlink(service_log);
             rmdir(service_dir);
         }
         return;
@@ -230,6 +232,25 @@ static int group_setup(void **state)
     return 0;
 }
 
+/* The started service's own output, when a level-3 call fails. */
+static void print_service_log(void)
+{
+    char line[512];
+    FILE *f = service_log[0] ? fopen(service_log, "r") : NULL;
+    int status;
+    if (service_pid > 0 && waitpid(service_pid, &status, WNOHANG) == service_pid) {
+        print_error("locd serve exited: %s %d\n", WIFSIGNALED(status) ? "signal" : "status",
+                    WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status));
+        service_pid = -1;
+    }
+    if (!f)
+        return;
+    print_error("---- %s ----\n", service_log);
+    while (fgets(line, sizeof line, f))
+        print_error("%s", line);
+    fclose(f);
+}
+
 /* Engines keep their buffers' capacity between calls (that is the point
  * of reusing one); after a test with millions of pairs, start them afresh
  * so that a dozen engines do not each hold hundreds of megabytes. */
@@ -254,7 +275,10 @@ static int group_teardown(void **state)
     if (service_pid > 0) {
         kill(service_pid, SIGTERM);
         waitpid(service_pid, NULL, 0);
+    }
+    if (service_dir[0]) {
         unlink(service_path);
+        unlink(service_log);
         rmdir(service_dir);
     }
     return 0;
@@ -398,6 +422,8 @@ static size_t check_scene(const void *boxes, size_t n, int f64, const char *what
         if (!runner_wanted((int)r, n))
             continue;
         st = find(R->e, boxes, n, 0, p);
+        if (st != LOCD_OK && R->level == 3)
+            print_service_log();
         if (st != LOCD_OK)
             fail_msg("%s (%s, n %zu, %s): status %d %s: %s", what, f64 ? "f64" : "f32", n, R->name, st,
                      locd_status_string(st), locd_last_error());
