@@ -1,17 +1,19 @@
 /* Asynchronous jobs at every level.
  *
- * Levels 1 and 2 use the generic job: submit copies the boxes, takes the
- * engine (so a concurrent find or a second submit on the same engine gets
- * LOCD_ERR_BUSY until the job's thread is done) and runs the level's own
- * `find` on a detached thread. Level 3 hands the job to the service
- * (service_client.c); many jobs may then be in flight on one engine.
+ * Levels 1 and 2 use the generic job: submit copies the boxes and queues
+ * the job on the engine; one thread per engine runs the queued jobs one
+ * after another with the level's own `find`, holding the engine meanwhile
+ * (a synchronous find on that engine gets LOCD_ERR_BUSY until the queue is
+ * empty, and a submit while a find runs on another thread gets
+ * LOCD_ERR_BUSY). Level 3 hands the job to the service (service_client.c),
+ * which runs many jobs of one engine at once.
  *
  * A job holds two references: the caller's handle (dropped by
  * locd_job_release) and the runner's (the thread, or the service
  * connection). Cancel finishes a pending job at once with
- * LOCD_ERR_CANCELLED; a generic job's thread cannot be interrupted inside
- * the engine, so the engine stays busy until that call returns and its
- * result is discarded. */
+ * LOCD_ERR_CANCELLED; a queued generic job is then skipped, a running one
+ * cannot be interrupted inside the engine: the engine stays busy until that
+ * call returns, and its result is discarded. */
 #include "job_internal.h"
 
 #include <errno.h>
@@ -76,6 +78,23 @@ static void job_free(locd_job *j)
     lc_free(&a, j, sizeof *j);
 }
 
+void lc_job_finish_unref(locd_job *j, locd_status status, const char *message, int64_t index)
+{
+    int left;
+    pthread_mutex_lock(&j->mu);
+    if (j->status == LOCD_PENDING) {
+        j->status = status;
+        j->error_index = index;
+        if (status < 0)
+            snprintf(j->message, sizeof j->message, "%s", message ? message : "");
+    }
+    left = --j->refs;
+    pthread_cond_broadcast(&j->cv);
+    pthread_mutex_unlock(&j->mu);
+    if (left == 0)
+        job_free(j);
+}
+
 void lc_job_unref(locd_job *j)
 {
     int left;
@@ -107,10 +126,43 @@ static locd_status job_check(const locd_job *j)
     return LOCD_OK;
 }
 
-static void *generic_run(void *arg)
+/* Levels 1 and 2: one queue of generic jobs per busy engine, drained by one
+ * detached thread that holds the engine (its busy flag) until the queue is
+ * empty. The queues live in a small global list: the engine struct has no
+ * room for them, and there are only as many as engines with jobs. */
+typedef struct lc_job_queue {
+    locd_engine *e;
+    locd_allocator alloc;
+    locd_job *head, *tail;
+    struct lc_job_queue *next;
+} lc_job_queue;
+
+static pthread_mutex_t g_queues_mu = PTHREAD_MUTEX_INITIALIZER;
+static lc_job_queue *g_queues;
+
+/* Under g_queues_mu. */
+static lc_job_queue *queue_of(const locd_engine *e)
 {
-    locd_job *j = arg;
-    locd_engine *e = j->engine;
+    lc_job_queue *q;
+    for (q = g_queues; q; q = q->next)
+        if (q->e == e)
+            return q;
+    return NULL;
+}
+
+/* Under g_queues_mu. */
+static void queue_unlink(lc_job_queue *q)
+{
+    lc_job_queue **pp;
+    for (pp = &g_queues; *pp; pp = &(*pp)->next)
+        if (*pp == q) {
+            *pp = q->next;
+            return;
+        }
+}
+
+static void run_generic(locd_job *j, locd_engine *e)
+{
     locd_stats st;
     locd_status s;
     int cancelled;
@@ -125,6 +177,7 @@ static void *generic_run(void *arg)
         t0 = lc_now_ms();
         s = e->ops->find(e, j->boxes, j->n, j->f64, j->flags, &j->result, &st);
         st.ms_total = lc_now_ms() - t0;
+        st.ms_transfer += t0 - j->t_submit; /* time spent queued */
         if (!s) {
             j->stats = st;
             e->stats = st; /* a job is a call of this engine */
@@ -132,12 +185,47 @@ static void *generic_run(void *arg)
     }
     lc_free(&j->alloc, j->boxes, j->bytes);
     j->boxes = NULL;
-    /* Give the engine back before waking waiters: a waiter may call find
-       right away. The engine is not touched after this line. */
-    lc_engine_release(e);
-    lc_job_finish(j, s, s ? locd_last_error() : NULL, s ? locd_last_error_index() : -1);
-    lc_job_unref(j);
-    return NULL;
+    j->status_pending_result = s;
+    j->error_pending_index = s ? locd_last_error_index() : -1;
+    if (s)
+        snprintf(j->run_message, sizeof j->run_message, "%s", locd_last_error());
+}
+
+static void *queue_main(void *arg)
+{
+    lc_job_queue *q = arg;
+    locd_engine *e = q->e;
+    locd_allocator a = q->alloc;
+    for (;;) {
+        locd_job *j;
+        int last;
+        pthread_mutex_lock(&g_queues_mu);
+        j = q->head;
+        q->head = j->next;
+        if (!q->head)
+            q->tail = NULL;
+        j->next = NULL;
+        pthread_mutex_unlock(&g_queues_mu);
+
+        run_generic(j, e);
+
+        /* The last job gives the engine back before it wakes its waiters (a
+           waiter may call find at once); the engine is not touched after. */
+        pthread_mutex_lock(&g_queues_mu);
+        last = q->head == NULL;
+        if (last) {
+            queue_unlink(q);
+            lc_engine_release(e);
+        }
+        pthread_mutex_unlock(&g_queues_mu);
+        if (last)
+            lc_free(&a, q, sizeof *q);
+        /* Finished and let go in one step: once a waiter wakes, this thread
+           holds nothing, so the caller's release frees the job itself. */
+        lc_job_finish_unref(j, j->status_pending_result, j->run_message, j->error_pending_index);
+        if (last)
+            return NULL;
+    }
 }
 
 static locd_status generic_submit(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
@@ -145,21 +233,16 @@ static locd_status generic_submit(locd_engine *e, const void *boxes, size_t n, i
 {
     pthread_attr_t attr;
     pthread_t th;
+    lc_job_queue *q;
     locd_job *j;
-    locd_status st;
+    locd_status st = LOCD_OK;
     size_t bytes;
     if (!lc_mul_size(n ? n : 1, 6 * (f64 ? sizeof(double) : sizeof(float)), &bytes))
         return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu boxes do not fit in memory", n);
-    if (!lc_engine_acquire(e))
-        return lc_error(LOCD_ERR_BUSY, "the engine is running another call or job (levels 1 and 2 run one job at a "
-                                       "time per engine)");
-    if ((st = lc_job_new(&e->alloc, LC_JOB_GENERIC, &j)) != LOCD_OK) {
-        lc_engine_release(e);
+    if ((st = lc_job_new(&e->alloc, LC_JOB_GENERIC, &j)) != LOCD_OK)
         return st;
-    }
     j->boxes = lc_alloc(&e->alloc, bytes);
     if (!j->boxes) {
-        lc_engine_release(e);
         j->refs = 1;
         lc_job_unref(j);
         return lc_error(LOCD_ERR_NO_MEMORY, "could not copy %zu bytes of boxes", bytes);
@@ -171,16 +254,46 @@ static locd_status generic_submit(locd_engine *e, const void *boxes, size_t n, i
     j->n = n;
     j->f64 = f64;
     j->flags = flags;
-    pthread_attr_init(&attr);
-    pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
-    if (pthread_create(&th, &attr, generic_run, j) != 0) {
-        pthread_attr_destroy(&attr);
+
+    pthread_mutex_lock(&g_queues_mu);
+    if ((q = queue_of(e)) != NULL) { /* jobs already running: queue behind them */
+        if (q->tail)
+            q->tail->next = j;
+        else
+            q->head = j; /* the thread took the last one and is running it */
+        q->tail = j;
+        pthread_mutex_unlock(&g_queues_mu);
+        *out = j;
+        return LOCD_OK;
+    }
+    if (!lc_engine_acquire(e)) {
+        st = lc_error(LOCD_ERR_BUSY, "the engine is inside a find call on another thread");
+    } else if ((q = lc_alloc(&e->alloc, sizeof *q)) == NULL) {
         lc_engine_release(e);
+        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the job queue");
+    } else {
+        memset(q, 0, sizeof *q);
+        q->e = e;
+        q->alloc = e->alloc;
+        q->head = q->tail = j;
+        q->next = g_queues;
+        g_queues = q;
+        pthread_attr_init(&attr);
+        pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
+        if (pthread_create(&th, &attr, queue_main, q) != 0) {
+            queue_unlink(q);
+            lc_free(&e->alloc, q, sizeof *q);
+            lc_engine_release(e);
+            st = lc_error(LOCD_ERR_THREAD, "could not start the job thread");
+        }
+        pthread_attr_destroy(&attr);
+    }
+    pthread_mutex_unlock(&g_queues_mu);
+    if (st) {
         j->refs = 1;
         lc_job_unref(j);
-        return lc_error(LOCD_ERR_THREAD, "could not start the job's thread");
+        return st;
     }
-    pthread_attr_destroy(&attr);
     *out = j;
     return LOCD_OK;
 }

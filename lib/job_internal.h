@@ -35,12 +35,15 @@ struct locd_job {
     size_t n;
     int f64;
     uint32_t flags;
+    locd_status status_pending_result; /* the runner's outcome, published by lc_job_finish */
+    int64_t error_pending_index;
+    char run_message[256];
 
     /* service jobs */
     struct lc_svc_conn *conn;
     uint64_t id;
     char shm_name[64]; /* bulk input segment to unlink when done ("" = none) */
-    struct locd_job *next; /* in the connection's pending list */
+    struct locd_job *next; /* in the connection's pending list, or the engine's job queue */
 };
 
 /* Allocates a job with one reference held by the caller and one by the
@@ -49,6 +52,9 @@ locd_status lc_job_new(const locd_allocator *a, int kind, locd_job **out);
 /* Records the final status (and error message when status < 0) unless the
  * job already finished (e.g. cancelled); wakes waiters. */
 void lc_job_finish(locd_job *j, locd_status status, const char *message, int64_t index);
+/* lc_job_finish and lc_job_unref under one lock: the runner holds nothing
+ * once a waiter wakes up. */
+void lc_job_finish_unref(locd_job *j, locd_status status, const char *message, int64_t index);
 /* Drops one reference; the last one frees the job. */
 void lc_job_unref(locd_job *j);
 

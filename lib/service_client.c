@@ -96,8 +96,7 @@ static void drop_segment(locd_job *j)
 static void job_done(locd_job *j, locd_status st, const char *msg, int64_t index)
 {
     drop_segment(j);
-    lc_job_finish(j, st, msg, index);
-    lc_job_unref(j);
+    lc_job_finish_unref(j, st, msg, index);
 }
 
 /* Reads one RESULT payload (after its header) for job j (NULL: discard). */

@@ -264,6 +264,63 @@ static void jobs_at_every_level(void **state)
     }
 }
 
+/* Levels 1 and 2 queue jobs on the engine and run them one after another;
+ * queued jobs can be cancelled or released; all results are right. */
+static void queued_jobs_levels_1_and_2(void **state)
+{
+    int level;
+    (void)state;
+    for (level = 1; level <= 2; level++) {
+        locd_engine *e = make_engine(level, 2, NULL);
+        locd_job *j[12];
+        float *b[12];
+        size_t n[12];
+        locd_pairs *p;
+        int i;
+        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        for (i = 0; i < 12; i++) {
+            n[i] = 300 + 400 * (size_t)i;
+            b[i] = ts_scene(i % 2 ? 2 : 0, n[i], 900 + (uint64_t)i);
+            assert_int_equal(locd_engine_submit_f32(e, b[i], n[i], i % 3 ? 0 : LOCD_FIND_SORTED, &j[i]), LOCD_OK);
+        }
+        {
+            locd_status s = locd_engine_find_pairs_f32(e, b[0], n[0], 0, p); /* busy unless all are done */
+            assert_true(s == LOCD_ERR_BUSY || s == LOCD_OK);
+        }
+        assert_int_equal(locd_job_cancel(j[7]), LOCD_OK);
+        locd_job_release(j[9]);
+        j[9] = NULL;
+        for (i = 11; i >= 0; i--) { /* any order */
+            locd_status s;
+            if (!j[i])
+                continue;
+            s = locd_job_wait(j[i], 60000);
+            if (i == 7) {
+                assert_true(s == LOCD_ERR_CANCELLED || s == LOCD_OK);
+            } else {
+                assert_int_equal(s, LOCD_OK);
+                assert_int_equal(locd_job_take(j[i], p), LOCD_OK);
+                if (!ts_same_as_brute_f32(b[i], n[i], p))
+                    fail_msg("level %d queued job %d differs from brute force", level, i);
+            }
+            locd_job_release(j[i]);
+        }
+        for (i = 0; i < 12; i++)
+            free(b[i]);
+        {
+            double until = lu_now_ms() + 10000; /* the queue's thread gives the engine back */
+            locd_status s;
+            float *one = ts_scene(0, 3000, 1);
+            while ((s = locd_engine_find_pairs_f32(e, one, 3000, 0, p)) == LOCD_ERR_BUSY && lu_now_ms() < until)
+                lu_sleep_ms(1);
+            assert_int_equal(s, LOCD_OK);
+            free(one);
+        }
+        locd_pairs_destroy(p);
+        locd_engine_destroy(e);
+    }
+}
+
 typedef struct kill_ctx {
     locd_engine *e;
     const float *b;
@@ -467,6 +524,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(octree_settings_reach_every_level, lu_timer_start, lu_timer_print),
         cmocka_unit_test_setup_teardown(invalid_boxes_same_error_at_every_level, lu_timer_start, lu_timer_print),
         cmocka_unit_test_setup_teardown(jobs_at_every_level, lu_timer_start, lu_timer_print),
+        cmocka_unit_test_setup_teardown(queued_jobs_levels_1_and_2, lu_timer_start, lu_timer_print),
         cmocka_unit_test_setup_teardown(worker_killed_mid_call, lu_timer_start, lu_timer_print),
         cmocka_unit_test_setup_teardown(host_crash_leaves_nothing, lu_timer_start, lu_timer_print),
         cmocka_unit_test_setup_teardown(bad_worker_path_is_an_error, lu_timer_start, lu_timer_print),
