@@ -233,6 +233,10 @@ LOCD_API locd_status locd_engine_stats(const locd_engine *engine, locd_stats *st
 typedef struct locd_job locd_job;
 
 /* Copies the boxes and returns at once; the caller may reuse its buffer. */
+/* Levels 1 and 2 queue the jobs of an engine and run them one after another
+ * on a thread of the library (a find on that engine meanwhile returns
+ * LOCD_ERR_BUSY); level 3 runs them in the service, several at once
+ * (docs/levels.md). */
 LOCD_API locd_status locd_engine_submit_f32(locd_engine *engine, const float *boxes, size_t n,
                                             uint32_t flags, locd_job **out);
 LOCD_API locd_status locd_engine_submit_f64(locd_engine *engine, const double *boxes, size_t n,
