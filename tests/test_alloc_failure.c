@@ -159,6 +159,12 @@ static uint64_t drive(const scenario *sc, void *ctx)
             if (after.bad_frees != base.bad_frees)
                 fail_msg("%s: allocation %llu%s: free() with a wrong size or pointer", sc->name,
                          (unsigned long long)k, sticky ? "+" : "");
+            if (after.live_bytes < base.live_bytes || after.live_blocks < base.live_blocks)
+                fail_msg("%s: allocation %llu%s: %lld bytes in %lld blocks allocated before this call were freed "
+                         "during it: an earlier call's memory outlived its destroy (a thread still freeing?)",
+                         sc->name, (unsigned long long)k, sticky ? "+" : "",
+                         (long long)(base.live_bytes - after.live_bytes),
+                         (long long)(base.live_blocks - after.live_blocks));
             if (after.live_bytes != base.live_bytes || after.live_blocks != base.live_blocks)
                 fail_msg("%s: allocation %llu%s failed: %lld bytes in %lld blocks leaked (status %d)", sc->name,
                          (unsigned long long)k, sticky ? "+" : "",
