@@ -61,9 +61,9 @@ def main():
         line, = ax[1].plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=s + " (ms)")
         twin.plot([p[0] for p in pts], [p[2] for p in pts], "x--", color=line.get_color(), alpha=0.6,
                   label=s + " (false cand./obj)")
-    ax[1].axvline(1, color="grey", lw=0.8, ls=":")
+    ax[1].axvline(2, color="grey", lw=0.8, ls=":")
     ax[1].set_xticks([0, 1, 2, 3])
-    ax[1].set_xlabel("cell_bias (dotted: default 1)")
+    ax[1].set_xlabel("cell_bias (dotted: default 2)")
     ax[1].set_ylabel("CPU ms per call (solid)")
     twin.set_ylabel("false candidates per object (dashed)")
     twin.set_yscale("log")

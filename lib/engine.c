@@ -14,7 +14,7 @@ void locd_engine_config_init(locd_engine_config *config)
     config->level = LOCD_LEVEL_INPROCESS;
     config->threads = 0;
     config->max_depth = 0;
-    config->cell_bias = 1;
+    config->cell_bias = LOCD_DEFAULT_CELL_BIAS;
 }
 
 void locd_stats_init(locd_stats *stats)

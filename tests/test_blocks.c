@@ -91,7 +91,7 @@ static void composed_steps_match_engine(void **state)
     locd_engine *eng;
     locd_pairs *p1, *p2;
     (void)state;
-    assert_int_equal(locd_grid_fit_f32(b, n, 0, 1, 0, &g), LOCD_OK);
+    assert_int_equal(locd_grid_fit_f32(b, n, 0, LOCD_DEFAULT_CELL_BIAS, 0, &g), LOCD_OK);
     assert_int_equal(locd_pairs_create(NULL, &p1), LOCD_OK);
     assert_int_equal(locd_pairs_create(NULL, &p2), LOCD_OK);
     assert_int_equal(locd_engine_create(NULL, &eng), LOCD_OK);

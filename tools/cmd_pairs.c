@@ -14,7 +14,7 @@ static void pairs_usage(void)
            "  --service ADDR     unix:PATH or tcp:HOST:PORT (implies --level service)\n"
            "  --secret S         shared secret for a TCP service\n"
            "  --out PAIRS.bin    write the pairs, sorted by (i, j), as little-endian uint32 i j rows\n"
-           "  --repeat R         run R times; total_ms is the median (default 1)\n"
+           "  --repeat R         run R times; total_ms is the median (default 2)\n"
            "  --f64              convert a float32 scene to float64 and use the f64 entry point\n"
            "  --sorted           ask the engine for (i, j) order inside the timed call\n"
            "  --depth D          octree depth limit (default automatic)\n"

@@ -46,7 +46,7 @@ int main(int argc, char **argv)
     const char *path = NULL, *out_path = NULL;
     int rank, size, a, check = 0, f64 = 0, rc = 0;
     uint32_t depth = 0, flags = 0;
-    int32_t bias = 1;
+    int32_t bias = LOCD_DEFAULT_CELL_BIAS;
     uint64_t hdr[2] = {0, 0};
     cli_scene sc;
     void *boxes;

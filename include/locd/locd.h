@@ -121,7 +121,7 @@ typedef struct locd_engine_config {
     uint32_t threads;            /* threads (level 1) or worker processes (level 2); 0 = one per core */
     uint32_t max_depth;          /* octree depth limit; 0 = automatic (as deep as the key allows) */
     int32_t cell_bias;           /* a box goes to the deepest level whose cell edge is >= 2^bias times its
-                                    largest extent; default 1 (see docs/encoding.md); 0..8 */
+                                    largest extent; default LOCD_DEFAULT_CELL_BIAS (2; see docs/encoding.md); 0..8 */
     uint32_t flags;              /* LOCD_CONFIG_* */
     const char *service_address; /* level 3: "unix:/path/to.sock" or "tcp:host:port" */
     const char *service_secret;  /* level 3 over TCP: shared secret; NULL = none */
@@ -130,6 +130,10 @@ typedef struct locd_engine_config {
     locd_log_fn log;             /* NULL = silent */
     void *log_user;
 } locd_engine_config;
+
+/* Default cell_bias: a cell edge at least 4 times the box's largest extent
+ * (docs/accuracy.md measures the alternatives). */
+#define LOCD_DEFAULT_CELL_BIAS 2
 
 /* Use bounding cubes (the paper's choice) instead of the boxes' own extents
  * when choosing cells. Exactness is unchanged; only the work differs. */

@@ -107,7 +107,7 @@ def test_struct_layouts_agree_with_the_library():
         assert obj.size == ffi.sizeof(struct), struct  # the C side writes its own sizeof
     cfg = ffi.new("locd_engine_config *")
     lib.locd_engine_config_init(cfg)
-    assert cfg.level == locd.abi.CONSTANTS["LOCD_LEVEL_INPROCESS"] and cfg.cell_bias == 1
+    assert cfg.level == locd.abi.CONSTANTS["LOCD_LEVEL_INPROCESS"] and cfg.cell_bias == 2
     assert cfg.service_address == ffi.NULL and cfg.allocator.alloc == ffi.NULL
 
 

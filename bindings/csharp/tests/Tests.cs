@@ -81,7 +81,7 @@ namespace Locd.Tests
             Assert.Equal((uint)Marshal.SizeOf(typeof(Native.locd_engine_config)), cfg.size, "sizeof(locd_engine_config)");
             Assert.Equal((uint)sizeof(Native.locd_engine_config), cfg.size, "unmanaged sizeof(locd_engine_config)");
             Assert.Equal(1, cfg.level, "default level (offset of `level`)");
-            Assert.Equal(1, cfg.cell_bias, "default cell_bias (offset of `cell_bias`)");
+            Assert.Equal(2, cfg.cell_bias, "default cell_bias (offset of `cell_bias`)");
             Native.locd_stats st;
             Native.locd_stats_init(&st);
             Assert.Equal((uint)Marshal.SizeOf(typeof(Native.locd_stats)), st.size, "sizeof(locd_stats)");

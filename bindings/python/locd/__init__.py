@@ -117,7 +117,7 @@ class Engine:
         service: level ``'service'``: ``"unix:/path/to.sock"`` or ``"tcp:host:port"``.
         secret: shared secret for a TCP service.
         max_depth: octree depth limit (0 = automatic).
-        cell_bias: cell size bias 0..8 (see docs/encoding.md); default 1.
+        cell_bias: cell size bias 0..8 (see docs/encoding.md); default 2 (LOCD_DEFAULT_CELL_BIAS).
         cubes: choose cells from bounding cubes (the paper's choice) instead of
             the boxes' own extents. The result is the same; only the work differs.
         worker_path: level ``'workers'``: path of the locd-worker executable
@@ -126,7 +126,7 @@ class Engine:
 
     def __init__(self, level: Union[str, int] = "inprocess", threads: Optional[int] = None,
                  workers: Optional[int] = None, service: Optional[str] = None, secret: Optional[str] = None,
-                 max_depth: int = 0, cell_bias: int = 1, cubes: bool = False,
+                 max_depth: int = 0, cell_bias: int = 2, cubes: bool = False,
                  worker_path: Optional[str] = None) -> None:
         if isinstance(level, str):
             if level not in LEVELS:
