@@ -171,9 +171,10 @@ void locd_engine_destroy(locd_engine *engine)
     if (!engine || engine->magic != LC_MAGIC_ENGINE)
         return;
     /* A job released while still running (levels 1 and 2) keeps the engine
-       busy until its find returns: wait for it rather than free the engine
-       under its thread. */
-    while (__atomic_load_n(&engine->busy, __ATOMIC_ACQUIRE)) {
+       busy until its find returns, and its thread uses the engine's
+       allocator until it exits: wait for both rather than free the engine
+       under it. */
+    while (__atomic_load_n(&engine->busy, __ATOMIC_ACQUIRE) || __atomic_load_n(&engine->job_threads, __ATOMIC_ACQUIRE)) {
         struct timespec pause = {0, 200000};
         nanosleep(&pause, NULL);
     }

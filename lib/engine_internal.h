@@ -36,6 +36,7 @@ struct locd_engine {
     int32_t level;
     uint32_t threads;
     int busy; /* taken with __atomic builtins: one call at a time */
+    int job_threads; /* job queue threads still alive (job.c); destroy waits for 0 */
     locd_stats stats;
     locd_pairs last; /* results of *_into calls */
     const lc_backend *ops;

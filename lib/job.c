@@ -223,8 +223,12 @@ static void *queue_main(void *arg)
         /* Finished and let go in one step: once a waiter wakes, this thread
            holds nothing, so the caller's release frees the job itself. */
         lc_job_finish_unref(j, j->status_pending_result, j->run_message, j->error_pending_index);
-        if (last)
+        if (last) {
+            /* Last touch of the engine: destroy waits for this before it
+               frees anything (the allocator is used above). */
+            __atomic_sub_fetch(&e->job_threads, 1, __ATOMIC_RELEASE);
             return NULL;
+        }
     }
 }
 
@@ -280,7 +284,9 @@ static locd_status generic_submit(locd_engine *e, const void *boxes, size_t n, i
         g_queues = q;
         pthread_attr_init(&attr);
         pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
+        __atomic_add_fetch(&e->job_threads, 1, __ATOMIC_RELAXED);
         if (pthread_create(&th, &attr, queue_main, q) != 0) {
+            __atomic_sub_fetch(&e->job_threads, 1, __ATOMIC_RELAXED);
             queue_unlink(q);
             lc_free(&e->alloc, q, sizeof *q);
             lc_engine_release(e);

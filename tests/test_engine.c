@@ -12,6 +12,14 @@
 
 #include "support.h"
 
+/* LOCD_TEST_HEAVY=0 (the sanitizer runs): smaller scenes, still >= 4096
+ * objects so the parallel path runs (tests/README.md). */
+static int heavy(void)
+{
+    const char *v = getenv("LOCD_TEST_HEAVY");
+    return !(v && v[0] == '0');
+}
+
 static locd_engine *engine_with(uint32_t threads)
 {
     locd_engine_config cfg;
@@ -52,7 +60,7 @@ static void order_is_the_same_for_every_thread_count(void **state)
     int kind;
     (void)state;
     for (kind = 0; kind < TS_SCENE_KINDS; kind++) {
-        size_t n = 30000;
+        size_t n = heavy() ? 30000 : 4500;
         float *b = ts_scene(kind, n, 77 + (uint64_t)kind);
         locd_pairs *ref, *p;
         uint32_t t;
@@ -76,7 +84,7 @@ static void order_is_the_same_for_every_thread_count(void **state)
 /* The same values as float32 and float64 give the same pairs in the same order. */
 static void f32_and_f64_agree(void **state)
 {
-    size_t n = 20000, i;
+    size_t n = heavy() ? 20000 : 5000, i;
     float *b = ts_scene(2, n, 5);
     double *d = malloc(n * 6 * sizeof *d);
     locd_engine *e = engine_with(2);
@@ -130,7 +138,7 @@ static void touching_boxes_count_and_ulp_gaps_do_not(void **state)
  * wait for the job's thread (the sanitizer build catches a use after free). */
 static void destroy_waits_for_a_released_running_job(void **state)
 {
-    size_t n = 200000;
+    size_t n = heavy() ? 200000 : 50000;
     float *b = ts_scene(0, n, 4);
     int round;
     (void)state;

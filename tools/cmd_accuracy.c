@@ -476,13 +476,24 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
     fclose(f);
 }
 
-/* Splits a comma list; the items point into a copy that lives until exit. */
+/* Copies parse_list made; the items point into them until free_lists(). */
+static char *list_copies[8];
+static int nlist_copies;
+
+static void free_lists(void)
+{
+    while (nlist_copies > 0)
+        free(list_copies[--nlist_copies]);
+}
+
+/* Splits a comma list; the items point into a copy kept until free_lists(). */
 static int parse_list(const char *s, const char **items, int max)
 {
     char *buf = strdup(s), *tok, *save = NULL;
     int k = 0;
-    if (!buf)
+    if (!buf || nlist_copies == (int)(sizeof list_copies / sizeof list_copies[0]))
         cli_die("accuracy: out of memory");
+    list_copies[nlist_copies++] = buf;
     for (tok = strtok_r(buf, ",", &save); tok && k < max; tok = strtok_r(NULL, ",", &save))
         items[k++] = tok;
     return k;
@@ -639,5 +650,6 @@ int cmd_accuracy(int argc, char **argv)
     printf("{\"out\":\"%s\",\"csv\":\"%s\",\"rows\":%zu,\"seconds\":%.1f}\n", o.out, o.csv, nrows,
            (cli_now_ms() - t0) / 1e3);
     free(rows);
+    free_lists();
     return 0;
 }
