@@ -510,22 +510,8 @@ std::string csv_field(const std::string &s)
 
 void machine(char *buf, std::size_t len)
 {
-    // The CLI's cli_cpu_model lives with the bench subcommand; this is the
-    // same /proc/cpuinfo "model name" line.
-    FILE *f = std::fopen("/proc/cpuinfo", "r");
-    char line[512], model[256] = "unknown CPU";
-    if (f) {
-        while (std::fgets(line, sizeof line, f))
-            if (!std::strncmp(line, "model name", 10)) {
-                const char *c = std::strchr(line, ':');
-                if (c) {
-                    std::snprintf(model, sizeof model, "%s", c + 2);
-                    model[std::strcspn(model, "\n")] = 0;
-                }
-                break;
-            }
-        std::fclose(f);
-    }
+    char model[256];
+    cli_cpu_model(model, sizeof model);
     std::snprintf(buf, len, "%s, %ld cores", model, sysconf(_SC_NPROCESSORS_ONLN));
 }
 

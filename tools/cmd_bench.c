@@ -26,27 +26,6 @@ static double paper_seconds(size_t n, unsigned p)
     return 0.0;
 }
 
-void cli_cpu_model(char *buf, size_t len)
-{
-    FILE *f = fopen("/proc/cpuinfo", "r");
-    char line[512];
-    snprintf(buf, len, "unknown CPU");
-    if (!f)
-        return;
-    while (fgets(line, sizeof line, f)) {
-        if (!strncmp(line, "model name", 10)) {
-            char *c = strchr(line, ':');
-            if (c) {
-                c += 2;
-                c[strcspn(c, "\n")] = 0;
-                snprintf(buf, len, "%s", c);
-            }
-            break;
-        }
-    }
-    fclose(f);
-}
-
 static int parse_sizes(const char *s, size_t *sizes, int max)
 {
     char buf[256], *tok, *save = NULL;
