@@ -280,18 +280,27 @@ locd_status locd_engine_last_pairs(locd_engine *engine, const uint32_t **pairs, 
     return LOCD_OK;
 }
 
+locd_status lc_stats_check_out(const locd_stats *stats)
+{
+    if (!stats)
+        return lc_error(LOCD_ERR_NULL_POINTER, "stats is NULL");
+    if (stats->size < 2 * sizeof(uint32_t) || stats->size > sizeof(locd_stats))
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "stats->size is %u; use locd_stats_init()", stats->size);
+    return LOCD_OK;
+}
+
+void lc_stats_copy_out(locd_stats *dst, const locd_stats *src)
+{
+    const uint32_t size = dst->size;
+    memcpy(dst, src, size);
+    dst->size = size;
+}
+
 locd_status locd_engine_stats(const locd_engine *engine, locd_stats *stats)
 {
     locd_status st = lc_engine_check(engine);
-    uint32_t size;
-    if (st)
+    if (st || (st = lc_stats_check_out(stats)) != LOCD_OK)
         return st;
-    if (!stats)
-        return lc_error(LOCD_ERR_NULL_POINTER, "stats is NULL");
-    size = stats->size;
-    if (size < 2 * sizeof(uint32_t) || size > sizeof(locd_stats))
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "stats->size is %u; use locd_stats_init()", size);
-    memcpy(stats, &engine->stats, size);
-    stats->size = size;
+    lc_stats_copy_out(stats, &engine->stats);
     return LOCD_OK;
 }

@@ -49,6 +49,11 @@ int lc_engine_acquire(struct locd_engine *e);
 void lc_engine_release(struct locd_engine *e);
 /* Emits a log line through the engine's log hook, if any. */
 void lc_engine_log(const struct locd_engine *e, int32_t severity, const char *fmt, ...) LC_PRINTF(3, 4);
+/* Checks a caller's locd_stats (NULL, size) before anything is copied into it. */
+locd_status lc_stats_check_out(const locd_stats *stats);
+/* Copies src into a checked caller struct, keeping the caller's size: an
+ * older, shorter locd_stats gets only the fields it has. */
+void lc_stats_copy_out(locd_stats *dst, const locd_stats *src);
 /* Sorts the first `count` pairs of p by (i, j), timing it into stats->ms_order. */
 locd_status lc_order_pairs(locd_pairs *p, locd_stats *stats);
 

@@ -421,20 +421,12 @@ locd_status locd_job_take(locd_job *job, locd_pairs *out)
 locd_status locd_job_stats(const locd_job *job, locd_stats *stats)
 {
     locd_status st = job_check(job);
-    uint32_t size;
-    if (st)
+    if (st || (st = lc_stats_check_out(stats)) != LOCD_OK)
         return st;
-    if (!stats)
-        return lc_error(LOCD_ERR_NULL_POINTER, "stats is NULL");
-    size = stats->size;
-    if (size < 2 * sizeof(uint32_t) || size > sizeof(locd_stats))
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "stats->size is %u; use locd_stats_init()", size);
     pthread_mutex_lock((pthread_mutex_t *)&job->mu);
     st = job->status;
-    if (st == LOCD_OK) {
-        memcpy(stats, &job->stats, size);
-        stats->size = size;
-    }
+    if (st == LOCD_OK)
+        lc_stats_copy_out(stats, &job->stats);
     pthread_mutex_unlock((pthread_mutex_t *)&job->mu);
     if (st < 0)
         return raise_job_error(job, st);
