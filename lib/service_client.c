@@ -443,9 +443,17 @@ static locd_status boxes_to_shm(locd_job *j, const void *boxes, size_t bytes)
 static locd_status send_submit(lc_svc_conn *c, locd_job *j, const locd_engine *e, const void *boxes, size_t bytes)
 {
     uint8_t buf[LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4 + 64];
+    char name[sizeof j->shm_name];
     lc_submit_fixed f;
-    size_t nl = j->shm_name[0] ? strlen(j->shm_name) : 0, len;
+    size_t nl, len;
     int rc;
+    /* The reader thread may fail the job (and clear its segment name) as
+       soon as it is registered: read the name under the job's lock. */
+    pthread_mutex_lock(&j->mu);
+    memcpy(name, j->shm_name, sizeof name);
+    pthread_mutex_unlock(&j->mu);
+    name[sizeof name - 1] = '\0';
+    nl = name[0] ? strlen(name) : 0;
     f.flags = j->flags;
     f.f64 = (uint32_t)j->f64;
     f.n = j->n;
@@ -461,7 +469,7 @@ static locd_status send_submit(lc_svc_conn *c, locd_job *j, const locd_engine *e
         rc = -1;
     } else if (nl) {
         lc_put_u32(buf + LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED, (uint32_t)nl);
-        memcpy(buf + LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4, j->shm_name, nl);
+        memcpy(buf + LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4, name, nl);
         rc = lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + len);
     } else {
         rc = lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED);
