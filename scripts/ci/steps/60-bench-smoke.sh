@@ -22,7 +22,10 @@ if [ ! -f "$BUILD/build.ninja" ]; then
   BUILD="$ROOT/build-ci/bench"
   meson setup "$BUILD" --buildtype=release -Dbench_peers=auto -Dtests=disabled -Dexamples=false >/dev/null
 fi
-if ! ninja -C "$BUILD" -t targets all 2>/dev/null | grep -q '^bench/peers:'; then
+# Read the whole target list first: with pipefail, `ninja | grep -q` fails
+# whenever grep exits before ninja has written everything (SIGPIPE).
+targets=$(ninja -C "$BUILD" -t targets all 2>/dev/null || true)
+if ! grep -q '^bench/peers:' <<< "$targets"; then
   echo "bench/peers is not configured (libfcl-dev, libbullet-dev, libcgal-dev missing?): skipped"
   python3 - "$JUNIT" <<'EOF'
 import sys
