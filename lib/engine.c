@@ -47,14 +47,10 @@ void lc_engine_release(locd_engine *e)
 
 void lc_engine_log(const locd_engine *e, int32_t severity, const char *fmt, ...)
 {
-    char msg[512];
     va_list ap;
-    if (!e->cfg.log)
-        return;
     va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
+    lc_log_emit(e->cfg.log, e->cfg.log_user, severity, fmt, ap);
     va_end(ap);
-    e->cfg.log(severity, msg, e->cfg.log_user);
 }
 
 locd_status lc_order_pairs(locd_pairs *p, locd_stats *stats)
@@ -192,15 +188,10 @@ uint32_t locd_engine_threads(const locd_engine *engine)
     return lc_engine_check(engine) ? 0 : engine->threads;
 }
 
-static locd_status find_common(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
-                               locd_pairs *out)
+locd_status lc_check_request(const locd_engine *e, const void *boxes, size_t n, uint32_t flags)
 {
-    locd_stats st_local;
-    locd_status st;
-    double t0;
-    if ((st = lc_engine_check(e)) != LOCD_OK)
-        return st;
-    if ((st = lc_pairs_check(out)) != LOCD_OK)
+    locd_status st = lc_engine_check(e);
+    if (st)
         return st;
     if (n && !boxes)
         return lc_error(LOCD_ERR_NULL_POINTER, "boxes is NULL");
@@ -208,6 +199,18 @@ static locd_status find_common(locd_engine *e, const void *boxes, size_t n, int 
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown flags 0x%x", flags & ~LOCD_FIND_SORTED);
     if ((uint64_t)n > (uint64_t)UINT32_MAX + 1u)
         return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu objects do not fit a 32-bit index", n);
+    return LOCD_OK;
+}
+
+static locd_status find_common(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
+                               locd_pairs *out)
+{
+    locd_stats st_local;
+    locd_status st;
+    double t0;
+    if ((st = lc_engine_check(e)) != LOCD_OK || (st = lc_pairs_check(out)) != LOCD_OK ||
+        (st = lc_check_request(e, boxes, n, flags)) != LOCD_OK)
+        return st;
     if (!lc_engine_acquire(e))
         return lc_error(LOCD_ERR_BUSY, "the engine is running another call or job");
     locd_stats_init(&st_local);

@@ -43,8 +43,11 @@ struct locd_engine {
     void *backend; /* the level's own state */
 };
 
-/* Validates the common arguments of a find/submit call. */
+/* Validates an engine handle. */
 locd_status lc_engine_check(const struct locd_engine *e);
+/* Validates the arguments every find and submit call shares (handle, boxes,
+ * n, flags). */
+locd_status lc_check_request(const struct locd_engine *e, const void *boxes, size_t n, uint32_t flags);
 int lc_engine_acquire(struct locd_engine *e);
 void lc_engine_release(struct locd_engine *e);
 /* Emits a log line through the engine's log hook, if any. */

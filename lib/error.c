@@ -35,6 +35,15 @@ const char *locd_status_string(locd_status status)
     }
 }
 
+void lc_log_emit(locd_log_fn log, void *user, int32_t severity, const char *fmt, va_list ap)
+{
+    char msg[600];
+    if (!log)
+        return;
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    log(severity, msg, user);
+}
+
 const char *locd_last_error(void)
 {
     return last_message;

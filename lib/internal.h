@@ -31,6 +31,8 @@
 locd_status lc_error(locd_status status, const char *fmt, ...) LC_PRINTF(2, 3);
 locd_status lc_error_box(locd_status status, int64_t index, const char *fmt, ...) LC_PRINTF(3, 4);
 void lc_clear_error(void);
+/* Formats a message and hands it to a user log hook (nothing when log is NULL). */
+void lc_log_emit(locd_log_fn log, void *user, int32_t severity, const char *fmt, va_list ap);
 
 /* ---- memory (alloc.c) ---- */
 void lc_allocator_resolve(locd_allocator *dst, const locd_allocator *src);

@@ -311,14 +311,8 @@ static locd_status submit_common(locd_engine *e, const void *boxes, size_t n, in
     if (!out)
         return lc_error(LOCD_ERR_NULL_POINTER, "out is NULL");
     *out = NULL;
-    if ((st = lc_engine_check(e)) != LOCD_OK)
+    if ((st = lc_check_request(e, boxes, n, flags)) != LOCD_OK)
         return st;
-    if (n && !boxes)
-        return lc_error(LOCD_ERR_NULL_POINTER, "boxes is NULL");
-    if (flags & ~LOCD_FIND_SORTED)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown flags 0x%x", flags & ~LOCD_FIND_SORTED);
-    if ((uint64_t)n > (uint64_t)UINT32_MAX + 1u)
-        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu objects do not fit a 32-bit index", n);
     st = e->ops->submit ? e->ops->submit(e, boxes, n, f64, flags, out) : generic_submit(e, boxes, n, f64, flags, out);
     if (!st)
         lc_clear_error();

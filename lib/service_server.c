@@ -83,14 +83,10 @@ struct locd_service {
 static void slog(const locd_service *s, int32_t sev, const char *fmt, ...) LC_PRINTF(3, 4);
 static void slog(const locd_service *s, int32_t sev, const char *fmt, ...)
 {
-    char msg[600];
     va_list ap;
-    if (!s->cfg.log)
-        return;
     va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
+    lc_log_emit(s->cfg.log, s->cfg.log_user, sev, fmt, ap);
     va_end(ap);
-    s->cfg.log(sev, msg, s->cfg.log_user);
 }
 
 void locd_service_config_init(locd_service_config *config)
