@@ -91,16 +91,132 @@ LC_INLINE uint32_t level_for(uint32_t w, int32_t bias, uint32_t depth)
     }                                                                                                        \
     return w;
 
+static size_t encode_scalar_f32(const locd_grid *g, const float *boxes, size_t first, size_t count, uint64_t *out,
+                                size_t capacity, size_t *needed, int32_t *qbox)
+{
+    LC_ENCODE_BODY(float)
+}
+
+static size_t encode_scalar_f64(const locd_grid *g, const double *boxes, size_t first, size_t count,
+                                uint64_t *out, size_t capacity, size_t *needed, int32_t *qbox)
+{
+    LC_ENCODE_BODY(double)
+}
+
+/* Sets *needed for the objects from i on when the output is too small. */
+static size_t encode_overflow(size_t w, size_t cells, size_t i, size_t end, size_t *needed)
+{
+    *needed = w + cells + (end - i - 1) * LOCD_MAX_ENTRIES_PER_BOX;
+    return (size_t)-1;
+}
+
+#ifdef LC_HAVE_AVX512_KERNEL
+#include <immintrin.h>
+
+/* The same entries as the scalar body, in the same order: the six
+ * coordinates quantized in one vector (the same IEEE operations in the same
+ * order as lc_quantize, so the same integers), Morton codes by pdep, and the
+ * up to 8 cells written without branches (every candidate cell is stored,
+ * the output position advances only past the real ones). */
+#define LC_MORTON_X 0x1249249249249249ULL
+#define LC_ENCODE_AVX512_BODY(LOAD)                                                                          \
+    const uint32_t depth = g->depth, ib = g->index_bits;                                                     \
+    const int32_t bias = g->cell_bias;                                                                       \
+    const int cubes = (g->flags & LOCD_CONFIG_CUBES) != 0;                                                   \
+    const __m512d half = _mm512_set1_pd(0.5), zero = _mm512_setzero_pd(), qmax = _mm512_set1_pd(LC_QMAX);   \
+    const __m512d origin = _mm512_setr_pd(g->origin[0], g->origin[1], g->origin[2], g->origin[0],           \
+                                          g->origin[1], g->origin[2], 0.0, 0.0);                             \
+    const __m512d sa = _mm512_setr_pd(g->scale_a, g->scale_a, g->scale_a, g->scale_a, g->scale_a,          \
+                                      g->scale_a, 1.0, 1.0);                                                 \
+    const __m512d sb = _mm512_setr_pd(g->scale_b, g->scale_b, g->scale_b, g->scale_b, g->scale_b,          \
+                                      g->scale_b, 1.0, 1.0);                                                 \
+    const size_t end = first + count;                                                                        \
+    size_t i, w = 0;                                                                                         \
+    for (i = first; i < end; i++) {                                                                          \
+        const __m512d x = LOAD;                                                                              \
+        const __m512d t = _mm512_mul_pd(_mm512_mul_pd(_mm512_sub_pd(_mm512_mul_pd(x, half), origin), sa), sb); \
+        const __m256i qv = _mm512_cvttpd_epi32(_mm512_min_pd(_mm512_max_pd(t, zero), qmax));                 \
+        int32_t q[8];                                                                                        \
+        uint32_t ext, lvl, sh, d[3], c0[3], k, cells;                                                        \
+        uint64_t mx[2], my[2], mz[2], base;                                                                  \
+        int a;                                                                                               \
+        _mm256_storeu_si256((__m256i *)q, qv);                                                               \
+        if (qbox)                                                                                            \
+            _mm256_mask_storeu_epi32(qbox + 6 * i, 0x3f, qv);                                                \
+        ext = (uint32_t)(q[3] - q[0]);                                                                       \
+        if ((uint32_t)(q[4] - q[1]) > ext)                                                                   \
+            ext = (uint32_t)(q[4] - q[1]);                                                                   \
+        if ((uint32_t)(q[5] - q[2]) > ext)                                                                   \
+            ext = (uint32_t)(q[5] - q[2]);                                                                   \
+        if (cubes) /* the paper's bounding cube: same extent on every axis */                                \
+            for (a = 0; a < 3; a++) {                                                                        \
+                int64_t h = (int64_t)q[a] + ext;                                                             \
+                q[a + 3] = h > 2147483647 ? 2147483647 : (int32_t)h;                                         \
+            }                                                                                                \
+        lvl = level_for(ext, bias, depth);                                                                   \
+        sh = LC_QBITS - lvl;                                                                                 \
+        for (a = 0; a < 3; a++) { /* d is 0 or 1: lc_grid_check keeps the bias >= 0 */                       \
+            c0[a] = (uint32_t)q[a] >> sh;                                                                    \
+            d[a] = ((uint32_t)q[a + 3] >> sh) - c0[a];                                                       \
+        }                                                                                                    \
+        cells = (d[0] + 1) * (d[1] + 1) * (d[2] + 1);                                                        \
+        if (LC_UNLIKELY(w + 8 > capacity) && w + cells > capacity)                                           \
+            return encode_overflow(w, cells, i, end, needed);                                                \
+        mx[0] = _pdep_u64(c0[0], LC_MORTON_X);                                                               \
+        mx[1] = _pdep_u64(c0[0] + d[0], LC_MORTON_X);                                                        \
+        my[0] = _pdep_u64(c0[1], LC_MORTON_X << 1);                                                          \
+        my[1] = _pdep_u64(c0[1] + d[1], LC_MORTON_X << 1);                                                   \
+        mz[0] = _pdep_u64(c0[2], LC_MORTON_X << 2);                                                          \
+        mz[1] = _pdep_u64(c0[2] + d[2], LC_MORTON_X << 2);                                                   \
+        base = (((uint64_t)lvl) << ib) | (uint64_t)i;                                                        \
+        sh = 3u * (depth - lvl) + LC_LEVEL_BITS + ib;                                                        \
+        if (LC_LIKELY(w + 8 <= capacity)) {                                                                  \
+            for (k = 0; k < 8; k++) {                                                                        \
+                const uint32_t kx = k & 1u, ky = (k >> 1) & 1u, kz = k >> 2;                                 \
+                out[w] = ((mx[kx] | my[ky] | mz[kz]) << sh) | base;                                          \
+                w += (kx <= d[0]) & (ky <= d[1]) & (kz <= d[2]);                                             \
+            }                                                                                                \
+        } else { /* near the end of the buffer: write only the real cells */                                 \
+            for (k = 0; k < 8; k++) {                                                                        \
+                const uint32_t kx = k & 1u, ky = (k >> 1) & 1u, kz = k >> 2;                                 \
+                if ((kx <= d[0]) & (ky <= d[1]) & (kz <= d[2]))                                              \
+                    out[w++] = ((mx[kx] | my[ky] | mz[kz]) << sh) | base;                                    \
+            }                                                                                                \
+        }                                                                                                    \
+    }                                                                                                        \
+    return w;
+
+LC_AVX512 static size_t encode_avx512_f32(const locd_grid *g, const float *boxes, size_t first, size_t count,
+                                          uint64_t *out, size_t capacity, size_t *needed, int32_t *qbox)
+{
+    LC_ENCODE_AVX512_BODY(_mm512_cvtps_pd(_mm256_maskz_loadu_ps(0x3f, boxes + 6 * i)))
+}
+
+LC_AVX512 static size_t encode_avx512_f64(const locd_grid *g, const double *boxes, size_t first, size_t count,
+                                          uint64_t *out, size_t capacity, size_t *needed, int32_t *qbox)
+{
+    LC_ENCODE_AVX512_BODY(_mm512_maskz_loadu_pd(0x3f, boxes + 6 * i))
+}
+#endif
+
 size_t lc_encode_f32(const locd_grid *g, const float *boxes, size_t first, size_t count, uint64_t *out,
                      size_t capacity, size_t *needed, int32_t *qbox)
 {
-    LC_ENCODE_BODY(float)
+#ifdef LC_HAVE_AVX512_KERNEL
+    if (lc_kernel() == LC_KERNEL_AVX512)
+        return encode_avx512_f32(g, boxes, first, count, out, capacity, needed, qbox);
+#endif
+    return encode_scalar_f32(g, boxes, first, count, out, capacity, needed, qbox);
 }
 
 size_t lc_encode_f64(const locd_grid *g, const double *boxes, size_t first, size_t count, uint64_t *out,
                      size_t capacity, size_t *needed, int32_t *qbox)
 {
-    LC_ENCODE_BODY(double)
+#ifdef LC_HAVE_AVX512_KERNEL
+    if (lc_kernel() == LC_KERNEL_AVX512)
+        return encode_avx512_f64(g, boxes, first, count, out, capacity, needed, qbox);
+#endif
+    return encode_scalar_f64(g, boxes, first, count, out, capacity, needed, qbox);
 }
 
 #define LC_ENCODE_PUBLIC(SUFFIX, T)                                                                          \

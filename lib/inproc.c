@@ -100,9 +100,9 @@ static void task_sweep(void *arg, uint32_t t, uint32_t k)
     o->count = 0;
     o->candidates = o->exact_tests = 0;
     if (c->f64)
-        c->status[t] = lc_sweep_range_f64(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, b, e, o);
+        c->status[t] = lc_sweep_range_f64(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, c->total, b, e, o);
     else
-        c->status[t] = lc_sweep_range_f32(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, b, e, o);
+        c->status[t] = lc_sweep_range_f32(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, c->total, b, e, o);
 }
 
 static void task_gather(void *arg, uint32_t t, uint32_t k)

@@ -48,6 +48,15 @@ typedef struct lc_buf {
 locd_status lc_buf_reserve(const locd_allocator *a, lc_buf *b, size_t elem, size_t count);
 void lc_buf_release(const locd_allocator *a, lc_buf *b, size_t elem);
 
+/* ---- SIMD kernels (kernel.c) ---- */
+enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512 };
+/* The best kernel family this CPU has, capped by LOCD_KERNEL / LOCD_SCALAR. */
+int lc_kernel(void);
+#if defined(__GNUC__) && defined(__x86_64__) && (__GNUC__ >= 8 || defined(__clang__))
+#define LC_HAVE_AVX512_KERNEL 1
+#define LC_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,popcnt,bmi,bmi2")))
+#endif
+
 /* ---- time ---- */
 double lc_now_ms(void);
 
@@ -119,19 +128,22 @@ typedef struct lc_sweep_out {
     int32_t *cand;   /* candidate records, 7 columns of cand_cap: lo xyz, hi xyz, index */
     size_t cand_cap;
     void (*filter)(void); /* the segment filter kernel for this CPU (sweep.c casts it back) */
+    lc_buf group;         /* uint64 x 2 per entry of the largest cell so far: its sort keys */
     uint64_t candidates;
     uint64_t exact_tests;
 } lc_sweep_out;
 void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a);
 void lc_sweep_out_fini(lc_sweep_out *o);
-/* Sweeps entries [begin, end) of the whole sorted array (entries before
- * `begin` rebuild the state), appending pairs to o. qbox, when not NULL,
- * holds each object's quantized box (6 int32: lo xyz, hi xyz) as encode
- * computed it; otherwise the sweep quantizes again (bit-identically). */
+/* Sweeps entries [begin, end) of the sorted array of `count` entries,
+ * appending pairs to o. Both ends move forward to the next start of a cell,
+ * so slices [b0, b1), [b1, b2), ... still cover every cell once; entries
+ * before `begin` rebuild the state a serial sweep would hold there. qbox,
+ * when not NULL, holds each object's quantized box (6 int32: lo xyz, hi xyz)
+ * as encode computed it; otherwise the sweep quantizes again (bit-identically). */
 locd_status lc_sweep_range_f32(const locd_grid *g, const float *boxes, const int32_t *qbox, const uint64_t *entries,
-                               size_t begin, size_t end, lc_sweep_out *o);
+                               size_t count, size_t begin, size_t end, lc_sweep_out *o);
 locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const int32_t *qbox, const uint64_t *entries,
-                               size_t begin, size_t end, lc_sweep_out *o);
+                               size_t count, size_t begin, size_t end, lc_sweep_out *o);
 
 /* ---- thread pool (pool.c) ---- */
 typedef struct lc_pool lc_pool;

@@ -49,7 +49,8 @@ typedef size_t (*lc_scan_fn)(const lc_scan *sc, size_t first, size_t end, uint32
 
 /* Each column has LC_PAD spare slots so the vector kernel may read a whole
  * vector past the last record (lanes it then ignores). */
-#define LC_PAD 8
+#define LC_PAD 16
+#define LC_PAIR_SLACK 16
 #define LC_STRIDE(cap) ((cap) + LC_PAD)
 
 static void cols_of(const lc_sweep_out *o, lc_cols *c)
@@ -107,6 +108,45 @@ LC_INLINE void lc_cell_of(const int32_t q[6], uint64_t cm, uint32_t s, int32_t c
     cell[0] = (q[0] >> s) + (((q[0] >> s) ^ (int32_t)cm) & 1);
     cell[1] = (q[1] >> s) + (((q[1] >> s) ^ (int32_t)(cm >> 1)) & 1);
     cell[2] = (q[2] >> s) + (((q[2] >> s) ^ (int32_t)(cm >> 2)) & 1);
+}
+
+/* A cell's x range cut into LC_SLABS slabs; boxes starting left of the cell
+ * count in the first slab, so slab order is x order up to the slab. */
+#define LC_SLABS 16
+#define LC_SLAB_BITS 4
+/* Fewer entries than this: ordering a cell costs more than it saves. */
+#define LC_SLAB_MIN 12
+typedef struct lc_slabs {
+    int64_t origin; /* the cell's low x */
+    uint32_t shift; /* log2 of a slab's width */
+} lc_slabs;
+
+static void slabs_of(lc_slabs *sl, int32_t cell_x, uint32_t s)
+{
+    sl->origin = (int64_t)cell_x << s;
+    sl->shift = s > LC_SLAB_BITS ? s - LC_SLAB_BITS : 0;
+}
+
+LC_INLINE uint32_t slab_of64(const lc_slabs *sl, int64_t x)
+{
+    int64_t b = x - sl->origin;
+    if (b < 0)
+        return 0;
+    b >>= sl->shift;
+    return b >= LC_SLABS ? LC_SLABS - 1 : (uint32_t)b;
+}
+
+LC_INLINE uint32_t slab_of(const lc_slabs *sl, int32_t x)
+{
+    return slab_of64(sl, x);
+}
+
+/* The first entry at or after p that starts a cell (p itself if it does). */
+static size_t cell_start_from(const uint64_t *e, size_t count, size_t p, uint32_t ib)
+{
+    while (p > 0 && p < count && (e[p] >> ib) == (e[p - 1] >> ib))
+        p++;
+    return p;
 }
 
 static size_t lower_bound64(const uint64_t *a, size_t n, uint64_t v)
@@ -303,13 +343,74 @@ __attribute__((target("avx2"))) static size_t scan_avx2(const lc_scan *sc, size_
 }
 #endif
 
-/* The kernel for this CPU; LOCD_SCALAR=1 in the environment forces the
- * portable one (the tests compare both). */
+#ifdef LC_HAVE_AVX512_KERNEL
+/* Candidates first..end-1 against one entry, 16 at a time, with every test
+ * the scalar path makes (closed overlap, canonical cell, strict overlap or
+ * the exact test) done on whole vectors, and the pairs written by one
+ * compress and one store per 8 lanes, in the scalar path's order. The pair
+ * buffer keeps 16 spare pairs for those full-vector stores. */
+LC_AVX512 LC_INLINE size_t scan_avx512(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np,
+                                       uint64_t *exact)
+{
+    const __m512i lo0 = _mm512_set1_epi32(sc->lo[0]), lo1 = _mm512_set1_epi32(sc->lo[1]),
+                  lo2 = _mm512_set1_epi32(sc->lo[2]);
+    const __m512i hi0 = _mm512_set1_epi32(sc->hi[0]), hi1 = _mm512_set1_epi32(sc->hi[1]),
+                  hi2 = _mm512_set1_epi32(sc->hi[2]);
+    const __m512i cx = _mm512_set1_epi32(sc->cell[0]), cy = _mm512_set1_epi32(sc->cell[1]),
+                  cz = _mm512_set1_epi32(sc->cell[2]), me = _mm512_set1_epi32((int)sc->idx);
+    const __m128i sh = _mm_cvtsi32_si128((int)sc->s);
+    size_t r;
+    for (r = first; r < end; r += 16) {
+        /* Past `end` lie padding or stale rows: masked off. */
+        const __mmask16 live = end - r >= 16 ? (__mmask16)0xffff : (__mmask16)((1u << (end - r)) - 1u);
+        const __m512i L0 = _mm512_loadu_si512(sc->c.lo[0] + r), H0 = _mm512_loadu_si512(sc->c.hi[0] + r);
+        const __m512i L1 = _mm512_loadu_si512(sc->c.lo[1] + r), H1 = _mm512_loadu_si512(sc->c.hi[1] + r);
+        const __m512i L2 = _mm512_loadu_si512(sc->c.lo[2] + r), H2 = _mm512_loadu_si512(sc->c.hi[2] + r);
+        /* Independent compares, no early exit: whether a block holds a
+           reportable pair is a coin toss the branch predictor loses. */
+        const __mmask16 ov = live & _mm512_cmple_epi32_mask(L0, hi0) & _mm512_cmpge_epi32_mask(H0, lo0) &
+                             _mm512_cmple_epi32_mask(L1, hi1) & _mm512_cmpge_epi32_mask(H1, lo1) &
+                             _mm512_cmple_epi32_mask(L2, hi2) & _mm512_cmpge_epi32_mask(H2, lo2);
+        /* Canonical cell: the intersection's low corner lies in this cell. */
+        const __mmask16 canon =
+            _mm512_cmpeq_epi32_mask(_mm512_sra_epi32(_mm512_max_epi32(L0, lo0), sh), cx) &
+            _mm512_cmpeq_epi32_mask(_mm512_sra_epi32(_mm512_max_epi32(L1, lo1), sh), cy) &
+            _mm512_cmpeq_epi32_mask(_mm512_sra_epi32(_mm512_max_epi32(L2, lo2), sh), cz);
+        /* Strictly inside each other's quantized range: a true overlap.
+           Equal ends need the exact test. */
+        const __mmask16 strict = _mm512_cmpgt_epi32_mask(H0, lo0) & _mm512_cmpgt_epi32_mask(hi0, L0) &
+                                 _mm512_cmpgt_epi32_mask(H1, lo1) & _mm512_cmpgt_epi32_mask(hi1, L1) &
+                                 _mm512_cmpgt_epi32_mask(H2, lo2) & _mm512_cmpgt_epi32_mask(hi2, L2);
+        __mmask16 m = ov & canon, weak;
+        for (weak = (__mmask16)(m & ~strict); weak; weak &= (__mmask16)(weak - 1)) {
+            const unsigned lane = (unsigned)__builtin_ctz(weak);
+            ++*exact;
+            if (!exact_overlap(sc->boxes, sc->f64, sc->idx, sc->c.idx[r + lane]))
+                m &= (__mmask16) ~(1u << lane);
+        }
+        {
+            const __m512i J = _mm512_loadu_si512(sc->c.idx + r);
+            const __m512i a = _mm512_min_epu32(J, me), b = _mm512_max_epu32(J, me);
+            const __m512i p0 = _mm512_or_si512(_mm512_cvtepu32_epi64(_mm512_castsi512_si256(a)),
+                                               _mm512_slli_epi64(_mm512_cvtepu32_epi64(_mm512_castsi512_si256(b)), 32));
+            const __m512i p1 =
+                _mm512_or_si512(_mm512_cvtepu32_epi64(_mm512_extracti64x4_epi64(a, 1)),
+                                _mm512_slli_epi64(_mm512_cvtepu32_epi64(_mm512_extracti64x4_epi64(b, 1)), 32));
+            const __mmask8 m0 = (__mmask8)m, m1 = (__mmask8)(m >> 8);
+            _mm512_storeu_si512(pairs + 2 * np, _mm512_maskz_compress_epi64(m0, p0));
+            np += (size_t)__builtin_popcount(m0);
+            _mm512_storeu_si512(pairs + 2 * np, _mm512_maskz_compress_epi64(m1, p1));
+            np += (size_t)__builtin_popcount(m1);
+        }
+    }
+    return np;
+}
+#endif
+
 static lc_filter_fn pick_filter(void)
 {
 #ifdef LC_HAVE_AVX2_KERNEL
-    const char *force = getenv("LOCD_SCALAR");
-    if (!(force && force[0] == '1') && __builtin_cpu_supports("avx2"))
+    if (lc_kernel() >= LC_KERNEL_AVX2)
         return filter_avx2;
 #endif
     return filter_scalar;
@@ -318,24 +419,70 @@ static lc_filter_fn pick_filter(void)
 static lc_scan_fn pick_scan(void)
 {
 #ifdef LC_HAVE_AVX2_KERNEL
-    const char *force = getenv("LOCD_SCALAR");
-    if (!(force && force[0] == '1') && __builtin_cpu_supports("avx2"))
+    if (lc_kernel() >= LC_KERNEL_AVX2)
         return scan_avx2;
 #endif
     return scan_scalar;
 }
 
+/* The main loop, once per input precision and per kernel family: through
+ * the scan function pointer (scalar, AVX2), and with the AVX-512 scan
+ * inlined into a loop compiled for AVX-512. */
 #define LC_T float
-#define LC_SUFFIX f32
+#define LC_SUFFIX f32_generic
+#define LC_TARGET
+#define LC_SCAN(sc, first, end, pairs, np, exact) scan(sc, first, end, pairs, np, exact)
 #include "sweep_impl.h"
 #undef LC_T
 #undef LC_SUFFIX
 
 #define LC_T double
-#define LC_SUFFIX f64
+#define LC_SUFFIX f64_generic
 #include "sweep_impl.h"
 #undef LC_T
 #undef LC_SUFFIX
+#undef LC_TARGET
+#undef LC_SCAN
+
+#ifdef LC_HAVE_AVX512_KERNEL
+#define LC_TARGET LC_AVX512
+#define LC_SCAN(sc, first, end, pairs, np, exact) scan_avx512(sc, first, end, pairs, np, exact)
+#define LC_T float
+#define LC_SUFFIX f32_avx512
+#include "sweep_impl.h"
+#undef LC_T
+#undef LC_SUFFIX
+
+#define LC_T double
+#define LC_SUFFIX f64_avx512
+#include "sweep_impl.h"
+#undef LC_T
+#undef LC_SUFFIX
+#undef LC_TARGET
+#undef LC_SCAN
+#endif
+
+#ifdef LC_HAVE_AVX512_KERNEL
+#define LC_SWEEP_DISPATCH(SUFFIX, T)                                                                         \
+    locd_status lc_sweep_range_##SUFFIX(const locd_grid *g, const T *boxes, const int32_t *qbox,             \
+                                        const uint64_t *entries, size_t count, size_t begin, size_t end,     \
+                                        lc_sweep_out *o)                                                     \
+    {                                                                                                        \
+        if (lc_kernel() == LC_KERNEL_AVX512)                                                               \
+            return lc_sweep_range_##SUFFIX##_avx512(g, boxes, qbox, entries, count, begin, end, o);          \
+        return lc_sweep_range_##SUFFIX##_generic(g, boxes, qbox, entries, count, begin, end, o);             \
+    }
+#else
+#define LC_SWEEP_DISPATCH(SUFFIX, T)                                                                         \
+    locd_status lc_sweep_range_##SUFFIX(const locd_grid *g, const T *boxes, const int32_t *qbox,             \
+                                        const uint64_t *entries, size_t count, size_t begin, size_t end,     \
+                                        lc_sweep_out *o)                                                     \
+    {                                                                                                        \
+        return lc_sweep_range_##SUFFIX##_generic(g, boxes, qbox, entries, count, begin, end, o);             \
+    }
+#endif
+LC_SWEEP_DISPATCH(f32, float)
+LC_SWEEP_DISPATCH(f64, double)
 
 void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a)
 {
@@ -347,6 +494,7 @@ void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a)
 void lc_sweep_out_fini(lc_sweep_out *o)
 {
     lc_buf_release(o->alloc, &o->pairs, sizeof(uint32_t));
+    lc_buf_release(o->alloc, &o->group, sizeof(uint64_t));
     if (o->cand)
         lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * 7 * sizeof(int32_t));
     o->cand = NULL;
@@ -383,7 +531,7 @@ static int entries_sorted(const uint64_t *e, size_t count)
             if ((entries[i] & ((1ull << grid->index_bits) - 1)) >= n)                                        \
                 return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entry %zu names object >= n", i);               \
         lc_sweep_out_init(&o, &out->alloc);                                                                  \
-        st = lc_sweep_range_##SUFFIX(grid, boxes, NULL, entries, 0, count, &o);                              \
+        st = lc_sweep_range_##SUFFIX(grid, boxes, NULL, entries, count, 0, count, &o);                              \
         if (!st)                                                                                             \
             st = lc_pairs_reserve(out, o.count);                                                             \
         if (!st) {                                                                                           \

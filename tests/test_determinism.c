@@ -219,6 +219,60 @@ static void sorted_flag_is_brute_force_order(void **state)
     free(f);
 }
 
+/* The SIMD kernels (LOCD_KERNEL caps the choice; a CPU without a kernel
+ * falls back to the next one down) give the scalar kernel's bytes, for every
+ * scene kind, both precisions, 1 and 3 threads and the default and cube
+ * encodings; and the scalar result is the brute-force set. */
+static void every_kernel_same_bytes(void **state)
+{
+    static const char *const kernels[] = {"scalar", "avx2", "avx512"};
+    const char *saved = getenv("LOCD_KERNEL");
+    char *keep = saved ? strdup(saved) : NULL;
+    int kind, k, cubes;
+    (void)state;
+    for (kind = 0; kind < TS_SCENE_KINDS; kind++)
+        for (cubes = 0; cubes < 2; cubes++) {
+            const size_t n = scene_n(kind);
+            float *f = ts_scene(kind, n, 700 + (uint64_t)kind);
+            double *d = widen(f, n);
+            locd_pairs *ref, *p;
+            uint32_t t;
+            char what[96];
+            assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
+            assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+            setenv("LOCD_KERNEL", "scalar", 1);
+            {
+                locd_engine *e1 = engine_for(1, LOCD_DEFAULT_CELL_BIAS, 0, cubes ? LOCD_CONFIG_CUBES : 0);
+                assert_int_equal(locd_engine_find_pairs_f32(e1, f, n, 0, ref), LOCD_OK);
+                locd_engine_destroy(e1);
+            }
+            assert_true(ts_same_as_brute_f32(f, n, ref));
+            for (k = 1; k < 3; k++) {
+                setenv("LOCD_KERNEL", kernels[k], 1);
+                for (t = 1; t <= 3; t += 2) {
+                    locd_engine *e = engine_for(t, LOCD_DEFAULT_CELL_BIAS, 0, cubes ? LOCD_CONFIG_CUBES : 0);
+                    snprintf(what, sizeof what, "kind %d cubes %d kernel %s threads %u f32", kind, cubes, kernels[k], t);
+                    assert_int_equal(locd_engine_find_pairs_f32(e, f, n, 0, p), LOCD_OK);
+                    same_pairs(p, ref, what);
+                    snprintf(what, sizeof what, "kind %d cubes %d kernel %s threads %u f64", kind, cubes, kernels[k], t);
+                    assert_int_equal(locd_engine_find_pairs_f64(e, d, n, 0, p), LOCD_OK);
+                    same_pairs(p, ref, what);
+                    locd_engine_destroy(e);
+                }
+            }
+            locd_pairs_destroy(ref);
+            locd_pairs_destroy(p);
+            free(d);
+            free(f);
+        }
+    if (keep) {
+        setenv("LOCD_KERNEL", keep, 1);
+        free(keep);
+    } else {
+        unsetenv("LOCD_KERNEL");
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -226,6 +280,7 @@ int main(void)
         cmocka_unit_test(every_thread_count_for_other_configs),
         cmocka_unit_test(reused_engine_and_repeated_runs),
         cmocka_unit_test(sorted_flag_is_brute_force_order),
+        cmocka_unit_test(every_kernel_same_bytes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

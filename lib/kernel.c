@@ -1,0 +1,28 @@
+/* Which SIMD kernels this CPU runs. The sweep and encode each have a
+ * portable path and x86-64 vector paths compiled with target attributes, so
+ * one binary runs everywhere and uses what the CPU has. LOCD_KERNEL=
+ * scalar|avx2|avx512 in the environment caps the choice (LOCD_SCALAR=1 is
+ * the old spelling of scalar): the tests run every kernel and compare. */
+#include "internal.h"
+
+#include <stdlib.h>
+
+int lc_kernel(void)
+{
+    const char *cap = getenv("LOCD_KERNEL"), *scalar = getenv("LOCD_SCALAR");
+    int k = LC_KERNEL_SCALAR;
+    if (scalar && scalar[0] == '1')
+        return LC_KERNEL_SCALAR;
+#if defined(__GNUC__) && defined(__x86_64__)
+    if (__builtin_cpu_supports("avx2"))
+        k = LC_KERNEL_AVX2;
+    if (k == LC_KERNEL_AVX2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+        __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("bmi2"))
+        k = LC_KERNEL_AVX512;
+#endif
+    if (cap && strcmp(cap, "scalar") == 0)
+        k = LC_KERNEL_SCALAR;
+    else if (cap && strcmp(cap, "avx2") == 0 && k > LC_KERNEL_AVX2)
+        k = LC_KERNEL_AVX2;
+    return k;
+}
