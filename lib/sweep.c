@@ -366,11 +366,14 @@ LC_AVX512 LC_INLINE size_t scan_avx512(const lc_scan *sc, size_t first, size_t e
         const __m512i L0 = _mm512_loadu_si512(sc->c.lo[0] + r), H0 = _mm512_loadu_si512(sc->c.hi[0] + r);
         const __m512i L1 = _mm512_loadu_si512(sc->c.lo[1] + r), H1 = _mm512_loadu_si512(sc->c.hi[1] + r);
         const __m512i L2 = _mm512_loadu_si512(sc->c.lo[2] + r), H2 = _mm512_loadu_si512(sc->c.hi[2] + r);
-        /* Independent compares, no early exit: whether a block holds a
-           reportable pair is a coin toss the branch predictor loses. */
+        /* Independent compares (a chain of masked compares is one long
+           dependency); blocks with no overlap at all, the common case, stop
+           here. */
         const __mmask16 ov = live & _mm512_cmple_epi32_mask(L0, hi0) & _mm512_cmpge_epi32_mask(H0, lo0) &
                              _mm512_cmple_epi32_mask(L1, hi1) & _mm512_cmpge_epi32_mask(H1, lo1) &
                              _mm512_cmple_epi32_mask(L2, hi2) & _mm512_cmpge_epi32_mask(H2, lo2);
+        if (!ov)
+            continue;
         /* Canonical cell: the intersection's low corner lies in this cell. */
         const __mmask16 canon =
             _mm512_cmpeq_epi32_mask(_mm512_sra_epi32(_mm512_max_epi32(L0, lo0), sh), cx) &
