@@ -255,22 +255,39 @@ static locd_status push_filtered(const locd_grid *g, lc_sweep_out *o, lc_seg *se
     return LOCD_OK;
 }
 
-/* Opens the segment of cell (pm, level, cell) under the current top segment
- * and reserves room for `extra` more records. When the top segment is more
- * than one level up and long, the cell's parent gets a segment too, so that
- * sibling cells filter a short list instead of the long one (the records,
- * and their order, are the same either way). */
+/* When the top segment is more than one level above a cell at `level` and
+ * long, gives the cell's parent a segment, so that sibling cells filter (or
+ * scan) a short list instead of the long one; the records, and their
+ * order, are the same either way. */
 #define LC_FILTER_STEP_MIN 16
-static locd_status open_segment(const locd_grid *g, lc_sweep_out *o, lc_seg *segs, uint32_t *nseg, size_t *ncand,
-                                uint64_t pm, uint32_t level, const int32_t cell[3], size_t extra)
+static locd_status open_parent(const locd_grid *g, lc_sweep_out *o, lc_seg *segs, uint32_t *nseg, size_t *ncand,
+                               uint64_t pm, uint32_t level, const int32_t cell[3])
 {
     if (*nseg && segs[*nseg - 1].level + 1 < level && *ncand - segs[*nseg - 1].start >= LC_FILTER_STEP_MIN) {
         const int32_t parent[3] = {cell[0] >> 1, cell[1] >> 1, cell[2] >> 1};
-        locd_status st = push_filtered(g, o, segs, nseg, ncand, pm, level - 1, parent, 0);
-        if (st)
-            return st;
+        return push_filtered(g, o, segs, nseg, ncand, pm, level - 1, parent, 0);
     }
+    return LOCD_OK;
+}
+
+/* Opens the segment of cell (pm, level, cell) under the current top segment
+ * (after its parent's, see open_parent) and reserves room for `extra` more
+ * records. */
+static locd_status open_segment(const locd_grid *g, lc_sweep_out *o, lc_seg *segs, uint32_t *nseg, size_t *ncand,
+                                uint64_t pm, uint32_t level, const int32_t cell[3], size_t extra)
+{
+    locd_status st = open_parent(g, o, segs, nseg, ncand, pm, level, cell);
+    if (st)
+        return st;
     return push_filtered(g, o, segs, nseg, ncand, pm, level, cell, extra);
+}
+
+/* Whether the cell of key `next` lies strictly inside cell (pm, level). */
+LC_INLINE int lc_descends(uint64_t next, uint64_t pm, uint32_t level, uint32_t depth)
+{
+    const uint32_t shift = 3u * (depth - level);
+    return (uint32_t)(next & ((1u << LC_LEVEL_BITS) - 1)) > level &&
+           ((next >> LC_LEVEL_BITS) >> shift) == (pm >> shift);
 }
 
 static int exact_overlap(const void *boxes, int f64, uint32_t i, uint32_t j)

@@ -116,7 +116,7 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
     const lc_scan_fn scan = pick_scan();
     lc_seg segs[LC_MAX_SEGS];
     uint32_t nseg = 0;
-    size_t ncand = 0, p, npairs = o->count;
+    size_t ncand = 0, p, pf, npairs = o->count;
     uint64_t candidates = 0, exact = 0;
     int64_t ext;
     size_t slab[LC_SLABS + 1];
@@ -161,7 +161,7 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
     }
 
     /* One cell at a time: its entries are contiguous in the sorted array. */
-    for (p = begin; p < end;) {
+    for (p = pf = begin; p < end;) {
         const uint64_t key = entries[p] >> ib, pm = key >> LC_LEVEL_BITS;
         const uint32_t L = (uint32_t)(key & ((1u << LC_LEVEL_BITS) - 1));
         size_t q = p + 1, m, own, win, first, t;
@@ -171,8 +171,10 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
         while (q < end && (entries[q] >> ib) == key)
             q++;
         m = q - p;
-        for (t = p; t < q; t++)
-            LC_FN(prefetch_)(g, boxes, qbox, entries, t + LC_PREFETCH, end);
+        /* Keep the loads of the next LC_PREFETCH entries past this cell in
+           flight: a dense cell reads all its boxes at once. */
+        for (; pf < q + LC_PREFETCH && pf < end; pf++)
+            LC_FN(prefetch_)(g, boxes, qbox, entries, pf, end);
         LC_FN(qbox_of_)(g, boxes, qbox, (uint32_t)(entries[p] & imask), me);
         sc.s = LC_QBITS - L;
         lc_cell_of(me, pm >> (3u * (depth - L)), sc.s, sc.cell);
@@ -183,6 +185,33 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
                 break;
             ncand = sg->start;
             nseg--;
+        }
+        if (m == 1 && !(q < end && lc_descends(entries[q] >> ib, pm, L, depth))) {
+            /* A lone entry with no descendants after it: a segment of its
+               own would serve nobody else, so it meets the enclosing
+               segment's records directly (those that miss its cell fail the
+               canonical test, and the order is the filtered one's). */
+            if ((st = open_parent(g, o, segs, &nseg, &ncand, pm, L, sc.cell)) != LOCD_OK)
+                return st;
+            first = nseg ? segs[nseg - 1].start : ncand;
+            if (ncand > first) {
+                const size_t need = npairs + (ncand - first) + LC_PAIR_SLACK;
+                if (2 * need > o->pairs.cap &&
+                    (st = lc_buf_reserve(o->alloc, &o->pairs, sizeof(uint32_t), 2 * need)) != LOCD_OK)
+                    return st;
+                cols_of(o, &sc.c);
+                sc.lo[0] = me[0];
+                sc.lo[1] = me[1];
+                sc.lo[2] = me[2];
+                sc.hi[0] = me[3];
+                sc.hi[1] = me[4];
+                sc.hi[2] = me[5];
+                sc.idx = (uint32_t)(entries[p] & imask);
+                candidates += ncand - first;
+                npairs = LC_SCAN(&sc, first, ncand, (uint32_t *)o->pairs.data, npairs, &exact);
+            }
+            p = q;
+            continue;
         }
         if ((st = open_segment(g, o, segs, &nseg, &ncand, pm, L, sc.cell, m)) != LOCD_OK)
             return st;
