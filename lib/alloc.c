@@ -3,29 +3,10 @@
 
 #include <stdlib.h>
 #include <time.h>
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
-
-/* Large blocks (entries, quantized boxes) are read in random order by the
- * sweep: on 4 KiB pages most of those reads also miss the TLB. Aligning them
- * to 2 MiB and asking for transparent huge pages removes that (Linux only;
- * where THP is off the advice is ignored). */
-#define LC_HUGE_MIN ((size_t)4 << 20)
-#define LC_HUGE_ALIGN ((size_t)2 << 20)
 
 static void *default_alloc(size_t size, void *user)
 {
     (void)user;
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-    if (size >= LC_HUGE_MIN) {
-        void *p = NULL;
-        if (posix_memalign(&p, LC_HUGE_ALIGN, size) != 0)
-            return NULL;
-        (void)madvise(p, size & ~(LC_HUGE_ALIGN - 1), MADV_HUGEPAGE);
-        return p;
-    }
-#endif
     return malloc(size);
 }
 

@@ -6,6 +6,8 @@
  * sweep slice rebuilds the exact state a serial sweep would have. */
 #include "engine_internal.h"
 
+#include <math.h>
+
 #define LC_MAX_THREADS 64
 /* Below this many objects one thread beats waking the others. */
 #define LC_PARALLEL_MIN_OBJECTS 4096
@@ -126,7 +128,11 @@ static locd_status inproc_open(locd_engine *e)
         e->threads = LC_MAX_THREADS;
     for (t = 0; t < LC_MAX_THREADS; t++)
         lc_sweep_out_init(&ip->sw[t], &e->alloc);
-    ip->per_object = 3.0;
+    /* A box at most 2^-bias of its cell crosses into the next cell on an
+       axis with probability at most 2^-bias: (1 + 2^-bias)^3 entries per
+       object on average, 1.95 for the default bias. Later calls use the
+       last call's figure; an overflow is redone with exact sizes. */
+    ip->per_object = pow(1.0 + ldexp(1.0, -e->cfg.cell_bias), 3) + 0.25;
     st = lc_pool_create(&e->alloc, e->threads, &ip->pool);
     if (st) {
         lc_free(&e->alloc, ip, sizeof *ip);
@@ -279,6 +285,15 @@ static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int 
     t1 = lc_now_ms();
     stats->ms_merge = t1 - t0;
 
+    /* The entry buffer the sweep does not read is dead until the next call:
+       each sweep thread writes its pairs to a slice of it first, so that
+       only the result needs memory of its own (8 bytes a pair). */
+    {
+        uint64_t *dead = c->sorted == (const uint64_t *)ip->ent.data ? ip->scr.data : ip->ent.data;
+        const size_t slice = (ip->ent.cap < ip->scr.cap ? ip->ent.cap : ip->scr.cap) / k;
+        for (t = 0; t < k; t++)
+            lc_sweep_out_lend(&ip->sw[t], (uint32_t *)(dead + t * slice), 2 * slice);
+    }
     lc_pool_run(ip->pool, k, task_sweep, c);
     for (t = 0; t < k; t++) {
         if (c->status[t] && !st)
@@ -311,6 +326,8 @@ static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int 
         stats->ms_order = lc_now_ms() - t0;
     }
 done:
+    for (t = 0; t < k; t++)
+        lc_sweep_out_lend(&ip->sw[t], NULL, 0);
     if (order_tmp)
         lc_free(&e->alloc, order_tmp, order_bytes);
     lc_free(&e->alloc, c, sizeof *c);

@@ -124,6 +124,7 @@ void lc_merge_split(const uint64_t *const *runs, const size_t *counts, size_t k,
 typedef struct lc_sweep_out {
     const locd_allocator *alloc;
     lc_buf pairs; /* uint32, two per pair */
+    int pairs_lent; /* pairs.data is the caller's memory (see lc_sweep_out_lend) */
     size_t count; /* pairs */
     int32_t *cand;   /* candidate records, 7 columns of cand_cap: lo xyz, hi xyz, index */
     size_t cand_cap;
@@ -134,6 +135,10 @@ typedef struct lc_sweep_out {
 } lc_sweep_out;
 void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a);
 void lc_sweep_out_fini(lc_sweep_out *o);
+/* Releases o's own pair buffer and has the next sweeps write their pairs to
+ * `values` (cap uint32, two per pair) until it is full, then to a buffer of
+ * their own; NULL returns to owned buffers. The memory stays the caller's. */
+void lc_sweep_out_lend(lc_sweep_out *o, uint32_t *values, size_t cap);
 /* Sweeps entries [begin, end) of the sorted array of `count` entries,
  * appending pairs to o. Both ends move forward to the next start of a cell,
  * so slices [b0, b1), [b1, b2), ... still cover every cell once; entries

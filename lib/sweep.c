@@ -141,6 +141,33 @@ LC_INLINE uint32_t slab_of(const lc_slabs *sl, int32_t x)
     return slab_of64(sl, x);
 }
 
+/* Grows the pair buffer to `values` uint32 (two per pair), keeping the
+ * `used` pairs found so far; a lent buffer is copied out, never freed. */
+static locd_status pairs_reserve(lc_sweep_out *o, size_t values, size_t used)
+{
+    if (o->pairs_lent) {
+        lc_buf own = {NULL, 0};
+        locd_status st = lc_buf_reserve(o->alloc, &own, sizeof(uint32_t), values + values / 2);
+        if (st)
+            return st;
+        if (used)
+            memcpy(own.data, o->pairs.data, used * 2 * sizeof(uint32_t));
+        o->pairs = own;
+        o->pairs_lent = 0;
+        return LOCD_OK;
+    }
+    return lc_buf_reserve(o->alloc, &o->pairs, sizeof(uint32_t), values);
+}
+
+void lc_sweep_out_lend(lc_sweep_out *o, uint32_t *values, size_t cap)
+{
+    if (!o->pairs_lent)
+        lc_buf_release(o->alloc, &o->pairs, sizeof(uint32_t));
+    o->pairs.data = values;
+    o->pairs.cap = values ? cap : 0;
+    o->pairs_lent = values != NULL;
+}
+
 /* The first entry at or after p that starts a cell (p itself if it does). */
 static size_t cell_start_from(const uint64_t *e, size_t count, size_t p, uint32_t ib)
 {
@@ -465,6 +492,22 @@ static lc_scan_fn pick_scan(void)
 #undef LC_SCAN
 
 #ifdef LC_HAVE_AVX512_KERNEL
+/* lc_quantize on a box's six coordinates at once: the same IEEE operations
+ * in the same order, so the same integers as encode computed. */
+LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
+{
+    const __m512d origin = _mm512_permutexvar_pd(_mm512_setr_epi64(0, 1, 2, 0, 1, 2, 0, 0),
+                                                 _mm512_castpd256_pd512(_mm256_maskz_loadu_pd(0x7, g->origin)));
+    const __m512d t = _mm512_mul_pd(
+        _mm512_mul_pd(_mm512_sub_pd(_mm512_mul_pd(x, _mm512_set1_pd(0.5)), origin), _mm512_set1_pd(g->scale_a)),
+        _mm512_set1_pd(g->scale_b));
+    const __m512d c = _mm512_min_pd(_mm512_max_pd(t, _mm512_setzero_pd()), _mm512_set1_pd(LC_QMAX));
+    _mm256_storeu_si256((__m256i *)q, _mm512_cvttpd_epi32(c));
+}
+#define LC_QUANTIZE6(g, b, q)                                                                                \
+    quantize6(g, sizeof *(b) == sizeof(double) ? _mm512_maskz_loadu_pd(0x3f, (const double *)(const void *)(b)) \
+                                               : _mm512_cvtps_pd(_mm256_maskz_loadu_ps(0x3f, (const float *)(const void *)(b))), \
+              q)
 #define LC_TARGET LC_AVX512
 #define LC_SCAN(sc, first, end, pairs, np, exact) scan_avx512(sc, first, end, pairs, np, exact)
 #define LC_T float
@@ -480,6 +523,7 @@ static lc_scan_fn pick_scan(void)
 #undef LC_SUFFIX
 #undef LC_TARGET
 #undef LC_SCAN
+#undef LC_QUANTIZE6
 #endif
 
 #ifdef LC_HAVE_AVX512_KERNEL
@@ -513,7 +557,7 @@ void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a)
 
 void lc_sweep_out_fini(lc_sweep_out *o)
 {
-    lc_buf_release(o->alloc, &o->pairs, sizeof(uint32_t));
+    lc_sweep_out_lend(o, NULL, 0);
     lc_buf_release(o->alloc, &o->group, sizeof(uint64_t));
     if (o->cand)
         lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * 7 * sizeof(int32_t));

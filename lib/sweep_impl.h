@@ -8,19 +8,24 @@
 #define LC_FN(name) LC_CAT(name, LC_SUFFIX)
 
 /* The object's quantized box: from encode's array, or computed again with
- * the very same function (bit-identical: no FMA contraction, see meson.build). */
-LC_INLINE void LC_FN(qbox_of_)(const locd_grid *g, const LC_T *boxes, const int32_t *qbox, uint32_t idx,
-                               int32_t q[6])
+ * the very same operations (bit-identical: no FMA contraction, see
+ * meson.build). q has room for 8 values (a vector store). */
+LC_TARGET LC_INLINE void LC_FN(qbox_of_)(const locd_grid *g, const LC_T *boxes, const int32_t *qbox, uint32_t idx,
+                               int32_t q[8])
 {
     if (qbox) {
         memcpy(q, qbox + 6 * (size_t)idx, 6 * sizeof(int32_t));
     } else {
+#ifdef LC_QUANTIZE6
+        LC_QUANTIZE6(g, boxes + 6 * (size_t)idx, q);
+#else
         const LC_T *b = boxes + 6 * (size_t)idx;
         int a;
         for (a = 0; a < 3; a++) {
             q[a] = lc_quantize(g, a, (double)b[a]);
             q[a + 3] = lc_quantize(g, a, (double)b[a + 3]);
         }
+#endif
     }
 }
 
@@ -35,6 +40,7 @@ LC_INLINE void LC_FN(prefetch_)(const locd_grid *g, const LC_T *boxes, const int
             __builtin_prefetch(qbox + 6 * idx + 5);
         } else {
             __builtin_prefetch(boxes + 6 * idx);
+            __builtin_prefetch(boxes + 6 * idx + 5);
         }
     }
 }
@@ -65,7 +71,7 @@ static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, co
     if (m < LC_SLAB_MIN) {
         for (i = 0; i < m; i++) {
             const uint32_t idx = (uint32_t)(entries[p + i] & imask);
-            int32_t qb[6];
+            int32_t qb[8];
             LC_FN(qbox_of_)(g, boxes, qbox, idx, qb);
             cand_put(&c, at + i, qb, idx);
         }
@@ -80,7 +86,7 @@ static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, co
         slab[b] = 0;
     for (i = 0; i < m; i++) {
         const uint32_t idx = (uint32_t)(entries[p + i] & imask);
-        int32_t qb[6];
+        int32_t qb[8];
         LC_FN(qbox_of_)(g, boxes, qbox, idx, qb);
         b = slab_of(sl, qb[0]);
         slab[b + 1]++;
@@ -96,7 +102,7 @@ static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, co
             fill[b] = at + slab[b];
         for (i = 0; i < m; i++) {
             const uint32_t idx = (uint32_t)tag[i];
-            int32_t qb[6];
+            int32_t qb[8];
             LC_FN(qbox_of_)(g, boxes, qbox, idx, qb);
             cand_put(&c, fill[tag[i] >> 32]++, qb, idx);
         }
@@ -139,7 +145,7 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
     if (begin > 0) {
         const uint64_t key0 = entries[begin] >> ib, pm0 = key0 >> LC_LEVEL_BITS;
         const uint32_t L0 = (uint32_t)(key0 & ((1u << LC_LEVEL_BITS) - 1));
-        int32_t q0[6], cell0[3];
+        int32_t q0[8], cell0[3];
         uint32_t l;
         LC_FN(qbox_of_)(g, boxes, qbox, (uint32_t)(entries[begin] & imask), q0);
         lc_cell_of(q0, pm0 >> (3u * (depth - L0)), LC_QBITS - L0, cell0);
@@ -166,7 +172,7 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
         const uint32_t L = (uint32_t)(key & ((1u << LC_LEVEL_BITS) - 1));
         size_t q = p + 1, m, own, win, first, t;
         int slabbed;
-        int32_t me[6];
+        int32_t me[8];
 
         while (q < end && (entries[q] >> ib) == key)
             q++;
@@ -196,8 +202,7 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
             first = nseg ? segs[nseg - 1].start : ncand;
             if (ncand > first) {
                 const size_t need = npairs + (ncand - first) + LC_PAIR_SLACK;
-                if (2 * need > o->pairs.cap &&
-                    (st = lc_buf_reserve(o->alloc, &o->pairs, sizeof(uint32_t), 2 * need)) != LOCD_OK)
+                if (2 * need > o->pairs.cap && (st = pairs_reserve(o, 2 * need, npairs)) != LOCD_OK)
                     return st;
                 cols_of(o, &sc.c);
                 sc.lo[0] = me[0];
@@ -243,8 +248,7 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
             sc.idx = sc.c.idx[r];
             win = slabbed ? slab[slab_of64(&sl, (int64_t)sc.lo[0] - ext)] : own;
             need = npairs + (own - first) + (r - win) + LC_PAIR_SLACK;
-            if (2 * need > o->pairs.cap &&
-                (st = lc_buf_reserve(o->alloc, &o->pairs, sizeof(uint32_t), 2 * need)) != LOCD_OK)
+            if (2 * need > o->pairs.cap && (st = pairs_reserve(o, 2 * need, npairs)) != LOCD_OK)
                 return st;
             candidates += (own - first) + (r - win);
             if (win == own) { /* one contiguous run of candidates */
