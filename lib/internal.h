@@ -135,9 +135,11 @@ typedef struct lc_sweep_out {
 } lc_sweep_out;
 void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a);
 void lc_sweep_out_fini(lc_sweep_out *o);
-/* Releases o's own pair buffer and has the next sweeps write their pairs to
- * `values` (cap uint32, two per pair) until it is full, then to a buffer of
- * their own; NULL returns to owned buffers. The memory stays the caller's. */
+/* Has the next sweeps write their pairs to `values` (cap uint32, two per
+ * pair) until it is full, then to a buffer of their own, releasing o's own
+ * buffer unless that is the larger one (kept: a scene with many pairs runs
+ * again without growing it). NULL ends the loan. The memory stays the
+ * caller's. */
 void lc_sweep_out_lend(lc_sweep_out *o, uint32_t *values, size_t cap);
 /* Sweeps entries [begin, end) of the sorted array of `count` entries,
  * appending pairs to o. Both ends move forward to the next start of a cell,

@@ -161,11 +161,21 @@ static locd_status pairs_reserve(lc_sweep_out *o, size_t values, size_t used)
 
 void lc_sweep_out_lend(lc_sweep_out *o, uint32_t *values, size_t cap)
 {
+    if (!values) { /* the loan ends; an own buffer stays */
+        if (o->pairs_lent) {
+            o->pairs.data = NULL;
+            o->pairs.cap = 0;
+            o->pairs_lent = 0;
+        }
+        return;
+    }
+    if (!o->pairs_lent && o->pairs.cap >= cap)
+        return; /* a scene with many pairs grew a larger buffer: keep it */
     if (!o->pairs_lent)
         lc_buf_release(o->alloc, &o->pairs, sizeof(uint32_t));
     o->pairs.data = values;
-    o->pairs.cap = values ? cap : 0;
-    o->pairs_lent = values != NULL;
+    o->pairs.cap = cap;
+    o->pairs_lent = 1;
 }
 
 /* The first entry at or after p that starts a cell (p itself if it does). */
@@ -558,6 +568,7 @@ void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a)
 void lc_sweep_out_fini(lc_sweep_out *o)
 {
     lc_sweep_out_lend(o, NULL, 0);
+    lc_buf_release(o->alloc, &o->pairs, sizeof(uint32_t));
     lc_buf_release(o->alloc, &o->group, sizeof(uint64_t));
     if (o->cand)
         lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * 7 * sizeof(int32_t));
