@@ -18,7 +18,7 @@ static void pairs_usage(void)
            "  --f64              convert a float32 scene to float64 and use the f64 entry point\n"
            "  --sorted           ask the engine for (i, j) order inside the timed call\n"
            "  --depth D          octree depth limit (default automatic)\n"
-           "  --bias B           cell edge >= 2^B x box extent (default 1)\n"
+           "  --bias B           cell edge >= 2^B x box extent (default 2)\n"
            "  --cubes            encode bounding cubes (the paper's choice) instead of boxes\n"
            "  --check            also compare with the O(n^2) reference (small scenes)\n"
            "Prints one JSON line: n, pairs, total_ms (median in-call time), stage_ms, entries, candidates.\n");
