@@ -46,9 +46,76 @@ void lc_bounds_init(lc_bounds *b)
     out->hi[1] = hi1;                                                                                        \
     out->hi[2] = hi2;
 
-void lc_bounds_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out)
+static void bounds_scalar_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out)
 {
     LC_BOUNDS_BODY(float)
+}
+
+#ifdef LC_HAVE_AVX512_KERNEL
+#include <immintrin.h>
+
+/* Eight boxes (48 floats, three vectors) per step. Float p of a block is
+ * coordinate p % 6 of its box, the same in every block, so per-lane running
+ * minima and maxima suffice; a block with a bad box goes to the scalar loop,
+ * which finds the first bad box exactly as before. */
+LC_AVX512 static void bounds_avx512_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out)
+{
+    /* lanes holding a low corner (p % 6 < 3) in each of the three vectors */
+    static const __mmask16 lo_lanes[3] = {0x71c7, 0xc71c, 0x1c71};
+    const __m512i up3 = _mm512_setr_epi32(3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18);
+    __m512 mn[3], mx[3];
+    float vmin[48], vmax[48];
+    size_t i = begin;
+    int v, p;
+    for (v = 0; v < 3; v++) {
+        mn[v] = _mm512_set1_ps(HUGE_VALF);
+        mx[v] = _mm512_set1_ps(-HUGE_VALF);
+    }
+    for (; i + 8 <= end; i += 8) {
+        const float *b = boxes + 6 * i;
+        const __m512 x0 = _mm512_loadu_ps(b), x1 = _mm512_loadu_ps(b + 16), x2 = _mm512_loadu_ps(b + 32);
+        /* x - x is NaN exactly for NaN and infinities */
+        __mmask16 bad = _mm512_cmp_ps_mask(_mm512_sub_ps(x0, x0), _mm512_setzero_ps(), _CMP_NEQ_UQ) |
+                        _mm512_cmp_ps_mask(_mm512_sub_ps(x1, x1), _mm512_setzero_ps(), _CMP_NEQ_UQ) |
+                        _mm512_cmp_ps_mask(_mm512_sub_ps(x2, x2), _mm512_setzero_ps(), _CMP_NEQ_UQ);
+        /* low corner > high corner: float p against float p + 3 */
+        bad |= _mm512_mask_cmp_ps_mask(lo_lanes[0], x0, _mm512_permutex2var_ps(x0, up3, x1), _CMP_GT_OQ) |
+               _mm512_mask_cmp_ps_mask(lo_lanes[1], x1, _mm512_permutex2var_ps(x1, up3, x2), _CMP_GT_OQ) |
+               _mm512_mask_cmp_ps_mask(lo_lanes[2], x2, _mm512_permutexvar_ps(up3, x2), _CMP_GT_OQ);
+        if (LC_UNLIKELY(bad))
+            break;
+        mn[0] = _mm512_min_ps(mn[0], x0);
+        mn[1] = _mm512_min_ps(mn[1], x1);
+        mn[2] = _mm512_min_ps(mn[2], x2);
+        mx[0] = _mm512_max_ps(mx[0], x0);
+        mx[1] = _mm512_max_ps(mx[1], x1);
+        mx[2] = _mm512_max_ps(mx[2], x2);
+    }
+    for (v = 0; v < 3; v++) {
+        _mm512_storeu_ps(vmin + 16 * v, mn[v]);
+        _mm512_storeu_ps(vmax + 16 * v, mx[v]);
+    }
+    for (p = 0; p < 48; p++) {
+        const int a = p % 6;
+        if (a < 3 && vmin[p] < out->lo[a])
+            out->lo[a] = vmin[p];
+        if (a >= 3 && vmax[p] > out->hi[a - 3])
+            out->hi[a - 3] = vmax[p];
+    }
+    if (i < end)
+        bounds_scalar_f32(boxes, i, end, out);
+}
+#endif
+
+void lc_bounds_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out)
+{
+#ifdef LC_HAVE_AVX512_KERNEL
+    if (lc_kernel() == LC_KERNEL_AVX512) {
+        bounds_avx512_f32(boxes, begin, end, out);
+        return;
+    }
+#endif
+    bounds_scalar_f32(boxes, begin, end, out);
 }
 
 void lc_bounds_f64(const double *boxes, size_t begin, size_t end, lc_bounds *out)
@@ -117,7 +184,7 @@ locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth
     for (a = 0; a < 3; a++) {
         double lo = n ? b->lo[a] : 0.0, hi = n ? b->hi[a] : 0.0;
         double h = hi * 0.5 - lo * 0.5; /* halved: never overflows */
-        g->origin[a] = lo * 0.5;
+        g->origin[a] = lo * 0.5 + 0.0; /* +0.0: the sign of a zero bound depends on box order */
         if (h > half)
             half = h;
     }
