@@ -106,10 +106,9 @@ static size_t encode_scalar_f64(const locd_grid *g, const double *boxes, size_t 
 #ifdef LC_HAVE_AVX512_KERNEL
 #include <immintrin.h>
 
-#define LC_ENCODE_TARGET __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx512cd,popcnt,bmi,bmi2")))
 
 /* split3 on eight 21-bit values at once (the magic-bits spread of morton.h). */
-LC_ENCODE_TARGET LC_INLINE __m512i spread3x8(__m256i v)
+LC_AVX512 LC_INLINE __m512i spread3x8(__m256i v)
 {
     __m512i x = _mm512_cvtepu32_epi64(v);
     x = _mm512_and_si512(_mm512_or_si512(x, _mm512_slli_epi64(x, 32)), _mm512_set1_epi64(0x1f00000000ffffLL));
@@ -127,7 +126,7 @@ LC_ENCODE_TARGET LC_INLINE __m512i spread3x8(__m256i v)
  * vector per axis and end, the quantized boxes transposed back for qbox,
  * and the up-to-8 cells of the eight objects transposed so that each
  * object's real cells leave in one compress and one store. */
-#define LC_ENCODE_AVX512_BODY(T, GATHER)                                                                     \
+#define LC_ENCODE_AVX512_BODY(T, GATHER, SCALAR)                                                                     \
     const uint32_t depth = g->depth, ib = g->index_bits;                                                     \
     const int cubes = (g->flags & LOCD_CONFIG_CUBES) != 0;                                                   \
     const __m512d half = _mm512_set1_pd(0.5), zero = _mm512_setzero_pd(), qmax = _mm512_set1_pd(LC_QMAX);   \
@@ -223,7 +222,7 @@ LC_ENCODE_TARGET LC_INLINE __m512i spread3x8(__m256i v)
         }                                                                                                    \
     }                                                                                                        \
     if (i < end) { /* the last objects, or the end of the buffer: the scalar body */                         \
-        size_t more = encode_scalar_##T(g, boxes, i, end - i, out + w, capacity - w, needed, qbox);          \
+        size_t more = SCALAR(g, boxes, i, end - i, out + w, capacity - w, needed, qbox);          \
         if (more == (size_t)-1) {                                                                            \
             *needed += w;                                                                                    \
             return more;                                                                                     \
@@ -234,19 +233,17 @@ LC_ENCODE_TARGET LC_INLINE __m512i spread3x8(__m256i v)
 
 #define LC_GATHER_F32(a) _mm512_cvtps_pd(_mm256_i32gather_ps(b + (a), lane6, 4))
 #define LC_GATHER_F64(a) _mm512_i32gather_pd(lane6, b + (a), 8)
-#define encode_scalar_float encode_scalar_f32
-#define encode_scalar_double encode_scalar_f64
 
-LC_ENCODE_TARGET static size_t encode_avx512_f32(const locd_grid *g, const float *boxes, size_t first, size_t count,
+LC_AVX512 static size_t encode_avx512_f32(const locd_grid *g, const float *boxes, size_t first, size_t count,
                                                  uint64_t *out, size_t capacity, size_t *needed, int32_t *qbox)
 {
-    LC_ENCODE_AVX512_BODY(float, LC_GATHER_F32)
+    LC_ENCODE_AVX512_BODY(float, LC_GATHER_F32, encode_scalar_f32)
 }
 
-LC_ENCODE_TARGET static size_t encode_avx512_f64(const locd_grid *g, const double *boxes, size_t first, size_t count,
+LC_AVX512 static size_t encode_avx512_f64(const locd_grid *g, const double *boxes, size_t first, size_t count,
                                                  uint64_t *out, size_t capacity, size_t *needed, int32_t *qbox)
 {
-    LC_ENCODE_AVX512_BODY(double, LC_GATHER_F64)
+    LC_ENCODE_AVX512_BODY(double, LC_GATHER_F64, encode_scalar_f64)
 }
 #endif
 

@@ -54,7 +54,7 @@ enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512 };
 int lc_kernel(void);
 #if defined(__GNUC__) && defined(__x86_64__) && (__GNUC__ >= 8 || defined(__clang__))
 #define LC_HAVE_AVX512_KERNEL 1
-#define LC_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,popcnt,bmi,bmi2")))
+#define LC_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx512cd,popcnt,bmi,bmi2")))
 #endif
 
 /* ---- time ---- */

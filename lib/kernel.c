@@ -17,7 +17,8 @@ int lc_kernel(void)
     if (__builtin_cpu_supports("avx2"))
         k = LC_KERNEL_AVX2;
     if (k == LC_KERNEL_AVX2 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-        __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("bmi2"))
+        __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512cd") &&
+        __builtin_cpu_supports("bmi2"))
         k = LC_KERNEL_AVX512;
 #endif
     if (cap && strcmp(cap, "scalar") == 0)

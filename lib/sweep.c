@@ -514,20 +514,19 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
     const __m512d c = _mm512_min_pd(_mm512_max_pd(t, _mm512_setzero_pd()), _mm512_set1_pd(LC_QMAX));
     _mm256_storeu_si256((__m256i *)q, _mm512_cvttpd_epi32(c));
 }
-#define LC_QUANTIZE6(g, b, q)                                                                                \
-    quantize6(g, sizeof *(b) == sizeof(double) ? _mm512_maskz_loadu_pd(0x3f, (const double *)(const void *)(b)) \
-                                               : _mm512_cvtps_pd(_mm256_maskz_loadu_ps(0x3f, (const float *)(const void *)(b))), \
-              q)
 #define LC_TARGET LC_AVX512
 #define LC_SCAN(sc, first, end, pairs, np, exact) scan_avx512(sc, first, end, pairs, np, exact)
 #define LC_T float
 #define LC_SUFFIX f32_avx512
+#define LC_QUANTIZE6(g, b, q) quantize6(g, _mm512_cvtps_pd(_mm256_maskz_loadu_ps(0x3f, b)), q)
 #include "sweep_impl.h"
 #undef LC_T
 #undef LC_SUFFIX
+#undef LC_QUANTIZE6
 
 #define LC_T double
 #define LC_SUFFIX f64_avx512
+#define LC_QUANTIZE6(g, b, q) quantize6(g, _mm512_maskz_loadu_pd(0x3f, b), q)
 #include "sweep_impl.h"
 #undef LC_T
 #undef LC_SUFFIX
