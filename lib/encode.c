@@ -36,15 +36,8 @@ LC_INLINE uint32_t level_for(uint32_t w, int32_t bias, uint32_t depth)
             lo[a] = lc_quantize(g, (int)a, (double)b[a]);                                                    \
             hi[a] = lc_quantize(g, (int)a, (double)b[a + 3]);                                                \
         }                                                                                                    \
-        if (qbox) {                                                                                          \
-            int32_t *q = qbox + 6 * i;                                                                       \
-            q[0] = lo[0];                                                                                    \
-            q[1] = lo[1];                                                                                    \
-            q[2] = lo[2];                                                                                    \
-            q[3] = hi[0];                                                                                    \
-            q[4] = hi[1];                                                                                    \
-            q[5] = hi[2];                                                                                    \
-        }                                                                                                    \
+        if (qbox)                                                                                            \
+            lc_pack_qbox(lo, hi, qbox + 2 * i);                                                              \
         ext = (uint32_t)(hi[0] - lo[0]);                                                                     \
         if ((uint32_t)(hi[1] - lo[1]) > ext)                                                                 \
             ext = (uint32_t)(hi[1] - lo[1]);                                                                 \
@@ -92,13 +85,13 @@ LC_INLINE uint32_t level_for(uint32_t w, int32_t bias, uint32_t depth)
     return w;
 
 static size_t encode_scalar_f32(const locd_grid *g, const float *boxes, size_t first, size_t count, uint64_t *out,
-                                size_t capacity, size_t *needed, int32_t *qbox)
+                                size_t capacity, size_t *needed, uint64_t *qbox)
 {
     LC_ENCODE_BODY(float)
 }
 
 static size_t encode_scalar_f64(const locd_grid *g, const double *boxes, size_t first, size_t count,
-                                uint64_t *out, size_t capacity, size_t *needed, int32_t *qbox)
+                                uint64_t *out, size_t capacity, size_t *needed, uint64_t *qbox)
 {
     LC_ENCODE_BODY(double)
 }
@@ -123,7 +116,7 @@ LC_AVX512 LC_INLINE __m512i spread3x8(__m256i v)
  * same IEEE operations in the same order as lc_quantize, so the same
  * integers) and the same entries in the same order: each object's cells in
  * (z, y, x) order, objects ascending. The coordinates are gathered into one
- * vector per axis and end, the quantized boxes transposed back for qbox,
+ * vector per axis and end, the sweep boxes packed for qbox,
  * and the up-to-8 cells of the eight objects transposed so that each
  * object's real cells leave in one compress and one store. */
 #define LC_ENCODE_AVX512_BODY(T, GATHER, SCALAR)                                                                     \
@@ -134,10 +127,8 @@ LC_AVX512 LC_INLINE __m512i spread3x8(__m256i v)
     const __m256i lane6 = _mm256_setr_epi32(0, 6, 12, 18, 24, 30, 36, 42);                                   \
     const __m256i top = _mm256_set1_epi32(31 - g->cell_bias), dmax = _mm256_set1_epi32((int)depth);         \
     const __m512i lane8 = _mm512_setr_epi64(0, 1, 2, 3, 4, 5, 6, 7);                                         \
-    /* qbox order: output int e = 6j + k comes from [lo x|lo y|lo z|hi x|hi y|hi z][8k + j] */              \
-    const __m512i tq0 = _mm512_setr_epi32(0, 8, 16, 24, 32, 40, 1, 9, 17, 25, 33, 41, 2, 10, 18, 26);       \
-    const __m512i tq1 = _mm512_setr_epi32(34, 42, 3, 11, 19, 27, 35, 43, 4, 12, 20, 28, 36, 44, 5, 13);     \
-    const __m512i tq2 = _mm512_setr_epi32(21, 29, 37, 45, 6, 14, 22, 30, 38, 46, 7, 15, 23, 31, 39, 47);    \
+    /* packed boxes: object j's two words are lanes j of lo and hi */                                        \
+    const __m512i even = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11), odd = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15); \
     static const uint8_t valid[8] = {0x01, 0x03, 0x05, 0x0f, 0x11, 0x33, 0x55, 0xff};                       \
     const size_t end = first + count;                                                                        \
     size_t i = first, w = 0;                                                                                 \
@@ -153,17 +144,17 @@ LC_AVX512 LC_INLINE __m512i spread3x8(__m256i v)
             const __m512d t = _mm512_mul_pd(_mm512_mul_pd(_mm512_sub_pd(_mm512_mul_pd(x, half), o), sa), sb); \
             q[a] = _mm512_cvttpd_epi32(_mm512_min_pd(_mm512_max_pd(t, zero), qmax));                         \
         }                                                                                                    \
-        if (qbox) {                                                                                          \
-            const __m512i z0 = _mm512_inserti64x4(_mm512_castsi256_si512(q[0]), q[1], 1);                   \
-            const __m512i z1 = _mm512_inserti64x4(_mm512_castsi256_si512(q[2]), q[3], 1);                   \
-            const __m512i z2 = _mm512_inserti64x4(_mm512_castsi256_si512(q[4]), q[5], 1);                   \
-            int32_t *qo = qbox + 6 * i;                                                                      \
-            _mm512_storeu_si512(qo, _mm512_mask_permutexvar_epi32(_mm512_permutex2var_epi32(z0, tq0, z1),   \
-                                                                   0x0c30, _mm512_sub_epi32(tq0, _mm512_set1_epi32(32)), z2)); \
-            _mm512_storeu_si512(qo + 16, _mm512_mask_permutexvar_epi32(_mm512_permutex2var_epi32(z0, tq1, z1), \
-                                                                        0x30c3, _mm512_sub_epi32(tq1, _mm512_set1_epi32(32)), z2)); \
-            _mm512_storeu_si512(qo + 32, _mm512_mask_permutexvar_epi32(_mm512_permutex2var_epi32(z0, tq2, z1), \
-                                                                        0xc30c, _mm512_sub_epi32(tq2, _mm512_set1_epi32(32)), z2)); \
+        if (qbox) { /* lc_pack_qbox on eight boxes */                                                        \
+            __m512i wd[2];                                                                                   \
+            for (a = 0; a < 2; a++)                                                                          \
+                wd[a] = _mm512_or_si512(                                                                     \
+                    _mm512_cvtepu32_epi64(_mm256_srli_epi32(q[3 * a], LC_SDROP)),                            \
+                    _mm512_or_si512(                                                                         \
+                        _mm512_slli_epi64(_mm512_cvtepu32_epi64(_mm256_srli_epi32(q[3 * a + 1], LC_SDROP)), LC_SBITS), \
+                        _mm512_slli_epi64(_mm512_cvtepu32_epi64(_mm256_srli_epi32(q[3 * a + 2], LC_SDROP)),    \
+                                          2 * LC_SBITS)));                                                   \
+            _mm512_storeu_si512(qbox + 2 * i, _mm512_permutex2var_epi64(wd[0], even, wd[1]));                 \
+            _mm512_storeu_si512(qbox + 2 * i + 8, _mm512_permutex2var_epi64(wd[0], odd, wd[1]));              \
         }                                                                                                    \
         {                                                                                                    \
             __m256i ext = _mm256_max_epu32(_mm256_sub_epi32(q[3], q[0]), _mm256_sub_epi32(q[4], q[1]));      \
@@ -235,20 +226,20 @@ LC_AVX512 LC_INLINE __m512i spread3x8(__m256i v)
 #define LC_GATHER_F64(a) _mm512_i32gather_pd(lane6, b + (a), 8)
 
 LC_AVX512 static size_t encode_avx512_f32(const locd_grid *g, const float *boxes, size_t first, size_t count,
-                                                 uint64_t *out, size_t capacity, size_t *needed, int32_t *qbox)
+                                                 uint64_t *out, size_t capacity, size_t *needed, uint64_t *qbox)
 {
     LC_ENCODE_AVX512_BODY(float, LC_GATHER_F32, encode_scalar_f32)
 }
 
 LC_AVX512 static size_t encode_avx512_f64(const locd_grid *g, const double *boxes, size_t first, size_t count,
-                                                 uint64_t *out, size_t capacity, size_t *needed, int32_t *qbox)
+                                                 uint64_t *out, size_t capacity, size_t *needed, uint64_t *qbox)
 {
     LC_ENCODE_AVX512_BODY(double, LC_GATHER_F64, encode_scalar_f64)
 }
 #endif
 
 size_t lc_encode_f32(const locd_grid *g, const float *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed, int32_t *qbox)
+                     size_t capacity, size_t *needed, uint64_t *qbox)
 {
 #ifdef LC_HAVE_AVX512_KERNEL
     if (lc_kernel() == LC_KERNEL_AVX512)
@@ -258,7 +249,7 @@ size_t lc_encode_f32(const locd_grid *g, const float *boxes, size_t first, size_
 }
 
 size_t lc_encode_f64(const locd_grid *g, const double *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed, int32_t *qbox)
+                     size_t capacity, size_t *needed, uint64_t *qbox)
 {
 #ifdef LC_HAVE_AVX512_KERNEL
     if (lc_kernel() == LC_KERNEL_AVX512)

@@ -15,7 +15,7 @@
 typedef struct lc_inproc {
     lc_pool *pool;
     lc_buf ent, scr; /* uint64 entries: thread regions, then merge output */
-    lc_buf qbox;     /* int32 x 6 per object: quantized boxes, reused by the sweep */
+    lc_buf qbox;     /* 2 uint64 per object: packed sweep boxes (lc_pack_qbox), reused by the sweep */
     lc_sweep_out sw[LC_MAX_THREADS];
     double per_object; /* entries per object seen last time */
 } lc_inproc;
@@ -153,7 +153,7 @@ static void inproc_close(locd_engine *e)
         lc_sweep_out_fini(&ip->sw[t]);
     lc_buf_release(&e->alloc, &ip->ent, sizeof(uint64_t));
     lc_buf_release(&e->alloc, &ip->scr, sizeof(uint64_t));
-    lc_buf_release(&e->alloc, &ip->qbox, 6 * sizeof(int32_t));
+    lc_buf_release(&e->alloc, &ip->qbox, 2 * sizeof(uint64_t));
     lc_free(&e->alloc, ip, sizeof *ip);
     e->backend = NULL;
 }
@@ -168,7 +168,7 @@ static locd_status layout(locd_engine *e, lc_job_ctx *c)
         c->off[t] = total;
         total += c->cap[t];
     }
-    if ((st = lc_buf_reserve(&e->alloc, &c->ip->qbox, 6 * sizeof(int32_t), c->n)) != LOCD_OK)
+    if ((st = lc_buf_reserve(&e->alloc, &c->ip->qbox, 2 * sizeof(uint64_t), c->n)) != LOCD_OK)
         return st;
     if ((st = lc_buf_reserve(&e->alloc, &c->ip->ent, sizeof(uint64_t), total)) != LOCD_OK)
         return st;

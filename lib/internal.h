@@ -103,16 +103,35 @@ LC_INLINE int32_t lc_quantize(const locd_grid *g, int axis, double x)
     return (int32_t)t;
 }
 
+/* The sweep's coordinates: the quantized ones without their low LC_SDROP
+ * bits (21 bits a coordinate). Still monotone, and a cell of any level up
+ * to the depth (at most 19, see lc_grid_check) has the same integer
+ * coordinates at 21 bits as at 31, so the entries, the cells and the
+ * canonical test are unchanged (docs/encoding.md); ends that become equal
+ * go to the exact test. A box then packs into 16 bytes, three 21-bit fields
+ * per corner, which never straddle a cache line. */
+#define LC_SBITS 21
+#define LC_SDROP (LC_QBITS - LC_SBITS)
+#define LC_SMASK ((1ull << LC_SBITS) - 1)
+LC_INLINE void lc_pack_qbox(const int32_t lo[3], const int32_t hi[3], uint64_t *w)
+{
+    w[0] = (uint64_t)(lo[0] >> LC_SDROP) | (uint64_t)(lo[1] >> LC_SDROP) << LC_SBITS |
+           (uint64_t)(lo[2] >> LC_SDROP) << (2 * LC_SBITS);
+    w[1] = (uint64_t)(hi[0] >> LC_SDROP) | (uint64_t)(hi[1] >> LC_SDROP) << LC_SBITS |
+           (uint64_t)(hi[2] >> LC_SDROP) << (2 * LC_SBITS);
+}
+
 /* ---- encode / sort / merge (encode.c, sort.c, merge.c) ---- */
 /* Bits of the octree key: (padded morton << 5) | level. */
 #define LC_LEVEL_BITS 5
 /* Encodes boxes [first, first+count); returns entries written or, when
  * capacity is too small, (size_t)-1 with *needed set. */
-/* qbox, when not NULL, receives each object's quantized box at 6 * index. */
+/* qbox, when not NULL, receives each object's packed sweep box (lc_pack_qbox)
+ * at 2 * index. */
 size_t lc_encode_f32(const locd_grid *g, const float *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed, int32_t *qbox);
+                     size_t capacity, size_t *needed, uint64_t *qbox);
 size_t lc_encode_f64(const locd_grid *g, const double *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed, int32_t *qbox);
+                     size_t capacity, size_t *needed, uint64_t *qbox);
 /* Radix sort; returns the buffer holding the result (entries or scratch). */
 uint64_t *lc_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits);
 /* Multiway merge of runs restricted to [begin[r], end[r]) into out. */
@@ -145,11 +164,11 @@ void lc_sweep_out_lend(lc_sweep_out *o, uint32_t *values, size_t cap);
  * appending pairs to o. Both ends move forward to the next start of a cell,
  * so slices [b0, b1), [b1, b2), ... still cover every cell once; entries
  * before `begin` rebuild the state a serial sweep would hold there. qbox,
- * when not NULL, holds each object's quantized box (6 int32: lo xyz, hi xyz)
- * as encode computed it; otherwise the sweep quantizes again (bit-identically). */
-locd_status lc_sweep_range_f32(const locd_grid *g, const float *boxes, const int32_t *qbox, const uint64_t *entries,
+ * when not NULL, holds each object's packed sweep box as encode computed
+ * it; otherwise the sweep quantizes again (bit-identically). */
+locd_status lc_sweep_range_f32(const locd_grid *g, const float *boxes, const uint64_t *qbox, const uint64_t *entries,
                                size_t count, size_t begin, size_t end, lc_sweep_out *o);
-locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const int32_t *qbox, const uint64_t *entries,
+locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const uint64_t *qbox, const uint64_t *entries,
                                size_t count, size_t begin, size_t end, lc_sweep_out *o);
 
 /* ---- thread pool (pool.c) ---- */

@@ -38,7 +38,7 @@ typedef struct lc_scan {
     lc_cols c;
     int32_t lo[3], hi[3];
     uint32_t idx;
-    uint32_t s;       /* LC_QBITS - level of the entry's cell */
+    uint32_t s;       /* LC_SBITS - level of the entry's cell */
     int32_t cell[3];  /* the cell's integer coordinates at that level */
     const void *boxes;
     int f64;
@@ -267,7 +267,7 @@ static lc_filter_fn pick_filter(void);
 static locd_status push_filtered(const locd_grid *g, lc_sweep_out *o, lc_seg *segs, uint32_t *nseg, size_t *ncand,
                                  uint64_t pm, uint32_t level, const int32_t cell[3], size_t extra)
 {
-    const uint32_t s = LC_QBITS - level;
+    const uint32_t s = LC_SBITS - level;
     size_t start = *ncand, pstart = *nseg ? segs[*nseg - 1].start : start;
     segs[*nseg].cm = pm >> (3u * (g->depth - level));
     segs[*nseg].start = start;
@@ -502,8 +502,9 @@ static lc_scan_fn pick_scan(void)
 #undef LC_SCAN
 
 #ifdef LC_HAVE_AVX512_KERNEL
-/* lc_quantize on a box's six coordinates at once: the same IEEE operations
- * in the same order, so the same integers as encode computed. */
+/* lc_quantize on a box's six coordinates at once, to the sweep's 21 bits:
+ * the same IEEE operations in the same order, so the same integers as
+ * encode computed. */
 LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
 {
     const __m512d origin = _mm512_permutexvar_pd(_mm512_setr_epi64(0, 1, 2, 0, 1, 2, 0, 0),
@@ -512,7 +513,7 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
         _mm512_mul_pd(_mm512_sub_pd(_mm512_mul_pd(x, _mm512_set1_pd(0.5)), origin), _mm512_set1_pd(g->scale_a)),
         _mm512_set1_pd(g->scale_b));
     const __m512d c = _mm512_min_pd(_mm512_max_pd(t, _mm512_setzero_pd()), _mm512_set1_pd(LC_QMAX));
-    _mm256_storeu_si256((__m256i *)q, _mm512_cvttpd_epi32(c));
+    _mm256_storeu_si256((__m256i *)q, _mm256_srai_epi32(_mm512_cvttpd_epi32(c), LC_SDROP));
 }
 #define LC_TARGET LC_AVX512
 #define LC_SCAN(sc, first, end, pairs, np, exact) scan_avx512(sc, first, end, pairs, np, exact)
@@ -537,7 +538,7 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
 
 #ifdef LC_HAVE_AVX512_KERNEL
 #define LC_SWEEP_DISPATCH(SUFFIX, T)                                                                         \
-    locd_status lc_sweep_range_##SUFFIX(const locd_grid *g, const T *boxes, const int32_t *qbox,             \
+    locd_status lc_sweep_range_##SUFFIX(const locd_grid *g, const T *boxes, const uint64_t *qbox,             \
                                         const uint64_t *entries, size_t count, size_t begin, size_t end,     \
                                         lc_sweep_out *o)                                                     \
     {                                                                                                        \
@@ -547,7 +548,7 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
     }
 #else
 #define LC_SWEEP_DISPATCH(SUFFIX, T)                                                                         \
-    locd_status lc_sweep_range_##SUFFIX(const locd_grid *g, const T *boxes, const int32_t *qbox,             \
+    locd_status lc_sweep_range_##SUFFIX(const locd_grid *g, const T *boxes, const uint64_t *qbox,             \
                                         const uint64_t *entries, size_t count, size_t begin, size_t end,     \
                                         lc_sweep_out *o)                                                     \
     {                                                                                                        \

@@ -7,14 +7,21 @@
 #define LC_CAT(a, b) LC_CAT2(a, b)
 #define LC_FN(name) LC_CAT(name, LC_SUFFIX)
 
-/* The object's quantized box: from encode's array, or computed again with
- * the very same operations (bit-identical: no FMA contraction, see
- * meson.build). q has room for 8 values (a vector store). */
-LC_TARGET LC_INLINE void LC_FN(qbox_of_)(const locd_grid *g, const LC_T *boxes, const int32_t *qbox, uint32_t idx,
-                               int32_t q[8])
+/* The object's box in sweep coordinates (LC_SBITS bits): from encode's
+ * packed array, or quantized again with the very same operations
+ * (bit-identical: no FMA contraction, see meson.build). q has room for 8
+ * values (a vector store). */
+LC_TARGET LC_INLINE void LC_FN(qbox_of_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox, uint32_t idx,
+                                         int32_t q[8])
 {
     if (qbox) {
-        memcpy(q, qbox + 6 * (size_t)idx, 6 * sizeof(int32_t));
+        const uint64_t w0 = qbox[2 * (size_t)idx], w1 = qbox[2 * (size_t)idx + 1];
+        q[0] = (int32_t)(w0 & LC_SMASK);
+        q[1] = (int32_t)((w0 >> LC_SBITS) & LC_SMASK);
+        q[2] = (int32_t)(w0 >> (2 * LC_SBITS));
+        q[3] = (int32_t)(w1 & LC_SMASK);
+        q[4] = (int32_t)((w1 >> LC_SBITS) & LC_SMASK);
+        q[5] = (int32_t)(w1 >> (2 * LC_SBITS));
     } else {
 #ifdef LC_QUANTIZE6
         LC_QUANTIZE6(g, boxes + 6 * (size_t)idx, q);
@@ -22,23 +29,22 @@ LC_TARGET LC_INLINE void LC_FN(qbox_of_)(const locd_grid *g, const LC_T *boxes, 
         const LC_T *b = boxes + 6 * (size_t)idx;
         int a;
         for (a = 0; a < 3; a++) {
-            q[a] = lc_quantize(g, a, (double)b[a]);
-            q[a + 3] = lc_quantize(g, a, (double)b[a + 3]);
+            q[a] = lc_quantize(g, a, (double)b[a]) >> LC_SDROP;
+            q[a + 3] = lc_quantize(g, a, (double)b[a + 3]) >> LC_SDROP;
         }
 #endif
     }
 }
 
 /* Starts loading the box of entry `ahead` (if it is before `limit`). */
-LC_INLINE void LC_FN(prefetch_)(const locd_grid *g, const LC_T *boxes, const int32_t *qbox, const uint64_t *entries,
-                                size_t ahead, size_t limit)
+LC_INLINE void LC_FN(prefetch_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox,
+                                const uint64_t *entries, size_t ahead, size_t limit)
 {
     if (ahead < limit) {
         const size_t idx = (size_t)(entries[ahead] & ((1ull << g->index_bits) - 1));
-        if (qbox) { /* a 24-byte record may straddle two cache lines */
-            __builtin_prefetch(qbox + 6 * idx);
-            __builtin_prefetch(qbox + 6 * idx + 5);
-        } else {
+        if (qbox) {
+            __builtin_prefetch(qbox + 2 * idx); /* 16 bytes: one cache line */
+        } else { /* a 24- or 48-byte box may straddle two cache lines */
             __builtin_prefetch(boxes + 6 * idx);
             __builtin_prefetch(boxes + 6 * idx + 5);
         }
@@ -52,7 +58,7 @@ LC_INLINE void LC_FN(prefetch_)(const locd_grid *g, const LC_T *boxes, const int
  * rows from the slab where a box ending at its own start could begin (see
  * the main loop), not the whole cell. A smaller cell keeps entry order and
  * returns 0 (every row is a candidate). */
-static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, const int32_t *qbox,
+static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox,
                                       const uint64_t *entries, size_t p, size_t q, lc_sweep_out *o,
                                       size_t at, const lc_slabs *sl, size_t slab[LC_SLABS + 1], int64_t *ext,
                                       locd_status *st_out)
@@ -113,7 +119,7 @@ static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, co
     return 1;
 }
 
-static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC_T *boxes, const int32_t *qbox,
+static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox,
                                                     const uint64_t *entries, size_t count, size_t begin, size_t end,
                                                     lc_sweep_out *o)
 {
@@ -148,7 +154,7 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
         int32_t q0[8], cell0[3];
         uint32_t l;
         LC_FN(qbox_of_)(g, boxes, qbox, (uint32_t)(entries[begin] & imask), q0);
-        lc_cell_of(q0, pm0 >> (3u * (depth - L0)), LC_QBITS - L0, cell0);
+        lc_cell_of(q0, pm0 >> (3u * (depth - L0)), LC_SBITS - L0, cell0);
         for (l = 0; l < L0; l++) {
             const uint32_t shift = 3u * (depth - l);
             const uint64_t pml = (pm0 >> shift) << shift, keyl = (pml << LC_LEVEL_BITS) | l;
@@ -159,7 +165,7 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
                 continue;
             if ((st = push_filtered(g, o, segs, &nseg, &ncand, pml, l, cl, b - a)) != LOCD_OK)
                 return st;
-            slabs_of(&sl, cl[0], LC_QBITS - l);
+            slabs_of(&sl, cl[0], LC_SBITS - l);
             if (LC_FN(load_cell_)(g, boxes, qbox, entries, a, b, o, ncand, &sl, slab, &ext, &st) < 0)
                 return st;
             ncand += b - a;
@@ -182,7 +188,7 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
         for (; pf < q + LC_PREFETCH && pf < end; pf++)
             LC_FN(prefetch_)(g, boxes, qbox, entries, pf, end);
         LC_FN(qbox_of_)(g, boxes, qbox, (uint32_t)(entries[p] & imask), me);
-        sc.s = LC_QBITS - L;
+        sc.s = LC_SBITS - L;
         lc_cell_of(me, pm >> (3u * (depth - L)), sc.s, sc.cell);
 
         while (nseg) {
