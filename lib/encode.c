@@ -7,20 +7,6 @@
 #include "internal.h"
 #include "morton.h"
 
-LC_INLINE uint32_t bitlen32(uint32_t v)
-{
-    return v ? 32u - (uint32_t)__builtin_clz(v) : 0u;
-}
-
-/* Level of a box with quantized extent w (largest axis). */
-LC_INLINE uint32_t level_for(uint32_t w, int32_t bias, uint32_t depth)
-{
-    int32_t l = (int32_t)LC_QBITS - bias - (int32_t)bitlen32(w);
-    if (l < 0)
-        l = 0;
-    return (uint32_t)l > depth ? depth : (uint32_t)l;
-}
-
 #define LC_ENCODE_BODY(T)                                                                                    \
     size_t i, w = 0;                                                                                         \
     const uint32_t depth = g->depth, ib = g->index_bits;                                                     \
@@ -49,7 +35,7 @@ LC_INLINE uint32_t level_for(uint32_t w, int32_t bias, uint32_t depth)
                 hi[a] = h > 2147483647 ? 2147483647 : (int32_t)h;                                            \
             }                                                                                                \
         }                                                                                                    \
-        lvl = level_for(ext, bias, depth);                                                                   \
+        lvl = lc_level_for(ext, bias, depth);                                                                   \
         sh = LC_QBITS - lvl;                                                                                 \
         for (a = 0; a < 3; a++) {                                                                            \
             c0[a] = (uint32_t)lo[a] >> sh;                                                                   \
@@ -162,7 +148,7 @@ LC_AVX512 LC_INLINE __m512i spread3x8(__m256i v)
             if (cubes) /* the paper's bounding cube: same extent on every axis */                            \
                 for (a = 0; a < 3; a++)                                                                      \
                     q[a + 3] = _mm256_min_epu32(_mm256_add_epi32(q[a], ext), _mm256_set1_epi32(2147483647)); \
-            /* level_for: 31 - bias - bitlen(ext), clamped to [0, depth] */                                  \
+            /* lc_level_for: 31 - bias - bitlen(ext), clamped to [0, depth] */                               \
             lv = _mm256_sub_epi32(top, _mm256_sub_epi32(_mm256_set1_epi32(32), _mm256_lzcnt_epi32(ext)));    \
             lv = _mm256_min_epi32(_mm256_max_epi32(lv, _mm256_setzero_si256()), dmax);                       \
             sh = _mm256_sub_epi32(_mm256_set1_epi32(LC_QBITS), lv);                                          \

@@ -230,6 +230,12 @@ static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int 
     }
     if ((st = lc_grid_from_bounds(&all, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &c->grid)) != LOCD_OK)
         goto done;
+    if (!e->cfg.max_depth) {
+        if (f64)
+            lc_grid_tune_depth_f64(&c->grid, boxes, n);
+        else
+            lc_grid_tune_depth_f32(&c->grid, boxes, n);
+    }
     stats->depth = c->grid.depth;
     t1 = lc_now_ms();
     stats->ms_bounds = t1 - t0;

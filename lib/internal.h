@@ -89,6 +89,9 @@ void lc_bounds_merge(lc_bounds *acc, const lc_bounds *b);
 locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth, int32_t cell_bias, uint32_t flags,
                                 locd_grid *grid);
 locd_status lc_grid_check(const locd_grid *g);
+/* The automatic depth (max_depth 0): may lower g->depth (see grid.c). */
+void lc_grid_tune_depth_f32(locd_grid *g, const float *boxes, size_t n);
+void lc_grid_tune_depth_f64(locd_grid *g, const double *boxes, size_t n);
 
 /* Quantization: a monotone map from coordinates to [0, 2^31). Monotone is all
  * exactness needs: a <= b implies q(a) <= q(b), so overlapping boxes always
@@ -119,6 +122,16 @@ LC_INLINE void lc_pack_qbox(const int32_t lo[3], const int32_t hi[3], uint64_t *
            (uint64_t)(lo[2] >> LC_SDROP) << (2 * LC_SBITS);
     w[1] = (uint64_t)(hi[0] >> LC_SDROP) | (uint64_t)(hi[1] >> LC_SDROP) << LC_SBITS |
            (uint64_t)(hi[2] >> LC_SDROP) << (2 * LC_SBITS);
+}
+
+/* The level of a box whose largest quantized extent is w: the deepest
+ * whose cell edge is at least 2^bias times w, at most `depth`. */
+LC_INLINE uint32_t lc_level_for(uint32_t w, int32_t bias, uint32_t depth)
+{
+    int32_t l = (int32_t)LC_QBITS - bias - (int32_t)(w ? 32u - (uint32_t)__builtin_clz(w) : 0u);
+    if (l < 0)
+        l = 0;
+    return (uint32_t)l > depth ? depth : (uint32_t)l;
 }
 
 /* ---- encode / sort / merge (encode.c, sort.c, merge.c) ---- */

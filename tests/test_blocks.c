@@ -83,19 +83,22 @@ static void sort_equals_qsort(void **state)
 
 /* Encode+sort in k runs, merge, sweep: same pairs as brute force, and the
  * same order as the engine's. */
-static void composed_steps_match_engine(void **state)
+static void composed_steps_match_engine_n(size_t n)
 {
-    size_t n = 6000, k;
+    size_t k;
     float *b = ts_scene(2, n, 99);
     locd_grid g;
     locd_engine *eng;
     locd_pairs *p1, *p2;
-    (void)state;
+    locd_stats es;
     assert_int_equal(locd_grid_fit_f32(b, n, 0, LOCD_DEFAULT_CELL_BIAS, 0, &g), LOCD_OK);
     assert_int_equal(locd_pairs_create(NULL, &p1), LOCD_OK);
     assert_int_equal(locd_pairs_create(NULL, &p2), LOCD_OK);
     assert_int_equal(locd_engine_create(NULL, &eng), LOCD_OK);
     assert_int_equal(locd_engine_find_pairs_f32(eng, b, n, 0, p2), LOCD_OK);
+    locd_stats_init(&es);
+    assert_int_equal(locd_engine_stats(eng, &es), LOCD_OK);
+    assert_int_equal(es.depth, g.depth); /* the automatic depth is the same on both paths */
     for (k = 1; k <= 5; k++) {
         uint64_t *runs[5], *merged, *scratch;
         size_t counts[5], total = 0, r;
@@ -125,6 +128,16 @@ static void composed_steps_match_engine(void **state)
     locd_pairs_destroy(p1);
     locd_pairs_destroy(p2);
     free(b);
+}
+
+/* 6,000 boxes keep the key's depth; 40,000 mixed ones get a shallower
+ * automatic depth (lc_grid_tune_depth), which must be the same for the
+ * building blocks and the engine. */
+static void composed_steps_match_engine(void **state)
+{
+    (void)state;
+    composed_steps_match_engine_n(6000);
+    composed_steps_match_engine_n(40000);
 }
 
 static void sweep_rejects_unsorted_entries(void **state)

@@ -136,6 +136,48 @@ static void touching_boxes_count_and_ulp_gaps_do_not(void **state)
 
 /* A job released while it runs, then its engine destroyed: destroy must
  * wait for the job's thread (the sanitizer build catches a use after free). */
+/* The automatic depth lowers the octree's depth when small boxes would sit
+ * alone in their cells, but must not when they are packed together: 20,000
+ * small cubes in 5% of the world, beside a few world-sized boxes. A depth
+ * chosen from n or from sizes alone (about 5 here) would put the cluster in
+ * a handful of cells, thousands of candidates per object. */
+static void automatic_depth_keeps_packed_boxes_apart(void **state)
+{
+    const size_t n = 20000;
+    float *b = malloc(n * 6 * sizeof(float));
+    ts_rng r;
+    locd_engine *e = engine_with(2);
+    locd_pairs *p;
+    locd_stats st;
+    size_t i;
+    (void)state;
+    ts_seed(&r, 4242);
+    for (i = 0; i < n; i++) {
+        float *o = b + 6 * i;
+        if (i % 1000 == 0) { /* a world-sized box now and then */
+            o[0] = o[1] = o[2] = 0.0f;
+            o[3] = o[4] = o[5] = 1.0f;
+            continue;
+        }
+        o[0] = (float)(0.05 * ts_uniform(&r));
+        o[1] = (float)(0.05 * ts_uniform(&r));
+        o[2] = (float)(0.05 * ts_uniform(&r));
+        o[3] = o[0] + 0.0004f;
+        o[4] = o[1] + 0.0004f;
+        o[5] = o[2] + 0.0004f;
+    }
+    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    assert_int_equal(locd_engine_find_pairs_f32(e, b, n, 0, p), LOCD_OK);
+    assert_true(ts_same_as_brute_f32(b, n, p));
+    locd_stats_init(&st);
+    assert_int_equal(locd_engine_stats(e, &st), LOCD_OK);
+    if (st.depth < 8 || st.candidates > 64 * (uint64_t)n)
+        fail_msg("automatic depth %u: %llu candidates for %zu boxes", st.depth, (unsigned long long)st.candidates, n);
+    locd_pairs_destroy(p);
+    locd_engine_destroy(e);
+    free(b);
+}
+
 static void destroy_waits_for_a_released_running_job(void **state)
 {
     size_t n = heavy() ? 200000 : 50000;
@@ -159,6 +201,7 @@ int main(void)
         cmocka_unit_test(order_is_the_same_for_every_thread_count),
         cmocka_unit_test(f32_and_f64_agree),
         cmocka_unit_test(touching_boxes_count_and_ulp_gaps_do_not),
+        cmocka_unit_test(automatic_depth_keeps_packed_boxes_apart),
         cmocka_unit_test(destroy_waits_for_a_released_running_job),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
