@@ -212,9 +212,10 @@ locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth
  * at which a fixed sample of the boxes, each at the level its size picks
  * under that depth, estimates at most LC_TUNE_NEIGHBOURS other boxes in an
  * object's own cell. The sample is fixed (every n/LC_TUNE_SAMPLE-th box),
- * so every path (engine, building blocks, workers, MPI) picks the same. */
-#define LC_TUNE_SAMPLE 2048
-#define LC_TUNE_MIN_N (8 * LC_TUNE_SAMPLE)
+ * so every path (engine, building blocks, workers, MPI) picks the same; its
+ * arrays take 32 KiB of the calling thread's stack. */
+#define LC_TUNE_SAMPLE 1024
+#define LC_TUNE_MIN_N 16384
 #define LC_TUNE_NEIGHBOURS 16.0
 
 /* Estimated boxes sharing an object's cell at depth d. */

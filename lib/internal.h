@@ -161,7 +161,7 @@ typedef struct lc_sweep_out {
     int32_t *cand;   /* candidate records, 7 columns of cand_cap: lo xyz, hi xyz, index */
     size_t cand_cap;
     void (*filter)(void); /* the segment filter kernel for this CPU (sweep.c casts it back) */
-    lc_buf group;         /* uint64 x 2 per entry of the largest cell so far: its sort keys */
+    lc_buf group;         /* uint64 per entry of the largest slab-ordered cell so far: slab and object */
     uint64_t candidates;
     uint64_t exact_tests;
 } lc_sweep_out;

@@ -352,7 +352,7 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
          "so candidates grow roughly as (objects per cell)^2.",
          "**Default: 0 (automatic)**: at most as deep as the 64-bit key allows beside the object index (13 levels "
          "at 1M objects, 14 at 100k), and from 16,384 objects on, the shallowest depth at which a fixed sample of "
-         "2,048 boxes, each at the level its size picks under that depth, estimates at most 16 other boxes in a "
+         "1,024 boxes, each at the level its size picks under that depth, estimates at most 16 other boxes in a "
          "box's own cell. Each box still stops at the level its own size picks, so a limit only matters for boxes "
          "smaller than its cells: a small box that stops higher crosses fewer cells and shares its cell with a few "
          "neighbours, which the slab-ordered sweep handles well, instead of opening a cell of its own; too shallow, "
