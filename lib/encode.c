@@ -224,25 +224,23 @@ LC_AVX512 static size_t encode_avx512_f64(const locd_grid *g, const double *boxe
 }
 #endif
 
-size_t lc_encode_f32(const locd_grid *g, const float *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed, uint64_t *qbox)
-{
 #ifdef LC_HAVE_AVX512_KERNEL
-    if (lc_kernel() == LC_KERNEL_AVX512)
-        return encode_avx512_f32(g, boxes, first, count, out, capacity, needed, qbox);
+#define LC_ENCODE_VECTOR(SUFFIX)                                                                             \
+    if (lc_kernel() == LC_KERNEL_AVX512)                                                                     \
+        return encode_avx512_##SUFFIX(g, boxes, first, count, out, capacity, needed, qbox);
+#else
+#define LC_ENCODE_VECTOR(SUFFIX)
 #endif
-    return encode_scalar_f32(g, boxes, first, count, out, capacity, needed, qbox);
-}
+#define LC_ENCODE_DISPATCH(SUFFIX, T)                                                                        \
+    size_t lc_encode_##SUFFIX(const locd_grid *g, const T *boxes, size_t first, size_t count, uint64_t *out, \
+                              size_t capacity, size_t *needed, uint64_t *qbox)                               \
+    {                                                                                                        \
+        LC_ENCODE_VECTOR(SUFFIX)                                                                             \
+        return encode_scalar_##SUFFIX(g, boxes, first, count, out, capacity, needed, qbox);                  \
+    }
 
-size_t lc_encode_f64(const locd_grid *g, const double *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed, uint64_t *qbox)
-{
-#ifdef LC_HAVE_AVX512_KERNEL
-    if (lc_kernel() == LC_KERNEL_AVX512)
-        return encode_avx512_f64(g, boxes, first, count, out, capacity, needed, qbox);
-#endif
-    return encode_scalar_f64(g, boxes, first, count, out, capacity, needed, qbox);
-}
+LC_ENCODE_DISPATCH(f32, float)
+LC_ENCODE_DISPATCH(f64, double)
 
 #define LC_ENCODE_PUBLIC(SUFFIX, T)                                                                          \
     locd_status locd_encode_##SUFFIX(const locd_grid *grid, const T *boxes, size_t first, size_t count,    \
