@@ -212,8 +212,9 @@ locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth
  * at which a fixed sample of the boxes, each at the level its size picks
  * under that depth, estimates at most LC_TUNE_NEIGHBOURS other boxes in an
  * object's own cell. The sample is fixed (every n/LC_TUNE_SAMPLE-th box),
- * so every path (engine, building blocks, workers, MPI) picks the same; its
- * arrays take 32 KiB of the calling thread's stack. */
+ * so every path (engine, building blocks, workers, MPI) picks the same. Its
+ * arrays take 32 KiB of the calling thread's stack, the radix sort of the
+ * sample 48 KiB more (as any lc_sort call). */
 #define LC_TUNE_SAMPLE 1024
 #define LC_TUNE_MIN_N 16384
 #define LC_TUNE_NEIGHBOURS 16.0
@@ -227,8 +228,9 @@ static double tune_neighbours(const int32_t (*q)[3], const uint32_t *lvl, size_t
     double same = 0.0;
     for (k = 0; k < s; k++) {
         const uint32_t l = lvl[k] < d ? lvl[k] : d, sh = LC_QBITS - l;
-        code[k] = (uint64_t)l << 60 | (uint64_t)((uint32_t)q[k][0] >> sh) << 40 |
-                  (uint64_t)((uint32_t)q[k][1] >> sh) << 20 | (uint64_t)((uint32_t)q[k][2] >> sh);
+        /* level (5 bits) and cell (3 x 19 bits: levels <= 19) */
+        code[k] = (uint64_t)l << 59 | (uint64_t)((uint32_t)q[k][0] >> sh) << 38 |
+                  (uint64_t)((uint32_t)q[k][1] >> sh) << 19 | (uint64_t)((uint32_t)q[k][2] >> sh);
     }
     sorted = lc_sort(code, tmp, s, 0);
     for (k = 1; k <= s; k++) {
