@@ -127,18 +127,13 @@ static void slabs_of(lc_slabs *sl, int32_t cell_x, uint32_t s)
     sl->shift = s > LC_SLAB_BITS ? s - LC_SLAB_BITS : 0;
 }
 
-LC_INLINE uint32_t slab_of64(const lc_slabs *sl, int64_t x)
+LC_INLINE uint32_t slab_of(const lc_slabs *sl, int64_t x)
 {
     int64_t b = x - sl->origin;
     if (b < 0)
         return 0;
     b >>= sl->shift;
     return b >= LC_SLABS ? LC_SLABS - 1 : (uint32_t)b;
-}
-
-LC_INLINE uint32_t slab_of(const lc_slabs *sl, int32_t x)
-{
-    return slab_of64(sl, x);
 }
 
 /* Grows the pair buffer to `values` uint32 (two per pair), keeping the

@@ -252,7 +252,7 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
             sc.hi[1] = sc.c.hi[1][r];
             sc.hi[2] = sc.c.hi[2][r];
             sc.idx = sc.c.idx[r];
-            win = slabbed ? slab[slab_of64(&sl, (int64_t)sc.lo[0] - ext)] : own;
+            win = slabbed ? slab[slab_of(&sl, (int64_t)sc.lo[0] - ext)] : own;
             need = npairs + (own - first) + (r - win) + LC_PAIR_SLACK;
             if (2 * need > o->pairs.cap && (st = pairs_reserve(o, 2 * need, npairs)) != LOCD_OK)
                 return st;
