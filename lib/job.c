@@ -53,16 +53,24 @@ locd_status lc_job_new(const locd_allocator *a, int kind, locd_job **out)
     return LOCD_OK;
 }
 
+/* Records the outcome of a job still pending (the first outcome wins); the
+ * caller holds j->mu. Returns whether it did. */
+static int settle_locked(locd_job *j, locd_status status, const char *message, int64_t index)
+{
+    if (j->status != LOCD_PENDING)
+        return 0;
+    j->status = status;
+    j->error_index = index;
+    if (status < 0)
+        snprintf(j->message, sizeof j->message, "%s", message ? message : "");
+    return 1;
+}
+
 void lc_job_finish(locd_job *j, locd_status status, const char *message, int64_t index)
 {
     pthread_mutex_lock(&j->mu);
-    if (j->status == LOCD_PENDING) {
-        j->status = status;
-        j->error_index = index;
-        if (status < 0)
-            snprintf(j->message, sizeof j->message, "%s", message ? message : "");
+    if (settle_locked(j, status, message, index))
         pthread_cond_broadcast(&j->cv);
-    }
     pthread_mutex_unlock(&j->mu);
 }
 
@@ -82,12 +90,7 @@ void lc_job_finish_unref(locd_job *j, locd_status status, const char *message, i
 {
     int left;
     pthread_mutex_lock(&j->mu);
-    if (j->status == LOCD_PENDING) {
-        j->status = status;
-        j->error_index = index;
-        if (status < 0)
-            snprintf(j->message, sizeof j->message, "%s", message ? message : "");
-    }
+    settle_locked(j, status, message, index);
     left = --j->refs;
     pthread_cond_broadcast(&j->cv);
     pthread_mutex_unlock(&j->mu);

@@ -483,6 +483,7 @@ static lc_scan_fn pick_scan(void)
 #define LC_T float
 #define LC_SUFFIX f32_generic
 #define LC_TARGET
+#define LC_SCAN_SETUP const lc_scan_fn scan = pick_scan();
 #define LC_SCAN(sc, first, end, pairs, np, exact) scan(sc, first, end, pairs, np, exact)
 #include "sweep_impl.h"
 #undef LC_T
@@ -495,6 +496,7 @@ static lc_scan_fn pick_scan(void)
 #undef LC_SUFFIX
 #undef LC_TARGET
 #undef LC_SCAN
+#undef LC_SCAN_SETUP
 
 #ifdef LC_HAVE_AVX512_KERNEL
 /* lc_quantize on a box's six coordinates at once, to the sweep's 21 bits:
@@ -511,6 +513,7 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
     _mm256_storeu_si256((__m256i *)q, _mm256_srai_epi32(_mm512_cvttpd_epi32(c), LC_SDROP));
 }
 #define LC_TARGET LC_AVX512
+#define LC_SCAN_SETUP
 #define LC_SCAN(sc, first, end, pairs, np, exact) scan_avx512(sc, first, end, pairs, np, exact)
 #define LC_T float
 #define LC_SUFFIX f32_avx512
@@ -528,6 +531,7 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
 #undef LC_SUFFIX
 #undef LC_TARGET
 #undef LC_SCAN
+#undef LC_SCAN_SETUP
 #undef LC_QUANTIZE6
 #endif
 

@@ -1,7 +1,7 @@
 /* Step 4, the sweep's main loop for one input precision and kernel family.
  * Included by sweep.c with LC_T (float or double), LC_SUFFIX, LC_TARGET (a
- * function attribute, or nothing) and LC_SCAN (the scan of one entry's
- * candidates) defined. */
+ * function attribute, or nothing), LC_SCAN (the scan of one entry's
+ * candidates) and LC_SCAN_SETUP (what LC_SCAN needs declared) defined. */
 
 #define LC_CAT2(a, b) a##b
 #define LC_CAT(a, b) LC_CAT2(a, b)
@@ -125,7 +125,7 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
 {
     const uint32_t ib = g->index_bits, depth = g->depth;
     const uint64_t imask = (1ull << ib) - 1;
-    const lc_scan_fn scan = pick_scan();
+    LC_SCAN_SETUP
     lc_seg segs[LC_MAX_SEGS];
     uint32_t nseg = 0;
     size_t ncand = 0, p, pf, npairs = o->count;
@@ -136,7 +136,6 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
     lc_scan sc;
     locd_status st;
 
-    (void)scan; /* unused where LC_SCAN inlines a kernel */
     begin = cell_start_from(entries, count, begin, ib);
     end = cell_start_from(entries, count, end, ib);
     if (begin >= end)

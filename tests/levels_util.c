@@ -289,6 +289,24 @@ int lu_count_processes_with(const char *a, const char *b)
     return n;
 }
 
+int lu_fixture_up(lu_fixture *f)
+{
+    char listen[320];
+    lu_setup();
+    lu_temp_dir(f->dir, sizeof f->dir);
+    snprintf(f->log, sizeof f->log, "%s/serve.log", f->dir);
+    snprintf(listen, sizeof listen, "unix:%s/s.sock", f->dir);
+    f->service = lu_start_service(listen, NULL, 2, f->log, f->addr, sizeof f->addr);
+    return f->service > 0 ? 0 : -1;
+}
+
+void lu_fixture_down(lu_fixture *f)
+{
+    if (f->service > 0)
+        lu_stop_service(f->service, SIGTERM);
+    lu_cleanup_dir(f->dir);
+}
+
 int lu_same_pairs(const locd_pairs *a, const locd_pairs *b)
 {
     size_t n = locd_pairs_count(a);

@@ -22,6 +22,16 @@ pid_t lu_start_service(const char *listen, const char *secret, unsigned threads,
 /* SIGTERM (graceful) or SIGKILL, then reap. Returns the wait status. */
 int lu_stop_service(pid_t pid, int sig);
 
+/* The suites' shared fixture: a private directory holding a 2-thread
+ * service on a Unix socket (address in addr, its log in log). */
+typedef struct lu_fixture {
+    char dir[256], addr[300], log[300];
+    pid_t service;
+} lu_fixture;
+/* lu_setup, then the directory and the service; 0 when the service runs. */
+int lu_fixture_up(lu_fixture *f);
+void lu_fixture_down(lu_fixture *f);
+
 /* Processes whose parent is this process (0 when none). */
 int lu_count_children(void);
 /* pids of the children named `comm` (e.g. "locd-worker"); returns the count. */

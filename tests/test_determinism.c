@@ -75,6 +75,20 @@ static void same_pairs(const locd_pairs *got, const locd_pairs *want, const char
     same_bytes(locd_pairs_data(got), locd_pairs_count(got), locd_pairs_data(want), locd_pairs_count(want), what);
 }
 
+/* The float32 and the float64 call on the same values, each with `want`'s
+ * bytes; `what` names the case in a failure. */
+static void both_precisions_give(locd_engine *e, const float *f, const double *d, size_t n, uint32_t flags,
+                                 locd_pairs *p, const locd_pairs *want, const char *what)
+{
+    char label[160];
+    snprintf(label, sizeof label, "%s f32", what);
+    assert_int_equal(locd_engine_find_pairs_f32(e, f, n, flags, p), LOCD_OK);
+    same_pairs(p, want, label);
+    snprintf(label, sizeof label, "%s f64", what);
+    assert_int_equal(locd_engine_find_pairs_f64(e, d, n, flags, p), LOCD_OK);
+    same_pairs(p, want, label);
+}
+
 /* Every scene kind, threads 1..8, float32 and float64, pairs buffer and
  * caller buffer, first and second call on the engine: one byte sequence. */
 static void every_thread_count_precision_and_entry_point(void **state)
@@ -103,12 +117,8 @@ static void every_thread_count_precision_and_entry_point(void **state)
         assert_non_null(buf);
         for (t = 1; t <= MAX_THREADS; t++) {
             locd_engine *e = engine_for(t, 1, 0, 0);
-            snprintf(what, sizeof what, "kind %d threads %u f32", kind, t);
-            assert_int_equal(locd_engine_find_pairs_f32(e, f, n, 0, p), LOCD_OK);
-            same_pairs(p, ref, what);
-            snprintf(what, sizeof what, "kind %d threads %u f64", kind, t);
-            assert_int_equal(locd_engine_find_pairs_f64(e, d, n, 0, p), LOCD_OK);
-            same_pairs(p, ref, what);
+            snprintf(what, sizeof what, "kind %d threads %u", kind, t);
+            both_precisions_give(e, f, d, n, 0, p, ref, what);
             snprintf(what, sizeof what, "kind %d threads %u f32_into", kind, t);
             assert_int_equal(locd_engine_find_pairs_f32_into(e, f, n, 0, buf, cap, &count), LOCD_OK);
             same_bytes(buf, count, locd_pairs_data(ref), locd_pairs_count(ref), what);
@@ -205,12 +215,8 @@ static void sorted_flag_is_brute_force_order(void **state)
     assert_int_equal(locd_brute_force_f64(d, n, ref), LOCD_OK);
     for (t = 1; t <= MAX_THREADS; t++) {
         locd_engine *e = engine_for(t, 1, 0, 0);
-        snprintf(what, sizeof what, "sorted threads %u f32", t);
-        assert_int_equal(locd_engine_find_pairs_f32(e, f, n, LOCD_FIND_SORTED, p), LOCD_OK);
-        same_pairs(p, ref, what);
-        snprintf(what, sizeof what, "sorted threads %u f64", t);
-        assert_int_equal(locd_engine_find_pairs_f64(e, d, n, LOCD_FIND_SORTED, p), LOCD_OK);
-        same_pairs(p, ref, what);
+        snprintf(what, sizeof what, "sorted threads %u", t);
+        both_precisions_give(e, f, d, n, LOCD_FIND_SORTED, p, ref, what);
         locd_engine_destroy(e);
     }
     locd_pairs_destroy(ref);
@@ -251,12 +257,8 @@ static void every_kernel_same_bytes(void **state)
                 setenv("LOCD_KERNEL", kernels[k], 1);
                 for (t = 1; t <= 3; t += 2) {
                     locd_engine *e = engine_for(t, LOCD_DEFAULT_CELL_BIAS, 0, cubes ? LOCD_CONFIG_CUBES : 0);
-                    snprintf(what, sizeof what, "kind %d cubes %d kernel %s threads %u f32", kind, cubes, kernels[k], t);
-                    assert_int_equal(locd_engine_find_pairs_f32(e, f, n, 0, p), LOCD_OK);
-                    same_pairs(p, ref, what);
-                    snprintf(what, sizeof what, "kind %d cubes %d kernel %s threads %u f64", kind, cubes, kernels[k], t);
-                    assert_int_equal(locd_engine_find_pairs_f64(e, d, n, 0, p), LOCD_OK);
-                    same_pairs(p, ref, what);
+                    snprintf(what, sizeof what, "kind %d cubes %d kernel %s threads %u", kind, cubes, kernels[k], t);
+                    both_precisions_give(e, f, d, n, 0, p, ref, what);
                     locd_engine_destroy(e);
                 }
             }

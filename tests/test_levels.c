@@ -20,8 +20,7 @@
 #include "levels_util.h"
 #include "support.h"
 
-static char g_dir[256], g_addr[300], g_log[300];
-static pid_t g_service = -1;
+static lu_fixture g_fx = {"", "", "", -1};
 
 static locd_engine *make_engine(int level, uint32_t threads, const char *addr)
 {
@@ -54,7 +53,7 @@ static void levels_give_identical_pairs(void **state)
     locd_engine *e1 = make_engine(LOCD_LEVEL_INPROCESS, 2, NULL);
     locd_engine *e2 = make_engine(LOCD_LEVEL_WORKERS, 2, NULL);
     locd_engine *e2b = make_engine(LOCD_LEVEL_WORKERS, 3, NULL);
-    locd_engine *e3 = make_engine(LOCD_LEVEL_SERVICE, 0, g_addr);
+    locd_engine *e3 = make_engine(LOCD_LEVEL_SERVICE, 0, g_fx.addr);
     locd_engine *others[3];
     locd_pairs *ref, *got;
     int kind, o;
@@ -129,7 +128,7 @@ static void octree_settings_reach_every_level(void **state)
             cfg.max_depth = v[i].depth;
             cfg.cell_bias = v[i].bias;
             cfg.flags = v[i].flags;
-            cfg.service_address = g_addr;
+            cfg.service_address = g_fx.addr;
             assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
             assert_int_equal(locd_engine_find_pairs_f32(e, b, n, 0, level == 1 ? ref : got), LOCD_OK);
             if (level > 1 && !lu_same_pairs(ref, got))
@@ -150,7 +149,7 @@ static void invalid_boxes_same_error_at_every_level(void **state)
     int level;
     (void)state;
     for (level = 1; level <= 3; level++) {
-        locd_engine *e = make_engine(level, 2, level == 3 ? g_addr : NULL);
+        locd_engine *e = make_engine(level, 2, level == 3 ? g_fx.addr : NULL);
         locd_pairs *p;
         float *b = ts_scene(0, 6000, 5);
         assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
@@ -171,7 +170,7 @@ static void jobs_at_every_level(void **state)
     int level;
     (void)state;
     for (level = 1; level <= 3; level++) {
-        locd_engine *e = make_engine(level, 2, level == 3 ? g_addr : NULL);
+        locd_engine *e = make_engine(level, 2, level == 3 ? g_fx.addr : NULL);
         locd_engine *ref = make_engine(LOCD_LEVEL_INPROCESS, 1, NULL);
         locd_pairs *want, *got;
         locd_job *j = NULL, *j2 = NULL;
@@ -497,23 +496,13 @@ static void bad_worker_path_is_an_error(void **state)
 static int setup(void **state)
 {
     (void)state;
-    lu_setup();
-    lu_temp_dir(g_dir, sizeof g_dir);
-    snprintf(g_log, sizeof g_log, "%s/serve.log", g_dir);
-    {
-        char listen[300];
-        snprintf(listen, sizeof listen, "unix:%s/s.sock", g_dir);
-        g_service = lu_start_service(listen, NULL, 2, g_log, g_addr, sizeof g_addr);
-    }
-    return g_service > 0 ? 0 : -1;
+    return lu_fixture_up(&g_fx);
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    if (g_service > 0)
-        lu_stop_service(g_service, SIGTERM);
-    lu_cleanup_dir(g_dir);
+    lu_fixture_down(&g_fx);
     return 0;
 }
 

@@ -23,8 +23,7 @@
 #include "levels_util.h"
 #include "support.h"
 
-static char g_dir[256], g_addr[300], g_log[300];
-static pid_t g_service = -1;
+static lu_fixture g_fx = {"", "", "", -1};
 
 static locd_status make_engine(const char *addr, const char *secret, locd_engine **e)
 {
@@ -122,19 +121,19 @@ static void garbage_drops_only_that_connection(void **state)
     (void)state;
     ts_seed(&r, 2024);
     /* a client that stays connected through all of it */
-    assert_int_equal(make_engine(g_addr, NULL, &e), LOCD_OK);
+    assert_int_equal(make_engine(g_fx.addr, NULL, &e), LOCD_OK);
     assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
 
     for (i = 0; i < (int)sizeof junk; i++)
         junk[i] = (uint8_t)ts_next(&r);
-    fd = raw_connect(g_addr);
+    fd = raw_connect(g_fx.addr);
     assert_true(fd >= 0);
     assert_int_equal(send(fd, junk, sizeof junk, MSG_NOSIGNAL), (ssize_t)sizeof junk);
     assert_true(closed_by_peer(fd, 5000));
     close(fd);
 
     /* valid HELLO, then an oversized SUBMIT header */
-    fd = raw_connect(g_addr);
+    fd = raw_connect(g_fx.addr);
     hello(fd);
     put_header(h, 3, (uint64_t)1 << 50);
     assert_int_equal(send(fd, h, 24, MSG_NOSIGNAL), 24);
@@ -142,7 +141,7 @@ static void garbage_drops_only_that_connection(void **state)
     close(fd);
 
     /* a truncated message: the header promises more than ever comes */
-    fd = raw_connect(g_addr);
+    fd = raw_connect(g_fx.addr);
     hello(fd);
     put_header(h, 3, 1000);
     assert_int_equal(send(fd, h, 24, MSG_NOSIGNAL), 24);
@@ -150,7 +149,7 @@ static void garbage_drops_only_that_connection(void **state)
     close(fd);
 
     /* a SUBMIT whose length does not match its box count */
-    fd = raw_connect(g_addr);
+    fd = raw_connect(g_fx.addr);
     hello(fd);
     {
         uint8_t m[24 + 36];
@@ -166,12 +165,12 @@ static void garbage_drops_only_that_connection(void **state)
     /* the well-behaved client and new ones are still served */
     assert_int_equal(locd_engine_find_pairs_f32(e, b, 3000, 0, p), LOCD_OK);
     assert_true(ts_same_as_brute_f32(b, 3000, p));
-    assert_true(service_works(g_addr, NULL));
+    assert_true(service_works(g_fx.addr, NULL));
     lu_sleep_ms(100);
-    assert_true(lu_wait_file_contains(g_log, "bad magic", 5000));
-    assert_true(lu_wait_file_contains(g_log, "exceeds the limit", 5000));
-    assert_true(lu_wait_file_contains(g_log, "truncated message", 5000));
-    assert_true(lu_wait_file_contains(g_log, "does not match", 5000));
+    assert_true(lu_wait_file_contains(g_fx.log, "bad magic", 5000));
+    assert_true(lu_wait_file_contains(g_fx.log, "exceeds the limit", 5000));
+    assert_true(lu_wait_file_contains(g_fx.log, "truncated message", 5000));
+    assert_true(lu_wait_file_contains(g_fx.log, "does not match", 5000));
     locd_engine_destroy(e);
     locd_pairs_destroy(p);
     free(b);
@@ -191,7 +190,7 @@ static void *client_main(void *arg)
     float *scenes[10];
     size_t sizes[10];
     int batch, i;
-    if (make_engine(g_addr, NULL, &e) != LOCD_OK || locd_pairs_create(NULL, &p) != LOCD_OK) {
+    if (make_engine(g_fx.addr, NULL, &e) != LOCD_OK || locd_pairs_create(NULL, &p) != LOCD_OK) {
         c->failed = 50;
         return NULL;
     }
@@ -248,7 +247,7 @@ static void client_leaving_with_jobs_in_flight(void **state)
     for (k = 0; k < 3; k++) {
         locd_engine *e = NULL;
         locd_job *j[8];
-        assert_int_equal(make_engine(g_addr, NULL, &e), LOCD_OK);
+        assert_int_equal(make_engine(g_fx.addr, NULL, &e), LOCD_OK);
         for (i = 0; i < 8; i++)
             assert_int_equal(locd_engine_submit_f32(e, b, nb, 0, &j[i]), LOCD_OK);
         /* destroy first: pending jobs end with LOCD_ERR_CONNECTION */
@@ -260,7 +259,7 @@ static void client_leaving_with_jobs_in_flight(void **state)
         }
     }
     free(b);
-    assert_true(service_works(g_addr, NULL));
+    assert_true(service_works(g_fx.addr, NULL));
 }
 
 static void service_killed_then_restarted(void **state)
@@ -373,7 +372,7 @@ static void create_destroy_cycles_leak_nothing(void **state)
     assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
     for (i = 0; i < cycles; i++) {
         locd_engine *e = NULL;
-        assert_int_equal(make_engine(g_addr, NULL, &e), LOCD_OK);
+        assert_int_equal(make_engine(g_fx.addr, NULL, &e), LOCD_OK);
         if (i % 50 == 0) /* 20000 boxes go through shared memory */
             assert_int_equal(locd_engine_find_pairs_f32(e, b, 20000, 0, p), LOCD_OK);
         locd_engine_destroy(e);
@@ -388,22 +387,14 @@ static void create_destroy_cycles_leak_nothing(void **state)
 
 static int setup(void **state)
 {
-    char listen[300];
     (void)state;
-    lu_setup();
-    lu_temp_dir(g_dir, sizeof g_dir);
-    snprintf(g_log, sizeof g_log, "%s/serve.log", g_dir);
-    snprintf(listen, sizeof listen, "unix:%s/s.sock", g_dir);
-    g_service = lu_start_service(listen, NULL, 2, g_log, g_addr, sizeof g_addr);
-    return g_service > 0 ? 0 : -1;
+    return lu_fixture_up(&g_fx);
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    if (g_service > 0)
-        lu_stop_service(g_service, SIGTERM);
-    lu_cleanup_dir(g_dir);
+    lu_fixture_down(&g_fx);
     return 0;
 }
 
