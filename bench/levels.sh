@@ -17,7 +17,7 @@ SIZES=${SIZES:-1e3,1e5,1e6}
 if [ ! -f "$BUILD/build.ninja" ]; then
   meson setup "$BUILD" "$ROOT" --buildtype=release >/dev/null
 fi
-ninja -C "$BUILD" -j2 tools/locd tools/locd-worker bench/locd-bench-levels >/dev/null
+ninja -C "$BUILD" -j2 tools/locd lib/locd-worker bench/locd-bench-levels >/dev/null
 DIR=$(mktemp -d /tmp/locd-bench-XXXXXX)
 P1= P2=
 cleanup() { [ -n "$P1" ] && kill "$P1" 2>/dev/null; [ -n "$P2" ] && kill "$P2" 2>/dev/null; wait 2>/dev/null; rm -rf "$DIR"; }
@@ -32,7 +32,7 @@ for i in $(seq 100); do
   grep -q listening "$DIR/calls.log" 2>/dev/null && grep -q listening "$DIR/jobs.log" 2>/dev/null && break
   sleep 0.1
 done
-LOCD_WORKER="$BUILD/tools/locd-worker" "$BUILD/bench/locd-bench-levels" --calls "unix:$DIR/calls.sock" \
+LOCD_WORKER="$BUILD/lib/locd-worker" "$BUILD/bench/locd-bench-levels" --calls "unix:$DIR/calls.sock" \
   --jobs "unix:$DIR/jobs.sock" --threads "$T" --sizes "$SIZES" --out "$DIR/table.md"
 CPU=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')
 {

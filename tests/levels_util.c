@@ -26,7 +26,7 @@ const char *lu_setup(void)
     const char *b = getenv("LOCD_TEST_BUILD_DIR");
     if (!b || !b[0])
         b = LOCD_BUILD_DIR;
-    snprintf(worker, sizeof worker, "%s/tools/locd-worker", b);
+    snprintf(worker, sizeof worker, "%s/lib/locd-worker", b);
     snprintf(cli_path, sizeof cli_path, "%s/tools/locd", b);
     setenv("LOCD_WORKER", worker, 1);
     signal(SIGPIPE, SIG_IGN);

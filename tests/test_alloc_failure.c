@@ -30,7 +30,7 @@ static pid_t g_service = -1;
 
 /* Far more allocations than any call here makes: a loop that gets there is a bug. */
 #define MAX_K 20000u
-/* The engine runs one thread below this many objects (lib/inproc.c). */
+/* The engine runs one thread below this many objects (lib/levels/inproc.c). */
 #define PARALLEL_N 4096
 
 static int heavy(void)

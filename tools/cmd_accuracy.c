@@ -328,7 +328,7 @@ static void default_verdict(FILE *f, const acc_row *rows, size_t nrows, const ch
         fprintf(f, " Faster elsewhere (setting, its time as a fraction of the default's): %s.", where);
     if (2 * fastest < groups && worst > 1.15)
         fprintf(f, " **On these measurements another setting is faster on most scenes by more than the noise**: the "
-                   "default is the core's choice (`locd_engine_config_init` in lib/engine.c) and is reviewed against "
+                   "default is the core's choice (`locd_engine_config_init` in lib/engine/engine.c) and is reviewed against "
                    "this table; pass the knob in `locd_engine_config` to use another.");
     else
         fprintf(f, " Differences of a few percent are within this machine's noise (compare the cubes and boxes rows "

@@ -228,7 +228,7 @@ public:
 
 private:
     // A cancelled or released job of levels 1 and 2 keeps running inside
-    // the engine until its current call returns (lib/job.c), and
+    // the engine until its current call returns (lib/engine/job.c), and
     // locd_engine_destroy does not wait for it. An empty find succeeds only
     // once the engine is free again, so wait for that before destroying.
     void drain()

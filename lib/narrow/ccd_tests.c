@@ -1,7 +1,7 @@
 /* libccd paths: support functions of the locd shapes, GJK (yes/no), EPA or
  * MPR (contact data), a translational swept test, and meshes tested one
  * triangle at a time against a convex shape. */
-#include "narrow.h"
+#include "narrow/narrow.h"
 
 #include <ccd/ccd.h>
 #include <math.h>

@@ -2,7 +2,7 @@
  * theorem, Ericson's "Real-Time Collision Detection" 4.4.1). They are the
  * references the libccd and FCL paths are tested against. Touching counts as
  * a hit (closed sets, like the box test of the broad phase). */
-#include "narrow.h"
+#include "narrow/narrow.h"
 
 #include <math.h>
 #include <string.h>

@@ -1,7 +1,7 @@
 // FCL glue: FCL geometry for locd shapes and FCL's discrete collision test,
 // behind the C functions declared in narrow.h. No C++ type or exception
 // crosses this file's boundary: every entry point catches everything.
-#include "narrow.h"
+#include "narrow/narrow.h"
 
 #include <fcl/fcl.h>
 

@@ -84,6 +84,35 @@ int lc_pair_test(const lc_placed *a, const lc_placed *b, int32_t route, int want
 int lc_pair_sweep(const lc_placed *a, const lc_placed *b, const double *d, int32_t route, double *toi,
                   uint64_t *counts);
 
+/* ---- world and contacts handles (world.c, pipeline.c) ---- */
+struct locd_world {
+    uint32_t magic;
+    locd_engine *engine;
+    locd_pairs *pairs;
+    locd_shape **shapes;
+    double *poses; /* 7 per object */
+    double *vel;   /* 6 per object */
+    size_t n, cap;
+    /* scratch of the last collide, sized to scratch_n objects */
+    double *R;      /* 12 per object: rotation then translation */
+    double *boxes;  /* 6 per object */
+    uint8_t *fast;  /* 1 = swept */
+    uint32_t *work; /* pair indices split by stage */
+    size_t scratch_n, work_cap;
+};
+
+struct locd_contacts {
+    uint32_t magic;
+    int has_contact;
+    size_t count, cap;
+    uint32_t *pairs;
+    double *toi, *depth, *normal, *point;
+};
+
+locd_status lc_world_check(const locd_world *w);
+locd_status lc_contacts_check(const locd_contacts *c);
+locd_status lc_contacts_reserve(locd_contacts *c, size_t count);
+
 #ifdef __cplusplus
 }
 #endif

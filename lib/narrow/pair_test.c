@@ -1,7 +1,7 @@
 /* Routing: which test (closed form, libccd, FCL) a pair of shape kinds
  * goes through, and the single-pair entry point of the public API. */
-#include "../internal.h"
-#include "narrow.h"
+#include "core/core.h"
+#include "narrow/narrow.h"
 
 #include <math.h>
 

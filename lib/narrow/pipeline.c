@@ -2,8 +2,8 @@
  * boxes, swept boxes for moving objects when swept tests are on), then only
  * the stages the caller asked for: shape test, time-of-impact test, contact
  * data. A stage not asked for is not entered (its statistics stay 0). */
-#include "../internal.h"
-#include "world.h"
+#include "core/core.h"
+#include "narrow/narrow.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -2,7 +2,7 @@
  * (meson -Dnarrow=disabled, or the libraries missing): they exist so that
  * the ABI does not depend on build options, and say why they cannot work.
  * Option and statistics initializers still work. */
-#include "../internal.h"
+#include "core/core.h"
 
 #define NO_NARROW() \
     lc_error(LOCD_ERR_UNSUPPORTED, "this locd was built without the narrow phase (libccd and FCL; meson -Dnarrow)")

@@ -1,7 +1,7 @@
 /* Shapes: constructors with validation, reference counting, poses and
  * world boxes. */
-#include "../internal.h"
-#include "narrow.h"
+#include "core/core.h"
+#include "narrow/narrow.h"
 
 #include <math.h>
 #include <stdlib.h>

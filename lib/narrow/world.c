@@ -1,7 +1,7 @@
 /* The world handle: shapes with poses and velocities, and the result
  * buffer (locd_contacts). */
-#include "../internal.h"
-#include "world.h"
+#include "core/core.h"
+#include "narrow/narrow.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -9,7 +9,7 @@ OUT=build-ci/cs
 mkdir -p "$OUT"
 
 # The native library: reuse step 10-c's build when there is one.
-if [ -e build-ci/c/lib/liblocd.so ] && [ -x build-ci/c/tools/locd ] && [ -x build-ci/c/tools/locd-worker ]; then
+if [ -e build-ci/c/lib/liblocd.so ] && [ -x build-ci/c/tools/locd ] && [ -x build-ci/c/lib/locd-worker ]; then
   BUILD=build-ci/c
 else
   BUILD=build-ci/cs/native

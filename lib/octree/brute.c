@@ -1,5 +1,5 @@
 /* The O(n^2) reference: every pair, the exact closed-interval test. */
-#include "internal.h"
+#include "octree/octree.h"
 
 #define LC_BRUTE(SUFFIX, T)                                                                                  \
     locd_status locd_brute_force_##SUFFIX(const T *boxes, size_t n, locd_pairs *out)                        \

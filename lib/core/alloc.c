@@ -1,5 +1,5 @@
 /* The allocator hook: every byte the library owns goes through here. */
-#include "internal.h"
+#include "core/core.h"
 
 #include <stdlib.h>
 #include <time.h>

@@ -1,5 +1,5 @@
 /* Validation of the input boxes and the fitting of the octree's root cube. */
-#include "internal.h"
+#include "octree/octree.h"
 
 #include <math.h>
 
@@ -214,7 +214,7 @@ locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth
  * object's own cell. The sample is fixed (every n/LC_TUNE_SAMPLE-th box),
  * so every path (engine, building blocks, workers, MPI) picks the same. Its
  * arrays take 32 KiB of the calling thread's stack, the radix sort of the
- * sample 48 KiB more (as any lc_sort call). */
+ * sample 48 KiB more (as any lc_radix_sort call). */
 #define LC_TUNE_SAMPLE 1024
 #define LC_TUNE_MIN_N 16384
 #define LC_TUNE_NEIGHBOURS 16.0
@@ -232,7 +232,7 @@ static double tune_neighbours(const int32_t (*q)[3], const uint32_t *lvl, size_t
         code[k] = (uint64_t)l << 59 | (uint64_t)((uint32_t)q[k][0] >> sh) << 38 |
                   (uint64_t)((uint32_t)q[k][1] >> sh) << 19 | (uint64_t)((uint32_t)q[k][2] >> sh);
     }
-    sorted = lc_sort(code, tmp, s, 0);
+    sorted = lc_radix_sort(code, tmp, s, 0);
     for (k = 1; k <= s; k++) {
         if (k < s && sorted[k] == sorted[k - 1]) {
             run++;
@@ -280,28 +280,3 @@ static double tune_neighbours(const int32_t (*q)[3], const uint32_t *lvl, size_t
 
 LC_TUNE_DEPTH(f32, float)
 LC_TUNE_DEPTH(f64, double)
-
-#define LC_GRID_FIT(SUFFIX, T)                                                                               \
-    locd_status locd_grid_fit_##SUFFIX(const T *boxes, size_t n, uint32_t max_depth, int32_t cell_bias,     \
-                                       uint32_t flags, locd_grid *grid)                                      \
-    {                                                                                                        \
-        lc_bounds b;                                                                                         \
-        locd_status st;                                                                                      \
-        if (!grid || (!boxes && n))                                                                          \
-            return lc_error(LOCD_ERR_NULL_POINTER, "%s is NULL", grid ? "boxes" : "grid");                  \
-        if ((uint64_t)n > (uint64_t)UINT32_MAX + 1u)                                                         \
-            return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu objects do not fit a 32-bit index", n);         \
-        lc_bounds_init(&b);                                                                                  \
-        lc_bounds_##SUFFIX(boxes, 0, n, &b);                                                                 \
-        if (b.bad >= 0)                                                                                      \
-            return lc_error_box(b.bad_status, b.bad, "box %lld", (long long)b.bad);                          \
-        st = lc_grid_from_bounds(&b, n, max_depth, cell_bias, flags, grid);                                  \
-        if (!st && !max_depth)                                                                               \
-            lc_grid_tune_depth_##SUFFIX(grid, boxes, n);                                                     \
-        if (!st)                                                                                             \
-            lc_clear_error();                                                                                \
-        return st;                                                                                           \
-    }
-
-LC_GRID_FIT(f32, float)
-LC_GRID_FIT(f64, double)

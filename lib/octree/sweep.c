@@ -8,8 +8,7 @@
  * boxes' quantized intersection, so it is reported once, with no hash set
  * (docs/encoding.md has the proof). Records are stored by column so that
  * the test of one entry against its candidates runs 8 at a time (AVX2). */
-#include "internal.h"
-#include "morton.h"
+#include "octree/octree.h"
 
 #include <stdlib.h>
 
@@ -574,56 +573,3 @@ void lc_sweep_out_fini(lc_sweep_out *o)
     o->cand = NULL;
     o->cand_cap = 0;
 }
-
-static int entries_sorted(const uint64_t *e, size_t count)
-{
-    size_t i;
-    for (i = 1; i < count; i++)
-        if (e[i - 1] >= e[i])
-            return 0;
-    return 1;
-}
-
-#define LC_SWEEP_PUBLIC(SUFFIX, T)                                                                           \
-    locd_status locd_sweep_##SUFFIX(const locd_grid *grid, const T *boxes, size_t n, const uint64_t *entries, \
-                                    size_t count, locd_pairs *out, locd_stats *stats)                        \
-    {                                                                                                        \
-        lc_sweep_out o;                                                                                      \
-        locd_status st = lc_grid_check(grid);                                                                \
-        size_t i;                                                                                            \
-        if (st)                                                                                              \
-            return st;                                                                                       \
-        if ((st = lc_pairs_check(out)) != LOCD_OK)                                                           \
-            return st;                                                                                       \
-        if (count && (!entries || !boxes))                                                                   \
-            return lc_error(LOCD_ERR_NULL_POINTER, "entries and boxes must not be NULL");                   \
-        if (stats && stats->size < sizeof(locd_stats))                                                       \
-            return lc_error(LOCD_ERR_INVALID_ARGUMENT, "stats->size is too small (use locd_stats_init)");   \
-        if (!entries_sorted(entries, count))                                                                 \
-            return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entries are not strictly ascending");               \
-        for (i = 0; i < count; i++)                                                                          \
-            if ((entries[i] & ((1ull << grid->index_bits) - 1)) >= n)                                        \
-                return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entry %zu names object >= n", i);               \
-        lc_sweep_out_init(&o, &out->alloc);                                                                  \
-        st = lc_sweep_range_##SUFFIX(grid, boxes, NULL, entries, count, 0, count, &o);                              \
-        if (!st)                                                                                             \
-            st = lc_pairs_reserve(out, o.count);                                                             \
-        if (!st) {                                                                                           \
-            if (o.count)                                                                                     \
-                memcpy(out->data, o.pairs.data, o.count * 2 * sizeof(uint32_t));                             \
-            out->count = o.count;                                                                            \
-            if (stats) {                                                                                     \
-                stats->entries = count;                                                                      \
-                stats->objects = n;                                                                          \
-                stats->candidates = o.candidates;                                                            \
-                stats->exact_tests = o.exact_tests;                                                          \
-                stats->pairs = o.count;                                                                      \
-            }                                                                                                \
-            lc_clear_error();                                                                                \
-        }                                                                                                    \
-        lc_sweep_out_fini(&o);                                                                               \
-        return st;                                                                                           \
-    }
-
-LC_SWEEP_PUBLIC(f32, float)
-LC_SWEEP_PUBLIC(f64, double)

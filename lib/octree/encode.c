@@ -4,8 +4,7 @@
  * the box's largest quantized extent, so it touches at most two cells per
  * axis (at most 8 entries; about 1.7 on average for the default bias 2 on
  * uniform cubes, 2.7 for bias 1). */
-#include "internal.h"
-#include "morton.h"
+#include "octree/octree.h"
 
 #define LC_ENCODE_BODY(T)                                                                                    \
     size_t i, w = 0;                                                                                         \
@@ -86,7 +85,7 @@ static size_t encode_scalar_f64(const locd_grid *g, const double *boxes, size_t 
 #include <immintrin.h>
 
 
-/* split3 on eight 21-bit values at once (the magic-bits spread of morton.h). */
+/* split3 on eight 21-bit values at once (the magic-bits spread of lc_morton_split3). */
 LC_AVX512 LC_INLINE __m512i spread3x8(__m256i v)
 {
     __m512i x = _mm512_cvtepu32_epi64(v);
@@ -241,31 +240,3 @@ LC_AVX512 static size_t encode_avx512_f64(const locd_grid *g, const double *boxe
 
 LC_ENCODE_DISPATCH(f32, float)
 LC_ENCODE_DISPATCH(f64, double)
-
-#define LC_ENCODE_PUBLIC(SUFFIX, T)                                                                          \
-    locd_status locd_encode_##SUFFIX(const locd_grid *grid, const T *boxes, size_t first, size_t count,    \
-                                     uint64_t *entries, size_t capacity, size_t *written)                    \
-    {                                                                                                        \
-        size_t need = 0, w;                                                                                  \
-        locd_status st = lc_grid_check(grid);                                                                \
-        if (st)                                                                                              \
-            return st;                                                                                       \
-        if (!written || (count && (!boxes || !entries)))                                                     \
-            return lc_error(LOCD_ERR_NULL_POINTER, "boxes, entries and written must not be NULL");          \
-        *written = 0;                                                                                        \
-        if (count && (first + count < first || (uint64_t)(first + count - 1) >> grid->index_bits))          \
-            return lc_error(LOCD_ERR_INVALID_ARGUMENT, "object indices exceed the grid's %u index bits",    \
-                            grid->index_bits);                                                               \
-        w = lc_encode_##SUFFIX(grid, boxes, first, count, entries, capacity, &need, NULL);                   \
-        if (w == (size_t)-1) {                                                                               \
-            *written = need;                                                                                 \
-            return lc_error(LOCD_ERR_BUFFER_TOO_SMALL, "entries need up to %zu slots, capacity %zu", need,  \
-                            capacity);                                                                       \
-        }                                                                                                    \
-        *written = w;                                                                                        \
-        lc_clear_error();                                                                                    \
-        return LOCD_OK;                                                                                      \
-    }
-
-LC_ENCODE_PUBLIC(f32, float)
-LC_ENCODE_PUBLIC(f64, double)

@@ -3,7 +3,7 @@
  * one binary runs everywhere and uses what the CPU has. LOCD_KERNEL=
  * scalar|avx2|avx512 in the environment caps the choice (LOCD_SCALAR=1 is
  * the old spelling of scalar): the tests run every kernel and compare. */
-#include "internal.h"
+#include "core/core.h"
 
 #include <stdlib.h>
 

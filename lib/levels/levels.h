@@ -1,6 +1,9 @@
-/* Level 2: the shared-memory control block between the library (the
+/* lib/levels: integration levels 1 (inproc.c) and 2 (workers.c, with the
+ * locd-worker process in worker_main.c). Private; not installed.
+ *
+ * Level 2: the shared-memory control block between the library (the
  * caller, in its own process) and its locd-worker processes. Private to the
- * library and tools/worker_main.c; both are built from one tree, and the
+ * library and levels/worker_main.c; both are built from one tree, and the
  * magic + version check refuses a worker from another build.
  *
  * Two segments per engine, both POSIX shm, mode 0600, unique names, unlinked
@@ -10,10 +13,11 @@
  *  - data: the boxes (n rows of 6 floats or doubles, from offset 0), then one
  *    entry region per worker. It is replaced by a larger one when a call
  *    needs more room; data_gen tells the workers to map the new one. */
-#ifndef LOCD_SHM_LAYOUT_H
-#define LOCD_SHM_LAYOUT_H
+#ifndef LOCD_LEVELS_H
+#define LOCD_LEVELS_H
 
-#include "locd/locd.h"
+#include "engine/engine.h"
+#include "octree/octree.h"
 
 #include <semaphore.h>
 #include <stdint.h>

@@ -1,7 +1,7 @@
 /* Step 3: merge k sorted runs into one. The engine splits the output by rank
  * so that k threads merge disjoint slices (the paper's master merged alone,
  * which was its bottleneck). */
-#include "internal.h"
+#include "octree/octree.h"
 
 static size_t lower_bound(const uint64_t *a, size_t n, uint64_t v)
 {
@@ -132,23 +132,4 @@ void lc_merge_ranges(const uint64_t *const *runs, const size_t *begin, const siz
         return;
     }
     merge_heap(runs, begin, end, k, out);
-}
-
-locd_status locd_merge_entries(const uint64_t *const *runs, const size_t *counts, size_t k, uint64_t *out)
-{
-    size_t r, begin[64];
-    if (k == 0)
-        return LOCD_OK;
-    if (!runs || !counts || !out)
-        return lc_error(LOCD_ERR_NULL_POINTER, "runs, counts and out must not be NULL");
-    if (k > 64)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "at most 64 runs per merge (got %zu)", k);
-    for (r = 0; r < k; r++) {
-        if (counts[r] && !runs[r])
-            return lc_error(LOCD_ERR_NULL_POINTER, "run %zu is NULL", r);
-        begin[r] = 0;
-    }
-    lc_merge_ranges(runs, begin, counts, k, out);
-    lc_clear_error();
-    return LOCD_OK;
 }

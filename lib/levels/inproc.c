@@ -4,7 +4,7 @@
  * split by rank, then a sweep split by position. The result does not depend
  * on k: runs hold contiguous object ranges, entries are unique, and each
  * sweep slice rebuilds the exact state a serial sweep would have. */
-#include "engine_internal.h"
+#include "levels/levels.h"
 
 #include <math.h>
 
@@ -76,7 +76,7 @@ static void task_encode_sort(void *arg, uint32_t t, uint32_t k)
     c->overflow[t] = 0;
     c->cnt[t] = w;
     t1 = lc_now_ms();
-    res = lc_sort(ent, scr, w, c->grid.index_bits);
+    res = lc_radix_sort(ent, scr, w, c->grid.index_bits);
     if (res != ent && k > 1)
         memcpy(ent, res, w * sizeof *ent); /* runs must sit in `ent`: the merge writes `scr` */
     c->runs[t] = k > 1 ? ent : res;

@@ -1,5 +1,5 @@
 /* locd_pairs: the growable result buffer. */
-#include "internal.h"
+#include "core/core.h"
 
 locd_status lc_pairs_check(const locd_pairs *p)
 {
@@ -97,7 +97,7 @@ void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch, uint64
     uint64_t *sorted;
     for (k = 0; k < count; k++)
         scratch[k] = ((uint64_t)pairs[2 * k] << 32) | pairs[2 * k + 1];
-    sorted = lc_sort(scratch, scratch2, count, 0);
+    sorted = lc_radix_sort(scratch, scratch2, count, 0);
     for (k = 0; k < count; k++) {
         pairs[2 * k] = (uint32_t)(sorted[k] >> 32);
         pairs[2 * k + 1] = (uint32_t)sorted[k];

@@ -1,4 +1,4 @@
-#include "internal.h"
+#include "core/core.h"
 
 uint32_t locd_version(void)
 {

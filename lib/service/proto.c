@@ -1,6 +1,6 @@
 /* Level 3 wire protocol: encoding, framing and checked socket I/O (see
- * service_proto.h for the message layouts). */
-#include "service_proto.h"
+ * service.h for the message layouts). */
+#include "service/service.h"
 
 #include <errno.h>
 #include <poll.h>

@@ -1,6 +1,6 @@
 /* The engine handle: configuration, validation, and dispatch to the
  * integration level chosen at creation. */
-#include "engine_internal.h"
+#include "engine/engine.h"
 
 #include <stdio.h>
 #include <time.h>

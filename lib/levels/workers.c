@@ -1,6 +1,6 @@
 /* Integration level 2: encode + sort in k worker processes (locd-worker),
  * merge + sweep in the caller, talking through POSIX shared memory and
- * process-shared POSIX semaphores (layout in shm_layout.h).
+ * process-shared POSIX semaphores (layout in levels.h).
  *
  * Workers are started once per engine and kept. Every wait on a worker is
  * a sem_timedwait of at most 50 ms followed by a waitpid(WNOHANG) check, so
@@ -15,8 +15,7 @@
  * cell_bias, flags), entries are unique, so the merged run is the same
  * sorted array and one serial sweep over it gives level 1's order. */
 #define _GNU_SOURCE /* dladdr, posix_spawn_file_actions_addclosefrom_np */
-#include "engine_internal.h"
-#include "shm_layout.h"
+#include "levels/levels.h"
 
 #include <dlfcn.h>
 #include <errno.h>

@@ -5,7 +5,7 @@
  * after another with the level's own `find`, holding the engine meanwhile
  * (a synchronous find on that engine gets LOCD_ERR_BUSY until the queue is
  * empty, and a submit while a find runs on another thread gets
- * LOCD_ERR_BUSY). Level 3 hands the job to the service (service_client.c),
+ * LOCD_ERR_BUSY). Level 3 hands the job to the service (service/client.c),
  * which runs many jobs of one engine at once.
  *
  * A job holds two references: the caller's handle (dropped by
@@ -14,7 +14,7 @@
  * LOCD_ERR_CANCELLED; a queued generic job is then skipped, a running one
  * cannot be interrupted inside the engine: the engine stays busy until that
  * call returns, and its result is discarded. */
-#include "job_internal.h"
+#include "engine/engine.h"
 
 #include <errno.h>
 #include <stdio.h>

@@ -1,4 +1,4 @@
-/* locd-worker: one level-2 worker process (lib/shm_workers.c starts it).
+/* locd-worker: one level-2 worker process (levels/workers.c starts it).
  *
  *   locd-worker CONTROL_SEGMENT INDEX PARENT_PID
  *
@@ -7,7 +7,8 @@
  * post `done`. It checks every second that its parent still lives; an
  * orphan removes the segment names it knows (in case the parent died before
  * removing them) and exits, so a crashed host leaves nothing behind. */
-#include "shm_layout.h"
+
+#include "levels/levels.h"
 
 #include <errno.h>
 #include <fcntl.h>

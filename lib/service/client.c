@@ -11,8 +11,7 @@
  * opened it; the client unlinks it too when the job ends, in case the
  * service never got to it. Over TCP the boxes are streamed. */
 #define _GNU_SOURCE
-#include "job_internal.h"
-#include "service_proto.h"
+#include "service/service.h"
 
 #include <errno.h>
 #include <fcntl.h>

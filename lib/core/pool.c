@@ -1,6 +1,6 @@
 /* A fork-join thread pool that lives as long as its engine: threads are
  * created once, so a call costs a wake-up, not a pthread_create. */
-#include "internal.h"
+#include "core/core.h"
 
 #include <pthread.h>
 #include <unistd.h>

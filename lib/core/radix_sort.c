@@ -1,7 +1,8 @@
-/* Step 2: sort entries. An LSD radix sort over only the bits that vary
- * between the entries' keys; stable, so entries of equal key keep their
- * (ascending) object order and the result equals a full 64-bit sort. */
-#include "internal.h"
+/* An LSD radix sort of 64-bit keys over only the bits that vary above the
+ * low `low_bits` (which carry the object index and so are already in
+ * order); stable, so the result equals a full 64-bit sort. The octree's sort
+ * step (the paper's step 2) and the pair ordering both use it. */
+#include "core/core.h"
 
 #define LC_RADIX_MAX_BITS 11
 #define LC_RADIX_MAX_PASSES 6
@@ -17,7 +18,7 @@ static void insertion_sort(uint64_t *a, size_t n)
     }
 }
 
-uint64_t *lc_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits)
+uint64_t *lc_radix_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits)
 {
     uint64_t diff = 0, first, *src = entries, *dst = scratch;
     uint32_t lowbit, highbit, span, passes, bits, p;
@@ -76,21 +77,4 @@ uint64_t *lc_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t i
         }
     }
     return src;
-}
-
-locd_status locd_sort_entries(const locd_grid *grid, uint64_t *entries, uint64_t *scratch, size_t count)
-{
-    locd_status st = lc_grid_check(grid);
-    uint64_t *r;
-    if (st)
-        return st;
-    if (count && (!entries || !scratch))
-        return lc_error(LOCD_ERR_NULL_POINTER, "entries and scratch must not be NULL");
-    if (count > UINT32_MAX)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "sort at most 2^32-1 entries per call");
-    r = lc_sort(entries, scratch, count, grid->index_bits);
-    if (r != entries)
-        memcpy(entries, r, count * sizeof *entries);
-    lc_clear_error();
-    return LOCD_OK;
 }

@@ -10,8 +10,7 @@
  * jobs: queued ones are dropped unrun, running ones are discarded when they
  * end. Memory is bounded by max_clients x max_jobs x max_message. */
 #define _GNU_SOURCE /* struct ucred, SO_PEERCRED */
-#include "engine_internal.h"
-#include "service_proto.h"
+#include "service/service.h"
 
 #include <errno.h>
 #include <fcntl.h>

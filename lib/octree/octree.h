@@ -1,79 +1,9 @@
-/* Private declarations shared by the library's sources. Not installed. */
-#ifndef LOCD_INTERNAL_H
-#define LOCD_INTERNAL_H
+/* lib/octree: the paper's four steps (bounds and grid, encode, sort,
+ * merge, sweep) and the O(n^2) reference. Private; not installed. */
+#ifndef LOCD_OCTREE_H
+#define LOCD_OCTREE_H
 
-#include "locd/locd.h"
-
-#include <stdarg.h>
-#include <string.h>
-
-#if defined(__GNUC__)
-#define LC_LIKELY(x) __builtin_expect(!!(x), 1)
-#define LC_UNLIKELY(x) __builtin_expect(!!(x), 0)
-#define LC_INLINE static __inline__ __attribute__((always_inline))
-#define LC_TLS __thread
-#define LC_PRINTF(a, b) __attribute__((format(printf, a, b)))
-#else
-#define LC_LIKELY(x) (x)
-#define LC_UNLIKELY(x) (x)
-#define LC_INLINE static
-#define LC_TLS
-#define LC_PRINTF(a, b)
-#endif
-
-/* Handle kinds: the first field of every handle, checked on entry. */
-#define LC_MAGIC_ENGINE 0x4c4f4345u /* "LOCE" */
-#define LC_MAGIC_PAIRS 0x4c4f4350u  /* "LOCP" */
-#define LC_MAGIC_JOB 0x4c4f434au    /* "LOCJ" */
-#define LC_MAGIC_DEAD 0xdeadbeefu
-
-/* ---- errors (error.c) ---- */
-locd_status lc_error(locd_status status, const char *fmt, ...) LC_PRINTF(2, 3);
-locd_status lc_error_box(locd_status status, int64_t index, const char *fmt, ...) LC_PRINTF(3, 4);
-void lc_clear_error(void);
-/* Formats a message and hands it to a user log hook (nothing when log is NULL). */
-void lc_log_emit(locd_log_fn log, void *user, int32_t severity, const char *fmt, va_list ap);
-
-/* ---- memory (alloc.c) ---- */
-void lc_allocator_resolve(locd_allocator *dst, const locd_allocator *src);
-void *lc_alloc(const locd_allocator *a, size_t size);
-void lc_free(const locd_allocator *a, void *ptr, size_t size);
-/* size * count with overflow check; returns 0 on overflow. */
-int lc_mul_size(size_t a, size_t b, size_t *out);
-/* A growable array of `elem` sized items owned through an allocator. */
-typedef struct lc_buf {
-    void *data;
-    size_t cap; /* in elements */
-} lc_buf;
-locd_status lc_buf_reserve(const locd_allocator *a, lc_buf *b, size_t elem, size_t count);
-void lc_buf_release(const locd_allocator *a, lc_buf *b, size_t elem);
-
-/* ---- SIMD kernels (kernel.c) ---- */
-enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512 };
-/* The best kernel family this CPU has, capped by LOCD_KERNEL / LOCD_SCALAR. */
-int lc_kernel(void);
-#if defined(__GNUC__) && defined(__x86_64__) && (__GNUC__ >= 8 || defined(__clang__))
-#define LC_HAVE_AVX512_KERNEL 1
-#define LC_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx512cd,popcnt,bmi,bmi2")))
-#endif
-
-/* ---- time ---- */
-double lc_now_ms(void);
-
-/* ---- pairs (pairs.c) ---- */
-struct locd_pairs {
-    uint32_t magic;
-    locd_allocator alloc;
-    uint32_t *data; /* 2 * cap values */
-    size_t count;
-    size_t cap; /* pairs */
-};
-locd_status lc_pairs_check(const locd_pairs *p);
-locd_status lc_pairs_reserve(locd_pairs *p, size_t pairs);
-/* Sorts 2*count interleaved uint32 pairs by (i, j); scratch of count uint64. */
-void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch, uint64_t *scratch2);
-locd_status lc_pairs_init_embedded(locd_pairs *p, const locd_allocator *a);
-void lc_pairs_fini_embedded(locd_pairs *p);
+#include "core/core.h"
 
 /* ---- grid (grid.c) ---- */
 typedef struct lc_bounds {
@@ -134,7 +64,7 @@ LC_INLINE uint32_t lc_level_for(uint32_t w, int32_t bias, uint32_t depth)
     return (uint32_t)l > depth ? depth : (uint32_t)l;
 }
 
-/* ---- encode / sort / merge (encode.c, sort.c, merge.c) ---- */
+/* ---- encode / merge (encode.c, merge.c); the sort is core's lc_radix_sort ---- */
 /* Bits of the octree key: (padded morton << 5) | level. */
 #define LC_LEVEL_BITS 5
 /* Encodes boxes [first, first+count); returns entries written or, when
@@ -145,8 +75,6 @@ size_t lc_encode_f32(const locd_grid *g, const float *boxes, size_t first, size_
                      size_t capacity, size_t *needed, uint64_t *qbox);
 size_t lc_encode_f64(const locd_grid *g, const double *boxes, size_t first, size_t count, uint64_t *out,
                      size_t capacity, size_t *needed, uint64_t *qbox);
-/* Radix sort; returns the buffer holding the result (entries or scratch). */
-uint64_t *lc_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits);
 /* Multiway merge of runs restricted to [begin[r], end[r]) into out. */
 void lc_merge_ranges(const uint64_t *const *runs, const size_t *begin, const size_t *end, size_t k, uint64_t *out);
 /* Splits k runs so that exactly `rank` elements lie before the split; pos[r] receives the split in run r. */
@@ -184,14 +112,33 @@ locd_status lc_sweep_range_f32(const locd_grid *g, const float *boxes, const uin
 locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const uint64_t *qbox, const uint64_t *entries,
                                size_t count, size_t begin, size_t end, lc_sweep_out *o);
 
-/* ---- thread pool (pool.c) ---- */
-typedef struct lc_pool lc_pool;
-typedef void (*lc_task_fn)(void *ctx, uint32_t tid, uint32_t nthreads);
-locd_status lc_pool_create(const locd_allocator *a, uint32_t threads, lc_pool **out);
-void lc_pool_destroy(lc_pool *p);
-/* Runs fn(ctx, t, k) for t = 0..k-1 (k <= pool size; the caller runs t = 0)
- * and returns when all are done. */
-void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx);
-uint32_t lc_cpu_count(void);
+/* ---- 3-D Morton (Z-order) interleaving of 21-bit coordinates ---- */
+static __inline__ uint64_t lc_morton_split3(uint32_t a)
+{
+    uint64_t x = a & 0x1fffffu;
+    x = (x | x << 32) & 0x1f00000000ffffULL;
+    x = (x | x << 16) & 0x1f0000ff0000ffULL;
+    x = (x | x << 8) & 0x100f00f00f00f00fULL;
+    x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+    x = (x | x << 2) & 0x1249249249249249ULL;
+    return x;
+}
+
+/* split3(c + 1) from split3(c), without undoing the interleave. */
+static __inline__ uint64_t lc_morton_next3(uint64_t dilated)
+{
+    return ((dilated | ~0x1249249249249249ULL) + 1) & 0x1249249249249249ULL;
+}
+
+static __inline__ uint32_t lc_morton_compact3(uint64_t x)
+{
+    x &= 0x1249249249249249ULL;
+    x = (x ^ (x >> 2)) & 0x10c30c30c30c30c3ULL;
+    x = (x ^ (x >> 4)) & 0x100f00f00f00f00fULL;
+    x = (x ^ (x >> 8)) & 0x1f0000ff0000ffULL;
+    x = (x ^ (x >> 16)) & 0x1f00000000ffffULL;
+    x = (x ^ (x >> 32)) & 0x1fffffULL;
+    return (uint32_t)x;
+}
 
 #endif

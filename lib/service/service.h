@@ -1,5 +1,5 @@
 /* Level 3: the service's wire protocol, shared by the client
- * (service_client.c) and the server (service_server.c).
+ * (client.c) and the server (server.c).
  *
  * Every message is a 24-byte header followed by `length` payload bytes:
  *   u32 magic "LCDS" | u16 version | u16 type | u64 job id | u64 length
@@ -20,7 +20,7 @@
 #ifndef LOCD_SERVICE_PROTO_H
 #define LOCD_SERVICE_PROTO_H
 
-#include "internal.h"
+#include "engine/engine.h"
 
 #define LC_PROTO_MAGIC 0x5344434cu /* "LCDS" as little-endian bytes */
 #define LC_PROTO_VERSION 1u
