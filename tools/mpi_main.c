@@ -237,7 +237,8 @@ static int check_level1(const mpi_opts *o, const void *boxes, const cli_scene *s
     if (locd_engine_create(&cfg, &e) || locd_pairs_create(NULL, &ref) ||
         (sc->f64 ? locd_engine_find_pairs_f64(e, boxes, sc->n, 0, ref)
                  : locd_engine_find_pairs_f32(e, boxes, sc->n, 0, ref)) ||
-        locd_pairs_count(ref) != k || (k && memcmp(locd_pairs_data(ref), locd_pairs_data(pairs), k * 2 * sizeof(uint32_t)))) {
+        locd_pairs_count(ref) != k ||
+        (k && memcmp(locd_pairs_data(ref), locd_pairs_data(pairs), k * 2 * sizeof(uint32_t)))) {
         fprintf(stderr, "locd-mpi: CHECK FAILED: %zu pairs, level 1 has %zu\n", k, locd_pairs_count(ref));
         rc = 3;
     }

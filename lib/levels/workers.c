@@ -441,15 +441,21 @@ typedef struct lc_call {
     locd_grid grid;
 } lc_call;
 
+/* Bytes of the call's boxes (6 coordinates each). */
+static size_t box_bytes_of(const lc_call *c)
+{
+    return c->n * 6 * (c->f64 ? sizeof(double) : sizeof(float));
+}
+
 /* Copies the boxes into the data segment and starts every worker on its
  * share; returns when the workers were started (ms on lc_now_ms's clock).
  * Every worker takes part (idle ones with an empty share): that is how each
  * one maps a new data segment before its name goes. */
-static double post_round(lc_workers *w, const lc_call *c, const lc_plan *r, size_t box_bytes, locd_stats *stats)
+static double post_round(lc_workers *w, const lc_call *c, const lc_plan *r, size_t regions_at, locd_stats *stats)
 {
     double t0 = lc_now_ms(), t1;
     uint32_t t;
-    memcpy(w->data, c->boxes, c->n * 6 * (c->f64 ? sizeof(double) : sizeof(float)));
+    memcpy(w->data, c->boxes, box_bytes_of(c));
     t1 = lc_now_ms();
     stats->ms_transfer += t1 - t0;
     w->ctl->command = LC_SHM_CMD_RUN;
@@ -460,7 +466,7 @@ static double post_round(lc_workers *w, const lc_call *c, const lc_plan *r, size
         lc_shm_slot *s = &w->ctl->slot[t];
         s->first = t < r->k ? lc_chunk_begin(c->n, t, r->k) : 0;
         s->count = t < r->k ? lc_chunk_begin(c->n, t + 1, r->k) - s->first : 0;
-        s->offset = t < r->k ? box_bytes + r->off[t] * sizeof(uint64_t) : 0;
+        s->offset = t < r->k ? regions_at + r->off[t] * sizeof(uint64_t) : 0;
         s->capacity = t < r->k ? r->cap[t] : 0;
         s->status = LOCD_ERR_INTERNAL;
         s->written = 0;
@@ -508,15 +514,15 @@ static locd_status collect_round(lc_workers *w, size_t n, lc_plan *r, double pos
  * with exact region sizes when a region overflows. */
 static locd_status run_round(lc_workers *w, const lc_call *c, lc_plan *r, locd_stats *stats)
 {
-    size_t box_bytes = (c->n * 6 * (c->f64 ? sizeof(double) : sizeof(float)) + 63) & ~(size_t)63;
+    size_t regions_at = (box_bytes_of(c) + 63) & ~(size_t)63; /* the entry regions, on a cache line after the boxes */
     locd_status st;
     int again;
     lc_plan_regions(r, c->n, w->per_object);
     do {
         double posted;
-        if ((st = ensure_data(w, box_bytes + lc_plan_layout(r) * sizeof(uint64_t))) != LOCD_OK)
+        if ((st = ensure_data(w, regions_at + lc_plan_layout(r) * sizeof(uint64_t))) != LOCD_OK)
             return st;
-        posted = post_round(w, c, r, box_bytes, stats);
+        posted = post_round(w, c, r, regions_at, stats);
         if ((st = collect_round(w, c->n, r, posted, stats, &again)) != LOCD_OK)
             return st;
     } while (again);
