@@ -41,152 +41,239 @@ static int same_pairs(const uint32_t *a, const uint32_t *b, size_t m)
     return m == 0 || memcmp(a, b, m * 2 * sizeof(uint32_t)) == 0;
 }
 
-int cmd_pairs(int argc, char **argv)
-{
-    const char *path = NULL, *out_path = NULL;
+typedef struct pairs_opts {
+    const char *path, *out_path;
     locd_engine_config cfg;
-    locd_engine *eng = NULL;
-    locd_pairs *pairs = NULL;
-    locd_stats st;
-    cli_scene sc;
-    double *dbl = NULL;
-    size_t repeat = 1, r, i;
-    double *tot, *stage[7];
-    uint32_t flags = 0;
-    int want_f64 = 0, check = 0, rc = 0, a;
-    size_t k;
-    locd_status s;
+    size_t repeat;
+    uint32_t flags; /* LOCD_FIND_* */
+    int want_f64, check;
+} pairs_opts;
 
-    locd_engine_config_init(&cfg);
+/* The stage times of every repeat, in locd_stats order; the summary prints their medians. */
+#define PAIRS_STAGES 7
+typedef struct pairs_times {
+    double *total, *stage[PAIRS_STAGES];
+} pairs_times;
+
+/* An option that takes the value v; 0 if o is not one of these. */
+static int parse_value_option(const char *o, const char *v, pairs_opts *p)
+{
+    size_t k;
+    if (!strcmp(o, "--threads")) {
+        if (cli_parse_size(v, &k) || k > 64)
+            cli_die("pairs: bad --threads");
+        p->cfg.threads = (uint32_t)k;
+    } else if (!strcmp(o, "--workers")) {
+        if (cli_parse_size(v, &k) || k > 64)
+            cli_die("pairs: bad --workers");
+        p->cfg.threads = (uint32_t)k;
+        p->cfg.level = LOCD_LEVEL_WORKERS;
+    } else if (!strcmp(o, "--level")) {
+        p->cfg.level = parse_level(v);
+    } else if (!strcmp(o, "--service")) {
+        p->cfg.service_address = v;
+        p->cfg.level = LOCD_LEVEL_SERVICE;
+    } else if (!strcmp(o, "--secret")) {
+        p->cfg.service_secret = v;
+    } else if (!strcmp(o, "--out")) {
+        p->out_path = v;
+    } else if (!strcmp(o, "--repeat")) {
+        if (cli_parse_size(v, &p->repeat) || p->repeat < 1)
+            cli_die("pairs: bad --repeat");
+    } else if (!strcmp(o, "--depth")) {
+        if (cli_parse_size(v, &k) || k > 21)
+            cli_die("pairs: bad --depth (0..21)");
+        p->cfg.max_depth = (uint32_t)k;
+    } else if (!strcmp(o, "--bias")) {
+        if (cli_parse_size(v, &k) || k > 8)
+            cli_die("pairs: bad --bias (0..8)");
+        p->cfg.cell_bias = (int32_t)k;
+    } else {
+        return 0;
+    }
+    return 1;
+}
+
+/* A flag option; 0 if not one of these. */
+static int parse_flag_option(const char *o, pairs_opts *p)
+{
+    if (!strcmp(o, "--cubes"))
+        p->cfg.flags |= LOCD_CONFIG_CUBES;
+    else if (!strcmp(o, "--f64"))
+        p->want_f64 = 1;
+    else if (!strcmp(o, "--sorted"))
+        p->flags |= LOCD_FIND_SORTED;
+    else if (!strcmp(o, "--check"))
+        p->check = 1;
+    else
+        return 0;
+    return 1;
+}
+
+/* 1 after --help (usage printed), else 0; a bad command line exits. */
+static int parse_pairs_args(int argc, char **argv, pairs_opts *p)
+{
+    int a;
+    memset(p, 0, sizeof *p);
+    locd_engine_config_init(&p->cfg);
+    p->repeat = 1;
     for (a = 1; a < argc; a++) {
         const char *o = argv[a];
-        int more = a + 1 < argc;
         if (!strcmp(o, "--help")) {
             pairs_usage();
-            return 0;
-        } else if (!strcmp(o, "--threads") && more) {
-            if (cli_parse_size(argv[++a], &k) || k > 64)
-                cli_die("pairs: bad --threads");
-            cfg.threads = (uint32_t)k;
-        } else if (!strcmp(o, "--workers") && more) {
-            if (cli_parse_size(argv[++a], &k) || k > 64)
-                cli_die("pairs: bad --workers");
-            cfg.threads = (uint32_t)k;
-            cfg.level = LOCD_LEVEL_WORKERS;
-        } else if (!strcmp(o, "--level") && more) {
-            cfg.level = parse_level(argv[++a]);
-        } else if (!strcmp(o, "--service") && more) {
-            cfg.service_address = argv[++a];
-            cfg.level = LOCD_LEVEL_SERVICE;
-        } else if (!strcmp(o, "--secret") && more) {
-            cfg.service_secret = argv[++a];
-        } else if (!strcmp(o, "--out") && more) {
-            out_path = argv[++a];
-        } else if (!strcmp(o, "--repeat") && more) {
-            if (cli_parse_size(argv[++a], &repeat) || repeat < 1)
-                cli_die("pairs: bad --repeat");
-        } else if (!strcmp(o, "--depth") && more) {
-            if (cli_parse_size(argv[++a], &k) || k > 21)
-                cli_die("pairs: bad --depth (0..21)");
-            cfg.max_depth = (uint32_t)k;
-        } else if (!strcmp(o, "--bias") && more) {
-            if (cli_parse_size(argv[++a], &k) || k > 8)
-                cli_die("pairs: bad --bias (0..8)");
-            cfg.cell_bias = (int32_t)k;
-        } else if (!strcmp(o, "--cubes")) {
-            cfg.flags |= LOCD_CONFIG_CUBES;
-        } else if (!strcmp(o, "--f64")) {
-            want_f64 = 1;
-        } else if (!strcmp(o, "--sorted")) {
-            flags |= LOCD_FIND_SORTED;
-        } else if (!strcmp(o, "--check")) {
-            check = 1;
+            return 1;
+        } else if (a + 1 < argc && parse_value_option(o, argv[a + 1], p)) {
+            a++;
+        } else if (parse_flag_option(o, p)) {
+            continue;
         } else if (o[0] == '-') {
             cli_die("pairs: unknown option '%s' (see locd pairs --help)", o);
-        } else if (!path) {
-            path = o;
+        } else if (!p->path) {
+            p->path = o;
         } else {
             cli_die("pairs: unexpected argument '%s'", o);
         }
     }
-    if (!path)
+    if (!p->path)
         cli_die("usage: locd pairs FILE.aabb [--threads K] [--out PAIRS.bin] [--repeat R]");
-    if (cli_load_scene(path, &sc) != 0)
-        return 1;
-    if (want_f64 && !sc.f64) {
-        dbl = malloc((sc.n ? sc.n : 1) * 6 * sizeof(double));
-        if (!dbl)
-            cli_die("pairs: out of memory");
-        for (i = 0; i < 6 * sc.n; i++)
-            dbl[i] = (double)sc.f[i];
-        sc.d = dbl;
-        sc.f64 = 1;
-        free(sc.f);
-        sc.f = NULL;
-    }
-    if ((s = locd_engine_create(&cfg, &eng)) != LOCD_OK) {
-        fprintf(stderr, "locd: cannot create the engine: %s\n", locd_last_error());
-        cli_free_scene(&sc);
-        return 1;
-    }
-    if ((s = locd_pairs_create(NULL, &pairs)) != LOCD_OK)
-        cli_die("pairs: %s", locd_last_error());
-    tot = calloc(repeat, sizeof *tot);
-    for (i = 0; i < 7; i++)
-        stage[i] = calloc(repeat, sizeof(double));
-    for (r = 0; r < repeat; r++) {
-        s = sc.f64 ? locd_engine_find_pairs_f64(eng, sc.d, sc.n, flags, pairs)
-                   : locd_engine_find_pairs_f32(eng, sc.f, sc.n, flags, pairs);
+    return 0;
+}
+
+/* --f64 on a float32 scene: the same boxes as doubles. */
+static void scene_to_f64(cli_scene *sc)
+{
+    double *dbl = malloc((sc->n ? sc->n : 1) * 6 * sizeof(double));
+    size_t i;
+    if (!dbl)
+        cli_die("pairs: out of memory");
+    for (i = 0; i < 6 * sc->n; i++)
+        dbl[i] = (double)sc->f[i];
+    sc->d = dbl;
+    sc->f64 = 1;
+    free(sc->f);
+    sc->f = NULL;
+}
+
+static void times_alloc(pairs_times *t, size_t repeat)
+{
+    size_t i;
+    t->total = calloc(repeat, sizeof *t->total);
+    for (i = 0; i < PAIRS_STAGES; i++)
+        t->stage[i] = calloc(repeat, sizeof(double));
+}
+
+static void times_free(pairs_times *t)
+{
+    size_t i;
+    free(t->total);
+    for (i = 0; i < PAIRS_STAGES; i++)
+        free(t->stage[i]);
+}
+
+static void times_record(pairs_times *t, size_t r, const locd_stats *st)
+{
+    t->total[r] = st->ms_total;
+    t->stage[0][r] = st->ms_bounds;
+    t->stage[1][r] = st->ms_encode;
+    t->stage[2][r] = st->ms_sort;
+    t->stage[3][r] = st->ms_merge;
+    t->stage[4][r] = st->ms_sweep;
+    t->stage[5][r] = st->ms_order;
+    t->stage[6][r] = st->ms_transfer;
+}
+
+/* Runs the engine `repeat` times; *st gets the last run's stats. 0, or 1
+ * after reporting a failed call. */
+static int run_repeats(const pairs_opts *p, locd_engine *eng, const cli_scene *sc, locd_pairs *pairs,
+                       pairs_times *times, locd_stats *st)
+{
+    size_t r;
+    for (r = 0; r < p->repeat; r++) {
+        locd_status s = sc->f64 ? locd_engine_find_pairs_f64(eng, sc->d, sc->n, p->flags, pairs)
+                                : locd_engine_find_pairs_f32(eng, sc->f, sc->n, p->flags, pairs);
         if (s != LOCD_OK) {
             int64_t bad = locd_last_error_index();
             if (bad >= 0)
-                fprintf(stderr, "locd: %s: box %lld is invalid: %s\n", path, (long long)bad, locd_status_string(s));
+                fprintf(stderr, "locd: %s: box %lld is invalid: %s\n", p->path, (long long)bad, locd_status_string(s));
             else
-                fprintf(stderr, "locd: %s: %s\n", path, locd_last_error());
-            rc = 1;
-            goto out;
+                fprintf(stderr, "locd: %s: %s\n", p->path, locd_last_error());
+            return 1;
         }
-        locd_stats_init(&st);
-        locd_engine_stats(eng, &st);
-        tot[r] = st.ms_total;
-        stage[0][r] = st.ms_bounds;
-        stage[1][r] = st.ms_encode;
-        stage[2][r] = st.ms_sort;
-        stage[3][r] = st.ms_merge;
-        stage[4][r] = st.ms_sweep;
-        stage[5][r] = st.ms_order;
-        stage[6][r] = st.ms_transfer;
+        locd_stats_init(st);
+        locd_engine_stats(eng, st);
+        times_record(times, r, st);
     }
-    if (!(flags & LOCD_FIND_SORTED) && (out_path || check))
-        locd_pairs_sort(pairs);
-    if (check) {
-        locd_pairs *ref = NULL;
-        locd_pairs_create(NULL, &ref);
-        s = sc.f64 ? locd_brute_force_f64(sc.d, sc.n, ref) : locd_brute_force_f32(sc.f, sc.n, ref);
-        if (s != LOCD_OK || locd_pairs_count(ref) != locd_pairs_count(pairs) ||
-            !same_pairs(locd_pairs_data(ref), locd_pairs_data(pairs), locd_pairs_count(ref))) {
-            fprintf(stderr, "locd: CHECK FAILED: engine %zu pairs, reference %zu pairs\n", locd_pairs_count(pairs),
-                    locd_pairs_count(ref));
-            rc = 3;
-        }
-        locd_pairs_destroy(ref);
+    return 0;
+}
+
+/* 0 when the O(n^2) reference finds the same pairs (both sorted), else 3. */
+static int check_reference(const cli_scene *sc, const locd_pairs *pairs)
+{
+    locd_pairs *ref = NULL;
+    locd_status s;
+    int rc = 0;
+    locd_pairs_create(NULL, &ref);
+    s = sc->f64 ? locd_brute_force_f64(sc->d, sc->n, ref) : locd_brute_force_f32(sc->f, sc->n, ref);
+    if (s != LOCD_OK || locd_pairs_count(ref) != locd_pairs_count(pairs) ||
+        !same_pairs(locd_pairs_data(ref), locd_pairs_data(pairs), locd_pairs_count(ref))) {
+        fprintf(stderr, "locd: CHECK FAILED: engine %zu pairs, reference %zu pairs\n", locd_pairs_count(pairs),
+                locd_pairs_count(ref));
+        rc = 3;
     }
-    if (out_path && cli_write_pairs(out_path, locd_pairs_data(pairs), locd_pairs_count(pairs)) != 0)
-        rc = 1;
+    locd_pairs_destroy(ref);
+    return rc;
+}
+
+static void print_summary(const pairs_opts *p, const cli_scene *sc, locd_engine *eng, const locd_pairs *pairs,
+                          const locd_stats *st, pairs_times *t, int rc)
+{
+    size_t m = p->repeat;
     printf("{\"n\":%zu,\"pairs\":%zu,\"level\":%d,\"threads\":%u,\"precision\":\"%s\",\"repeat\":%zu,"
            "\"total_ms\":%.3f,\"stage_ms\":{\"bounds\":%.3f,\"encode\":%.3f,\"sort\":%.3f,\"merge\":%.3f,"
            "\"sweep\":%.3f,\"order\":%.3f,\"transfer\":%.3f},\"entries\":%llu,\"candidates\":%llu,"
            "\"exact_tests\":%llu,\"depth\":%u%s}\n",
-           sc.n, locd_pairs_count(pairs), (int)locd_engine_level(eng), st.threads, sc.f64 ? "f64" : "f32", repeat,
-           cli_median(tot, repeat), cli_median(stage[0], repeat), cli_median(stage[1], repeat),
-           cli_median(stage[2], repeat), cli_median(stage[3], repeat), cli_median(stage[4], repeat),
-           cli_median(stage[5], repeat), cli_median(stage[6], repeat), (unsigned long long)st.entries,
-           (unsigned long long)st.candidates, (unsigned long long)st.exact_tests, st.depth,
-           check ? (rc ? ",\"check\":\"FAILED\"" : ",\"check\":\"ok\"") : "");
-out:
-    free(tot);
-    for (i = 0; i < 7; i++)
-        free(stage[i]);
+           sc->n, locd_pairs_count(pairs), (int)locd_engine_level(eng), st->threads, sc->f64 ? "f64" : "f32", m,
+           cli_median(t->total, m), cli_median(t->stage[0], m), cli_median(t->stage[1], m),
+           cli_median(t->stage[2], m), cli_median(t->stage[3], m), cli_median(t->stage[4], m),
+           cli_median(t->stage[5], m), cli_median(t->stage[6], m), (unsigned long long)st->entries,
+           (unsigned long long)st->candidates, (unsigned long long)st->exact_tests, st->depth,
+           p->check ? (rc ? ",\"check\":\"FAILED\"" : ",\"check\":\"ok\"") : "");
+}
+
+int cmd_pairs(int argc, char **argv)
+{
+    pairs_opts p;
+    pairs_times times;
+    locd_engine *eng = NULL;
+    locd_pairs *pairs = NULL;
+    locd_stats st;
+    cli_scene sc;
+    int rc;
+
+    if (parse_pairs_args(argc, argv, &p))
+        return 0;
+    if (cli_load_scene(p.path, &sc) != 0)
+        return 1;
+    if (p.want_f64 && !sc.f64)
+        scene_to_f64(&sc);
+    if (locd_engine_create(&p.cfg, &eng) != LOCD_OK) {
+        fprintf(stderr, "locd: cannot create the engine: %s\n", locd_last_error());
+        cli_free_scene(&sc);
+        return 1;
+    }
+    if (locd_pairs_create(NULL, &pairs) != LOCD_OK)
+        cli_die("pairs: %s", locd_last_error());
+    times_alloc(&times, p.repeat);
+    if ((rc = run_repeats(&p, eng, &sc, pairs, &times, &st)) == 0) {
+        if (!(p.flags & LOCD_FIND_SORTED) && (p.out_path || p.check))
+            locd_pairs_sort(pairs);
+        if (p.check)
+            rc = check_reference(&sc, pairs);
+        if (p.out_path && cli_write_pairs(p.out_path, locd_pairs_data(pairs), locd_pairs_count(pairs)) != 0)
+            rc = 1;
+        print_summary(&p, &sc, eng, pairs, &st, &times, rc);
+    }
+    times_free(&times);
     locd_pairs_destroy(pairs);
     locd_engine_destroy(eng);
     cli_free_scene(&sc);

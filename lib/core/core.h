@@ -28,6 +28,10 @@
 #define LC_MAGIC_JOB 0x4c4f434au    /* "LOCJ" */
 #define LC_MAGIC_DEAD 0xdeadbeefu
 
+/* The most threads (level 1), worker processes (level 2) or sorted runs one
+ * merge takes: per-thread state lives in fixed arrays of this size. */
+#define LC_MAX_THREADS 64
+
 /* ---- errors (error.c) ---- */
 locd_status lc_error(locd_status status, const char *fmt, ...) LC_PRINTF(2, 3);
 locd_status lc_error_box(locd_status status, int64_t index, const char *fmt, ...) LC_PRINTF(3, 4);
@@ -75,6 +79,10 @@ locd_status lc_pairs_reserve(locd_pairs *p, size_t pairs);
 void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch, uint64_t *scratch2);
 locd_status lc_pairs_init_embedded(locd_pairs *p, const locd_allocator *a);
 void lc_pairs_fini_embedded(locd_pairs *p);
+/* Hands the finished pairs of *from over to *out, replacing out's: a swap of
+ * buffers when both use the same allocator (from keeps out's old buffer,
+ * emptied), else a copy. On failure *out is unchanged. */
+locd_status lc_pairs_give(locd_pairs *from, locd_pairs *out);
 
 /* ---- radix sort (radix_sort.c) ---- */
 /* Sorts 64-bit keys whose low `index_bits` bits are already ascending

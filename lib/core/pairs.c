@@ -91,6 +91,32 @@ locd_status lc_pairs_reserve(locd_pairs *p, size_t pairs)
     return LOCD_OK;
 }
 
+static int same_allocator(const locd_allocator *a, const locd_allocator *b)
+{
+    return a->alloc == b->alloc && a->free == b->free && a->user == b->user;
+}
+
+locd_status lc_pairs_give(locd_pairs *from, locd_pairs *out)
+{
+    locd_status st;
+    if (same_allocator(&from->alloc, &out->alloc)) {
+        locd_pairs t = *out;
+        out->data = from->data;
+        out->cap = from->cap;
+        out->count = from->count;
+        from->data = t.data;
+        from->cap = t.cap;
+        from->count = 0;
+        return LOCD_OK;
+    }
+    if ((st = lc_pairs_reserve(out, from->count)) != LOCD_OK)
+        return st;
+    if (from->count)
+        memcpy(out->data, from->data, from->count * 2 * sizeof(uint32_t));
+    out->count = from->count;
+    return LOCD_OK;
+}
+
 void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch, uint64_t *scratch2)
 {
     size_t k;

@@ -1,5 +1,6 @@
 /* lib/levels: integration levels 1 (inproc.c) and 2 (workers.c, with the
- * locd-worker process in worker_main.c). Private; not installed.
+ * locd-worker process in worker_main.c), and the work split both plan with
+ * (plan.c). Private; not installed.
  *
  * Level 2: the shared-memory control block between the library (the
  * caller, in its own process) and its locd-worker processes. Private to the
@@ -24,7 +25,6 @@
 
 #define LC_SHM_MAGIC 0x4c4f4357u /* "LOCW" */
 #define LC_SHM_VERSION 1u
-#define LC_SHM_MAX_WORKERS 64
 #define LC_SHM_NAME_MAX 64
 
 #define LC_SHM_CMD_RUN 1
@@ -57,7 +57,35 @@ typedef struct lc_shm_ctl {
     uint64_t n;
     int32_t f64;
     int32_t reserved;
-    lc_shm_slot slot[LC_SHM_MAX_WORKERS];
+    lc_shm_slot slot[LC_MAX_THREADS];
 } lc_shm_ctl;
+
+/* ---- planning (plan.c): the work split levels 1 and 2 share ----
+ * n objects go in k shares of near-equal size (contiguous, in order: the
+ * merged result does not depend on k); share t encodes into region t of an
+ * entry buffer, sized from the entries per object of the engine's last call
+ * and redone with exact sizes when a region overflows. */
+typedef struct lc_plan {
+    uint32_t k;                           /* shares */
+    size_t cap[LC_MAX_THREADS];           /* region capacity, entries */
+    size_t off[LC_MAX_THREADS];           /* region start, entries after the first region's */
+    size_t cnt[LC_MAX_THREADS];           /* entries written */
+    const uint64_t *runs[LC_MAX_THREADS]; /* sorted runs, cnt[t] entries each */
+    size_t total;                         /* entries of all shares */
+} lc_plan;
+/* Where share t (0..k; t = k gives n) of n items begins. */
+size_t lc_chunk_begin(size_t n, uint32_t t, uint32_t k);
+/* The entries per object to plan with before a first call. */
+double lc_entries_per_object_guess(int32_t cell_bias);
+/* Entry capacity for m objects at per_object entries each, with slack,
+ * never more than m objects can write (LOCD_MAX_ENTRIES_PER_BOX each). */
+size_t lc_region_capacity(size_t m, double per_object);
+/* Sizes the region of every share of n objects (p->k shares). */
+void lc_plan_regions(lc_plan *p, size_t n, double per_object);
+/* Lays the regions out back to back (p->off); returns their total capacity. */
+size_t lc_plan_layout(lc_plan *p);
+/* Sums the entries written into p->total; returns the entries per object
+ * the next call of n objects plans with. */
+double lc_plan_finish(lc_plan *p, size_t n);
 
 #endif

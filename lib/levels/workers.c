@@ -41,11 +41,16 @@ extern char **environ;
 #define LC_WORKERS_PARALLEL_MIN 4096
 #define LC_POLL_MS 50
 #define LC_START_TIMEOUT_MS 10000.0
+/* How long a round may take before its workers are declared stuck: generous
+ * (a loaded machine, a huge scene) but bounded, so that a stopped worker
+ * cannot hang the caller. */
+#define LC_ROUND_TIMEOUT_MS 30000.0
+#define LC_ROUND_TIMEOUT_MS_PER_OBJECT 0.01
 
 typedef struct lc_workers {
     uint32_t k;
-    pid_t pid[LC_SHM_MAX_WORKERS];
-    int exit_status[LC_SHM_MAX_WORKERS];
+    pid_t pid[LC_MAX_THREADS];
+    int exit_status[LC_MAX_THREADS];
     lc_shm_ctl *ctl;
     char ctl_name[LC_SHM_NAME_MAX];
     int ctl_linked; /* name still in /dev/shm */
@@ -365,14 +370,14 @@ static locd_status workers_open(locd_engine *e)
 {
     lc_workers *w;
     locd_status st;
-    if (e->threads > LC_SHM_MAX_WORKERS)
-        e->threads = LC_SHM_MAX_WORKERS;
+    if (e->threads > LC_MAX_THREADS)
+        e->threads = LC_MAX_THREADS;
     w = lc_alloc(&e->alloc, sizeof *w);
     if (!w)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the workers state");
     memset(w, 0, sizeof *w);
     w->k = e->threads;
-    w->per_object = 3.0;
+    w->per_object = lc_entries_per_object_guess(e->cfg.cell_bias);
     lc_pairs_init_embedded(&w->pairs, &e->alloc);
     if ((st = find_worker(e, w->exe, sizeof w->exe)) != LOCD_OK || (st = start_workers(w)) != LOCD_OK) {
         lc_free(&e->alloc, w, sizeof *w);
@@ -428,143 +433,181 @@ static locd_status ensure_data(lc_workers *w, size_t need)
     return LOCD_OK;
 }
 
-static size_t chunk_begin(size_t n, uint32_t t, uint32_t k)
+/* One call's input, as every stage after the grid fit reads it. */
+typedef struct lc_call {
+    const void *boxes;
+    size_t n;
+    int f64;
+    locd_grid grid;
+} lc_call;
+
+/* Bytes of the call's boxes (6 coordinates each). */
+static size_t box_bytes_of(const lc_call *c)
 {
-    size_t q = n / k, r = n % k;
-    return q * t + (t < r ? t : r);
+    return c->n * 6 * (c->f64 ? sizeof(double) : sizeof(float));
 }
 
-typedef struct lc_round {
-    uint32_t k; /* workers with a share */
-    size_t cap[LC_SHM_MAX_WORKERS], off[LC_SHM_MAX_WORKERS], cnt[LC_SHM_MAX_WORKERS];
-    const uint64_t *runs[LC_SHM_MAX_WORKERS];
-    size_t total;
-} lc_round;
-
-/* One round trip: boxes into shared memory, every worker encodes and sorts
- * its share, runs come back in the data segment. Redone with exact region
- * sizes when a region overflows. */
-static locd_status run_round(lc_workers *w, const void *boxes, size_t n, int f64, const locd_grid *grid,
-                             lc_round *r, locd_stats *stats)
+/* Copies the boxes into the data segment and starts every worker on its
+ * share; returns when the workers were started (ms on lc_now_ms's clock).
+ * Every worker takes part (idle ones with an empty share): that is how each
+ * one maps a new data segment before its name goes. */
+static double post_round(lc_workers *w, const lc_call *c, const lc_plan *r, size_t regions_at, locd_stats *stats)
 {
-    size_t es = f64 ? sizeof(double) : sizeof(float);
-    size_t box_bytes = (n * 6 * es + 63) & ~(size_t)63;
+    double t0 = lc_now_ms(), t1;
+    uint32_t t;
+    memcpy(w->data, c->boxes, box_bytes_of(c));
+    t1 = lc_now_ms();
+    stats->ms_transfer += t1 - t0;
+    w->ctl->command = LC_SHM_CMD_RUN;
+    w->ctl->grid = c->grid;
+    w->ctl->n = c->n;
+    w->ctl->f64 = c->f64;
+    for (t = 0; t < w->k; t++) {
+        lc_shm_slot *s = &w->ctl->slot[t];
+        s->first = t < r->k ? lc_chunk_begin(c->n, t, r->k) : 0;
+        s->count = t < r->k ? lc_chunk_begin(c->n, t + 1, r->k) - s->first : 0;
+        s->offset = t < r->k ? regions_at + r->off[t] * sizeof(uint64_t) : 0;
+        s->capacity = t < r->k ? r->cap[t] : 0;
+        s->status = LOCD_ERR_INTERNAL;
+        s->written = 0;
+        sem_post(&s->go);
+    }
+    return t1;
+}
+
+/* Waits for every worker posted at `posted` and reads back its run; an
+ * overflowed region gets the exact size its worker asked for, and *again
+ * says that the round must be redone. */
+static locd_status collect_round(lc_workers *w, size_t n, lc_plan *r, double posted, locd_stats *stats, int *again)
+{
+    double deadline = posted + LC_ROUND_TIMEOUT_MS + (double)n * LC_ROUND_TIMEOUT_MS_PER_OBJECT, slowest = 0.0;
     uint32_t t;
     locd_status st;
-    int again;
-    for (t = 0; t < r->k; t++) {
-        size_t m = chunk_begin(n, t + 1, r->k) - chunk_begin(n, t, r->k);
-        r->cap[t] = (size_t)((double)m * w->per_object) + 64;
-        if (r->cap[t] > m * LOCD_MAX_ENTRIES_PER_BOX)
-            r->cap[t] = m * LOCD_MAX_ENTRIES_PER_BOX + 1;
-    }
-    do {
-        size_t total = box_bytes;
-        double t0, t1, deadline, slowest = 0.0;
-        for (t = 0; t < r->k; t++) {
-            r->off[t] = total;
-            total += r->cap[t] * sizeof(uint64_t);
-        }
-        if ((st = ensure_data(w, total)) != LOCD_OK)
+    for (t = 0; t < w->k; t++)
+        if ((st = wait_done(w, t, deadline)) != LOCD_OK)
             return st;
-        t0 = lc_now_ms();
-        memcpy(w->data, boxes, n * 6 * es);
-        t1 = lc_now_ms();
-        stats->ms_transfer += t1 - t0;
-        w->ctl->command = LC_SHM_CMD_RUN;
-        w->ctl->grid = *grid;
-        w->ctl->n = n;
-        w->ctl->f64 = f64;
-        /* Every worker takes part (idle ones with an empty share): that is
-           how each one maps a new data segment before its name goes. */
-        for (t = 0; t < w->k; t++) {
-            lc_shm_slot *s = &w->ctl->slot[t];
-            s->first = t < r->k ? chunk_begin(n, t, r->k) : 0;
-            s->count = t < r->k ? chunk_begin(n, t + 1, r->k) - s->first : 0;
-            s->offset = t < r->k ? r->off[t] : 0;
-            s->capacity = t < r->k ? r->cap[t] : 0;
-            s->status = LOCD_ERR_INTERNAL;
-            s->written = 0;
-            sem_post(&s->go);
-        }
-        /* Generous but bounded: a stopped worker must not hang the caller. */
-        deadline = t1 + 30000.0 + (double)n * 0.01;
-        for (t = 0; t < w->k; t++)
-            if ((st = wait_done(w, t, deadline)) != LOCD_OK)
-                return st;
-        unlink_data(w); /* every worker has mapped it */
-        again = 0;
-        for (t = 0; t < r->k; t++) {
-            lc_shm_slot *s = &w->ctl->slot[t];
-            if (s->status == LOCD_ERR_BUFFER_TOO_SMALL) {
-                r->cap[t] = s->written;
-                again = 1;
-            } else if (s->status != LOCD_OK) {
-                return lc_error(LOCD_ERR_WORKER, "worker %u failed: %s", t, locd_status_string(s->status));
-            } else {
-                r->cnt[t] = s->written;
-                r->runs[t] = (const uint64_t *)((const char *)w->data + r->off[t]);
-                if (s->ms_encode + s->ms_sort > slowest) {
-                    slowest = s->ms_encode + s->ms_sort;
-                    stats->ms_encode = s->ms_encode;
-                    stats->ms_sort = s->ms_sort;
-                }
+    unlink_data(w); /* every worker has mapped it */
+    *again = 0;
+    for (t = 0; t < r->k; t++) {
+        const lc_shm_slot *s = &w->ctl->slot[t];
+        if (s->status == LOCD_ERR_BUFFER_TOO_SMALL) {
+            r->cap[t] = s->written;
+            *again = 1;
+        } else if (s->status != LOCD_OK) {
+            return lc_error(LOCD_ERR_WORKER, "worker %u failed: %s", t, locd_status_string(s->status));
+        } else {
+            r->cnt[t] = s->written;
+            r->runs[t] = (const uint64_t *)((const char *)w->data + s->offset);
+            if (s->ms_encode + s->ms_sort > slowest) {
+                slowest = s->ms_encode + s->ms_sort;
+                stats->ms_encode = s->ms_encode;
+                stats->ms_sort = s->ms_sort;
             }
         }
-        stats->ms_transfer += (lc_now_ms() - t1) - slowest; /* semaphore round trip */
-    } while (again);
-    r->total = 0;
-    for (t = 0; t < r->k; t++)
-        r->total += r->cnt[t];
-    w->per_object = (double)r->total / (double)n + 0.25;
-    return LOCD_OK;
-}
-
-static int same_allocator(const locd_allocator *a, const locd_allocator *b)
-{
-    return a->alloc == b->alloc && a->free == b->free && a->user == b->user;
-}
-
-/* Moves the pairs of `from` into *out: a swap of buffers when both use the
- * same allocator, else a copy (out unchanged if it cannot grow). */
-static locd_status give_pairs(locd_pairs *from, locd_pairs *out)
-{
-    locd_status st;
-    if (same_allocator(&from->alloc, &out->alloc)) {
-        locd_pairs t = *out;
-        out->data = from->data;
-        out->cap = from->cap;
-        out->count = from->count;
-        from->data = t.data;
-        from->cap = t.cap;
-        from->count = 0;
-        return LOCD_OK;
     }
-    if ((st = lc_pairs_reserve(out, from->count)) != LOCD_OK)
-        return st;
-    if (from->count)
-        memcpy(out->data, from->data, from->count * 2 * sizeof(uint32_t));
-    out->count = from->count;
+    stats->ms_transfer += (lc_now_ms() - posted) - slowest; /* semaphore round trip */
     return LOCD_OK;
+}
+
+/* One round trip: boxes into shared memory, every worker encodes and sorts
+ * its share, runs come back in the data segment after the boxes. Redone
+ * with exact region sizes when a region overflows. */
+static locd_status run_round(lc_workers *w, const lc_call *c, lc_plan *r, locd_stats *stats)
+{
+    size_t regions_at = (box_bytes_of(c) + 63) & ~(size_t)63; /* the entry regions, on a cache line after the boxes */
+    locd_status st;
+    int again;
+    lc_plan_regions(r, c->n, w->per_object);
+    do {
+        double posted;
+        if ((st = ensure_data(w, regions_at + lc_plan_layout(r) * sizeof(uint64_t))) != LOCD_OK)
+            return st;
+        posted = post_round(w, c, r, regions_at, stats);
+        if ((st = collect_round(w, c->n, r, posted, stats, &again)) != LOCD_OK)
+            return st;
+    } while (again);
+    w->per_object = lc_plan_finish(r, c->n);
+    return LOCD_OK;
+}
+
+/* The round on a set of workers; whatever goes wrong, that set is not
+ * trusted again, and a worker failure is redone once on a fresh set. */
+static locd_status encode_sort(locd_engine *e, const lc_call *c, lc_plan *r, locd_stats *stats)
+{
+    lc_workers *w = e->backend;
+    locd_status st;
+    int attempt;
+    for (attempt = 0;; attempt++) {
+        if (!w->running && (st = start_workers(w)) != LOCD_OK)
+            return st;
+        if ((st = run_round(w, c, r, stats)) == LOCD_OK)
+            return LOCD_OK;
+        lc_engine_log(e, LOCD_LOG_WARNING, "level 2: %s; restarting the workers", locd_last_error());
+        stop_workers(w, 0);
+        if (st != LOCD_ERR_WORKER || attempt >= 1)
+            return st;
+    }
+}
+
+/* Merges the workers' runs in the caller; *sorted gets the merged entries. */
+static locd_status merge_runs(locd_engine *e, const lc_plan *r, const uint64_t **sorted, locd_stats *stats)
+{
+    lc_workers *w = e->backend;
+    double t0 = lc_now_ms();
+    locd_status st;
+    if (r->k > 1) {
+        if ((st = lc_buf_reserve(&e->alloc, &w->merged, sizeof(uint64_t), r->total)) != LOCD_OK)
+            return st;
+        if ((st = locd_merge_entries(r->runs, r->cnt, r->k, w->merged.data)) != LOCD_OK)
+            return st;
+        *sorted = w->merged.data;
+    } else {
+        *sorted = r->runs[0];
+    }
+    stats->ms_merge = lc_now_ms() - t0;
+    return LOCD_OK;
+}
+
+/* One serial sweep, into the engine's own buffer first: a failure (even in
+ * the ordering) must leave *out as it was. */
+static locd_status sweep_and_give(lc_workers *w, const lc_call *c, const uint64_t *sorted, size_t total,
+                                  uint32_t flags, locd_pairs *out, locd_stats *stats)
+{
+    locd_stats sw;
+    double t0 = lc_now_ms();
+    locd_status st;
+    locd_stats_init(&sw);
+    st = c->f64 ? locd_sweep_f64(&c->grid, c->boxes, c->n, sorted, total, &w->pairs, &sw)
+                : locd_sweep_f32(&c->grid, c->boxes, c->n, sorted, total, &w->pairs, &sw);
+    if (st)
+        return st;
+    stats->pairs = sw.pairs;
+    stats->candidates = sw.candidates;
+    stats->exact_tests = sw.exact_tests;
+    stats->ms_sweep = lc_now_ms() - t0;
+    if ((flags & LOCD_FIND_SORTED) && (st = lc_order_pairs(&w->pairs, stats)) != LOCD_OK)
+        return st;
+    return lc_pairs_give(&w->pairs, out);
 }
 
 static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
                                 locd_pairs *out, locd_stats *stats)
 {
     lc_workers *w = e->backend;
-    lc_round r;
-    locd_stats sw;
-    locd_grid grid;
+    lc_call c;
+    lc_plan r;
     const uint64_t *sorted;
     locd_status st;
-    double t0, t1;
-    int attempt;
+    double t0;
 
     stats->objects = n;
     t0 = lc_now_ms();
+    c.boxes = boxes;
+    c.n = n;
+    c.f64 = f64;
     /* The same validation and root cube as level 1 (public building block). */
-    st = f64 ? locd_grid_fit_f64(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &grid)
-             : locd_grid_fit_f32(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &grid);
+    st = f64 ? locd_grid_fit_f64(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &c.grid)
+             : locd_grid_fit_f32(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &c.grid);
     if (st)
         return st;
     if (n < 2) {
@@ -572,54 +615,18 @@ static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int
         stats->threads = 1;
         return LOCD_OK;
     }
-    stats->depth = grid.depth;
-    t1 = lc_now_ms();
-    stats->ms_bounds = t1 - t0;
+    stats->depth = c.grid.depth;
+    stats->ms_bounds = lc_now_ms() - t0;
 
     memset(&r, 0, sizeof r);
     r.k = n < LC_WORKERS_PARALLEL_MIN ? 1 : w->k;
     stats->threads = r.k;
-    for (attempt = 0;; attempt++) {
-        if (!w->running && (st = start_workers(w)) != LOCD_OK)
-            return st;
-        st = run_round(w, boxes, n, f64, &grid, &r, stats);
-        if (st == LOCD_OK)
-            break;
-        /* Whatever went wrong, this set of workers is not trusted again. */
-        lc_engine_log(e, LOCD_LOG_WARNING, "level 2: %s; restarting the workers", locd_last_error());
-        stop_workers(w, 0);
-        if (st != LOCD_ERR_WORKER || attempt >= 1)
-            return st;
-    }
+    if ((st = encode_sort(e, &c, &r, stats)) != LOCD_OK)
+        return st;
     stats->entries = r.total;
-
-    t0 = lc_now_ms();
-    if (r.k > 1) {
-        if ((st = lc_buf_reserve(&e->alloc, &w->merged, sizeof(uint64_t), r.total)) != LOCD_OK)
-            return st;
-        if ((st = locd_merge_entries(r.runs, r.cnt, r.k, w->merged.data)) != LOCD_OK)
-            return st;
-        sorted = w->merged.data;
-    } else {
-        sorted = r.runs[0];
-    }
-    t1 = lc_now_ms();
-    stats->ms_merge = t1 - t0;
-
-    /* Into the engine's own buffer first: a failure (even in the ordering)
-       must leave *out as it was. */
-    locd_stats_init(&sw);
-    st = f64 ? locd_sweep_f64(&grid, boxes, n, sorted, r.total, &w->pairs, &sw)
-             : locd_sweep_f32(&grid, boxes, n, sorted, r.total, &w->pairs, &sw);
-    if (st)
+    if ((st = merge_runs(e, &r, &sorted, stats)) != LOCD_OK)
         return st;
-    stats->pairs = sw.pairs;
-    stats->candidates = sw.candidates;
-    stats->exact_tests = sw.exact_tests;
-    stats->ms_sweep = lc_now_ms() - t1;
-    if ((flags & LOCD_FIND_SORTED) && (st = lc_order_pairs(&w->pairs, stats)) != LOCD_OK)
-        return st;
-    return give_pairs(&w->pairs, out);
+    return sweep_and_give(w, &c, sorted, r.total, flags, out, stats);
 }
 
 const lc_backend lc_workers_backend = {"worker processes", workers_open, workers_close, workers_find, NULL};
