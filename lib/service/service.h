@@ -39,8 +39,11 @@
 #define LC_PROTO_MAX_SECRET 1024
 /* Boxes at least this large go through shared memory on a local socket. */
 #define LC_PROTO_SHM_MIN_BYTES (64u * 1024u)
-/* Segment names the server accepts: "/locd-" + [A-Za-z0-9-]. */
-#define LC_PROTO_SHM_PREFIX "/locd-"
+/* Segment names the server accepts: "/locd-" + [A-Za-z0-9-] (the names
+ * lc_shm_unique_name makes). */
+#define LC_PROTO_SHM_PREFIX LC_SHM_PREFIX
+/* A message that has started must arrive (or be written) within this. */
+#define LC_MSG_TIMEOUT_MS 30000
 
 typedef struct lc_msg_header {
     uint32_t magic;
