@@ -13,6 +13,19 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+/* The public handle holds the server's state. Its definition stays here,
+ * not in service.h: the ABI check counts every type defined in a file named
+ * like a public header (include/locd/service.h) as public. */
+struct locd_service {
+    lc_server srv;
+};
+
+/* The server behind a handle; NULL when h is not a live service. */
+static lc_server *server_of(locd_service *h)
+{
+    return (h && h->srv.magic == LC_MAGIC_SERVICE) ? &h->srv : NULL;
+}
+
 void locd_service_config_init(locd_service_config *config)
 {
     if (!config)
@@ -79,14 +92,16 @@ static locd_status check_config(const locd_service_config *cfg, lc_address *a)
 /* A service with its own copy of the secret and nothing started. */
 static locd_status service_new(const locd_service_config *cfg, locd_service **out)
 {
-    locd_service *s = calloc(1, sizeof *s);
-    if (!s)
+    locd_service *h = calloc(1, sizeof *h);
+    lc_server *s;
+    if (!h)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the service");
+    s = &h->srv;
     s->cfg = *cfg;
     s->lfd = -1;
     s->wake[0] = s->wake[1] = -1;
     if (cfg->secret && !(s->secret = strdup(cfg->secret))) {
-        free(s);
+        free(h);
         return lc_error(LOCD_ERR_NO_MEMORY, "could not copy the secret");
     }
     s->cfg.secret = s->secret;
@@ -95,13 +110,13 @@ static locd_status service_new(const locd_service_config *cfg, locd_service **ou
     pthread_cond_init(&s->cv, NULL);
     pthread_cond_init(&s->conns_cv, NULL);
     s->magic = LC_MAGIC_SERVICE;
-    *out = s;
+    *out = h;
     return LOCD_OK;
 }
 
 /* The pipe locd_service_stop writes to (non-blocking: it is called from
  * signal handlers). */
-static locd_status open_wake_pipe(locd_service *s)
+static locd_status open_wake_pipe(lc_server *s)
 {
     if (pipe(s->wake) != 0)
         return lc_error(LOCD_ERR_IO, "pipe: %s", strerror(errno));
@@ -111,7 +126,7 @@ static locd_status open_wake_pipe(locd_service *s)
     return LOCD_OK;
 }
 
-static locd_status start_runners(locd_service *s)
+static locd_status start_runners(lc_server *s)
 {
     uint32_t i;
     s->runners = calloc(s->cfg.threads, sizeof *s->runners);
@@ -126,7 +141,7 @@ static locd_status start_runners(locd_service *s)
 }
 
 /* Wakes the runners to leave (after the queue is empty) and joins them. */
-static void stop_runners(locd_service *s)
+static void stop_runners(lc_server *s)
 {
     uint32_t i;
     pthread_mutex_lock(&s->mu);
@@ -141,7 +156,7 @@ static void stop_runners(locd_service *s)
 locd_status locd_service_create(const locd_service_config *config, locd_service **out)
 {
     locd_service_config cfg;
-    locd_service *s = NULL;
+    locd_service *h = NULL;
     lc_address a;
     char def[sizeof a.path];
     locd_status st;
@@ -149,27 +164,27 @@ locd_status locd_service_create(const locd_service_config *config, locd_service 
         return lc_error(LOCD_ERR_NULL_POINTER, "out is NULL");
     *out = NULL;
     if ((st = resolve_config(config, &cfg, def, sizeof def)) != LOCD_OK || (st = check_config(&cfg, &a)) != LOCD_OK ||
-        (st = service_new(&cfg, &s)) != LOCD_OK)
+        (st = service_new(&cfg, &h)) != LOCD_OK)
         return st;
-    if ((st = lc_srv_listen(s, &a)) != LOCD_OK || (st = open_wake_pipe(s)) != LOCD_OK ||
-        (st = start_runners(s)) != LOCD_OK) {
-        locd_service_destroy(s);
+    if ((st = lc_srv_listen(&h->srv, &a)) != LOCD_OK || (st = open_wake_pipe(&h->srv)) != LOCD_OK ||
+        (st = start_runners(&h->srv)) != LOCD_OK) {
+        locd_service_destroy(h);
         return st;
     }
-    *out = s;
+    *out = h;
     lc_clear_error();
     return LOCD_OK;
 }
 
-const char *locd_service_address(const locd_service *s)
+const char *locd_service_address(const locd_service *h)
 {
-    return (s && s->magic == LC_MAGIC_SERVICE) ? s->address : "";
+    return (h && h->srv.magic == LC_MAGIC_SERVICE) ? h->srv.address : "";
 }
 
 /* ---- run, stop ---- */
 
 /* Accepts connections until locd_service_stop writes to the wake pipe. */
-static void accept_until_stopped(locd_service *s)
+static void accept_until_stopped(lc_server *s)
 {
     for (;;) {
         struct pollfd p[2];
@@ -190,7 +205,7 @@ static void accept_until_stopped(locd_service *s)
     }
 }
 
-static void close_listener(locd_service *s)
+static void close_listener(lc_server *s)
 {
     close(s->lfd);
     s->lfd = -1;
@@ -201,7 +216,7 @@ static void close_listener(locd_service *s)
 }
 
 /* Breaks every connection and waits for their threads to leave. */
-static void close_connections(locd_service *s)
+static void close_connections(lc_server *s)
 {
     lc_srv_conn *c;
     pthread_mutex_lock(&s->mu);
@@ -216,9 +231,10 @@ static void close_connections(locd_service *s)
     pthread_mutex_unlock(&s->mu);
 }
 
-locd_status locd_service_run(locd_service *s)
+locd_status locd_service_run(locd_service *h)
 {
-    if (!s || s->magic != LC_MAGIC_SERVICE)
+    lc_server *s = server_of(h);
+    if (!s)
         return lc_error(LOCD_ERR_INVALID_HANDLE, "not a locd_service handle");
     lc_srv_log(s, LOCD_LOG_INFO, "listening on %s (%u runners)", s->address, s->nrunners);
     accept_until_stopped(s);
@@ -230,18 +246,20 @@ locd_status locd_service_run(locd_service *s)
     return LOCD_OK;
 }
 
-void locd_service_stop(locd_service *s)
+void locd_service_stop(locd_service *h)
 {
+    lc_server *s = server_of(h);
     char x = 'x';
-    if (s && s->magic == LC_MAGIC_SERVICE && s->wake[1] >= 0) {
+    if (s && s->wake[1] >= 0) {
         ssize_t w = write(s->wake[1], &x, 1);
         (void)w;
     }
 }
 
-void locd_service_destroy(locd_service *s)
+void locd_service_destroy(locd_service *h)
 {
-    if (!s || s->magic != LC_MAGIC_SERVICE)
+    lc_server *s = server_of(h);
+    if (!s)
         return;
     if (s->nrunners) /* never ran */
         stop_runners(s);
@@ -259,5 +277,5 @@ void locd_service_destroy(locd_service *s)
     pthread_cond_destroy(&s->conns_cv);
     pthread_mutex_destroy(&s->mu);
     s->magic = LC_MAGIC_DEAD;
-    free(s);
+    free(h);
 }

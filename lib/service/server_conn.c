@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <sys/socket.h>
 
-void lc_srv_log(const locd_service *s, int32_t sev, const char *fmt, ...)
+void lc_srv_log(const lc_server *s, int32_t sev, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);

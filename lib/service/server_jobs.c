@@ -9,7 +9,7 @@
 #include <sys/mman.h>
 
 typedef struct runner {
-    locd_service *s;
+    lc_server *s;
     locd_engine *engine;
     lc_submit_fixed cfg; /* the config the engine was made with */
     locd_pairs *pairs;
@@ -27,7 +27,7 @@ void lc_srv_job_free(lc_srv_job *j)
 }
 
 /* Detaches a finished job from its connection and frees it. */
-static void job_retire(locd_service *s, lc_srv_job *j)
+static void job_retire(lc_server *s, lc_srv_job *j)
 {
     lc_srv_conn *c = j->c;
     pthread_mutex_lock(&s->mu);
@@ -45,7 +45,7 @@ static void job_retire(locd_service *s, lc_srv_job *j)
 
 int lc_srv_enqueue(lc_srv_conn *c, lc_srv_job *j, char *why, size_t wl)
 {
-    locd_service *s = c->s;
+    lc_server *s = c->s;
     pthread_mutex_lock(&s->mu);
     if (c->njobs >= s->cfg.max_jobs) {
         pthread_mutex_unlock(&s->mu);
@@ -135,7 +135,7 @@ static void run_job(runner *r, lc_srv_job *j)
 }
 
 /* The next queued job; NULL when the service stops. */
-static lc_srv_job *next_job(locd_service *s)
+static lc_srv_job *next_job(lc_server *s)
 {
     lc_srv_job *j;
     pthread_mutex_lock(&s->mu);
@@ -154,7 +154,7 @@ static lc_srv_job *next_job(locd_service *s)
 void *lc_srv_runner_main(void *service)
 {
     runner r;
-    locd_service *s = service;
+    lc_server *s = service;
     lc_srv_job *j;
     memset(&r, 0, sizeof r);
     r.s = s;

@@ -56,7 +56,7 @@ static locd_status clear_stale_socket(const char *path, const struct sockaddr_un
     return LOCD_OK;
 }
 
-static locd_status listen_unix(locd_service *s, const char *path)
+static locd_status listen_unix(lc_server *s, const char *path)
 {
     struct sockaddr_un sa;
     locd_status st;
@@ -99,7 +99,7 @@ static int bind_first(const struct addrinfo *res)
     return -1;
 }
 
-static locd_status listen_tcp(locd_service *s, const lc_address *a)
+static locd_status listen_tcp(lc_server *s, const lc_address *a)
 {
     struct addrinfo hints, *res = NULL;
     struct sockaddr_storage ss;
@@ -124,7 +124,7 @@ static locd_status listen_tcp(locd_service *s, const lc_address *a)
     return LOCD_OK;
 }
 
-locd_status lc_srv_listen(locd_service *s, const lc_address *a)
+locd_status lc_srv_listen(lc_server *s, const lc_address *a)
 {
     return a->tcp ? listen_tcp(s, a) : listen_unix(s, a->path);
 }

@@ -46,7 +46,7 @@ static int64_t read_hello_secret(lc_srv_conn *c, uint8_t *pl, char *why, size_t 
 /* HELLO: the secret, when the service has one; then WELCOME. */
 static int handshake(lc_srv_conn *c, char *why, size_t wl)
 {
-    locd_service *s = c->s;
+    lc_server *s = c->s;
     uint8_t pl[4 + LC_PROTO_MAX_SECRET], reply[LC_PROTO_HEADER + 4];
     int64_t slen = read_hello_secret(c, pl, why, wl);
     if (slen < 0)
@@ -103,7 +103,7 @@ static int handle_message(lc_srv_conn *c, const lc_msg_header *h, char *why, siz
 
 static void serve_connection(lc_srv_conn *c)
 {
-    locd_service *s = c->s;
+    lc_server *s = c->s;
     char why[300] = "";
     lc_msg_header h;
     int r;
@@ -124,7 +124,7 @@ static void serve_connection(lc_srv_conn *c)
 /* ---- a connection's life ---- */
 
 /* Under s->mu. */
-static void conn_unlink_locked(locd_service *s, lc_srv_conn *c)
+static void conn_unlink_locked(lc_server *s, lc_srv_conn *c)
 {
     lc_srv_conn **pp;
     for (pp = &s->conns; *pp; pp = &(*pp)->next)
@@ -138,7 +138,7 @@ static void conn_unlink_locked(locd_service *s, lc_srv_conn *c)
 static void *conn_main(void *arg)
 {
     lc_srv_conn *c = arg;
-    locd_service *s = c->s;
+    lc_server *s = c->s;
     serve_connection(c);
     /* No more writes; cancel what is left (runners discard it). */
     pthread_mutex_lock(&c->wmu);
@@ -180,7 +180,7 @@ static void peer_name_tcp(lc_srv_conn *c, const struct sockaddr_storage *ss, soc
 }
 
 /* A new connection on fd; NULL when out of memory (fd is then closed). */
-static lc_srv_conn *conn_new(locd_service *s, int fd, const struct sockaddr_storage *ss, socklen_t sl)
+static lc_srv_conn *conn_new(lc_server *s, int fd, const struct sockaddr_storage *ss, socklen_t sl)
 {
     struct timeval tv;
     int one = 1;
@@ -208,7 +208,7 @@ static lc_srv_conn *conn_new(locd_service *s, int fd, const struct sockaddr_stor
 }
 
 /* 1 when the service already serves max_clients (fd is then refused). */
-static int refuse_if_full(locd_service *s, int fd)
+static int refuse_if_full(lc_server *s, int fd)
 {
     int full;
     pthread_mutex_lock(&s->mu);
@@ -223,7 +223,7 @@ static int refuse_if_full(locd_service *s, int fd)
 }
 
 /* Registers c and starts its thread (detached: it cleans up after itself). */
-static void conn_start(locd_service *s, lc_srv_conn *c)
+static void conn_start(lc_server *s, lc_srv_conn *c)
 {
     pthread_attr_t attr;
     pthread_t th;
@@ -246,7 +246,7 @@ static void conn_start(locd_service *s, lc_srv_conn *c)
     pthread_attr_destroy(&attr);
 }
 
-void lc_srv_accept(locd_service *s)
+void lc_srv_accept(lc_server *s)
 {
     struct sockaddr_storage ss;
     socklen_t sl = sizeof ss;

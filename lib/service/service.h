@@ -113,7 +113,7 @@ int lc_proto_secret_equal(const char *a, size_t alen, const char *b, size_t blen
  *   server_input.c    reading a SUBMIT: inline boxes or the client's shm segment
  *   server_session.c  one connection: accepting it, HELLO/WELCOME, its messages
  *   server_listen.c   the listening socket (unix or tcp)
- *   server.c          locd_service_create/run/stop/destroy */
+ *   server.c          the locd_service handle: create/run/stop/destroy */
 
 #define LC_MAGIC_SERVICE 0x4c4f4353u /* "LOCS" */
 /* The HELLO is short: a client that cannot send it in this time is not one. */
@@ -127,6 +127,7 @@ int lc_proto_secret_equal(const char *a, size_t alen, const char *b, size_t blen
 /* Longest segment name a SUBMIT may carry (the client's names are ~45). */
 #define LC_SRV_MAX_SHM_NAME 60
 
+typedef struct lc_server lc_server;
 typedef struct lc_srv_conn lc_srv_conn;
 
 typedef struct lc_srv_job {
@@ -142,7 +143,7 @@ typedef struct lc_srv_job {
 } lc_srv_job;
 
 struct lc_srv_conn {
-    locd_service *s;
+    lc_server *s;
     int fd;
     int refs;   /* under s->mu: the connection thread + each job */
     int closed; /* under wmu: no more writes */
@@ -154,7 +155,9 @@ struct lc_srv_conn {
     lc_srv_conn *next; /* s->conns */
 };
 
-struct locd_service {
+/* The state behind a locd_service handle (server.c says why the handle
+ * wraps it rather than being it). */
+struct lc_server {
     uint32_t magic;
     locd_service_config cfg;
     char *secret;
@@ -175,7 +178,7 @@ struct locd_service {
 };
 
 /* server_conn.c */
-void lc_srv_log(const locd_service *s, int32_t sev, const char *fmt, ...) LC_PRINTF(3, 4);
+void lc_srv_log(const lc_server *s, int32_t sev, const char *fmt, ...) LC_PRINTF(3, 4);
 /* Writes a then b (blen may be 0) as one message; -1 when the connection
  * is closed or breaks (it is then shut down for its reader to notice). */
 int lc_srv_send(lc_srv_conn *c, const void *a, size_t alen, const void *b, size_t blen);
@@ -203,10 +206,10 @@ int lc_srv_read_submit(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **out,
 
 /* server_session.c */
 /* Accepts one connection on s->lfd and starts its thread. */
-void lc_srv_accept(locd_service *s);
+void lc_srv_accept(lc_server *s);
 
 /* server_listen.c */
 /* Binds and listens on a, filling s->lfd, s->address (and s->unix_path). */
-locd_status lc_srv_listen(locd_service *s, const lc_address *a);
+locd_status lc_srv_listen(lc_server *s, const lc_address *a);
 
 #endif
