@@ -65,6 +65,11 @@ int lc_kernel(void);
 /* ---- time ---- */
 double lc_now_ms(void);
 
+/* ---- shared-memory segment names (shm.c) ---- */
+#define LC_SHM_PREFIX "/locd-"
+/* Writes a fresh segment name, LC_SHM_PREFIX tag pid-counter-clock, to out. */
+void lc_shm_unique_name(char *out, size_t len, const char *tag);
+
 /* ---- pairs (pairs.c) ---- */
 struct locd_pairs {
     uint32_t magic;

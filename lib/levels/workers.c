@@ -67,15 +67,6 @@ typedef struct lc_workers {
 
 /* ---- shared memory segments ---- */
 
-static void unique_name(char *name, size_t len)
-{
-    static unsigned counter;
-    struct timespec ts;
-    unsigned c = __atomic_add_fetch(&counter, 1u, __ATOMIC_RELAXED);
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    snprintf(name, len, "/locd-%ld-%u-%lx", (long)getpid(), c, (unsigned long)(ts.tv_nsec ^ (ts.tv_sec << 20)));
-}
-
 /* Creates a fresh segment of `size` bytes (mode 0600, exclusive) and maps
  * it. Space is reserved up front so that a full /dev/shm is an error here,
  * not a SIGBUS later. */
@@ -83,7 +74,7 @@ static locd_status create_segment(char *name, size_t len, size_t size, void **ma
 {
     int fd = -1, tries, rc;
     for (tries = 0; tries < 8 && fd < 0; tries++) {
-        unique_name(name, len);
+        lc_shm_unique_name(name, len, "");
         fd = shm_open(name, O_RDWR | O_CREAT | O_EXCL, 0600);
         if (fd < 0 && errno != EEXIST)
             break;

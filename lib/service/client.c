@@ -24,7 +24,6 @@
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
-#include <time.h>
 #include <unistd.h>
 
 #define LC_CONNECT_TIMEOUT_MS 5000
@@ -112,7 +111,7 @@ static int read_result(lc_svc_conn *c, const lc_msg_header *h, locd_job *j, char
         snprintf(why, wl, "short result message");
         return -1;
     }
-    if (lc_proto_read_all(c->fd, fixed, 16, 30000, why, wl) != 1)
+    if (lc_proto_read_all(c->fd, fixed, 16, LC_MSG_TIMEOUT_MS, why, wl) != 1)
         return -1;
     status = (int32_t)lc_get_u32(fixed);
     index = (int64_t)lc_get_u64(fixed + 4);
@@ -121,9 +120,9 @@ static int read_result(lc_svc_conn *c, const lc_msg_header *h, locd_job *j, char
         snprintf(why, wl, "bad result message");
         return -1;
     }
-    if (lc_proto_read_all(c->fd, msg, mlen, 30000, why, wl) != 1 ||
-        lc_proto_read_all(c->fd, sbuf, sizeof sbuf, 30000, why, wl) != 1 ||
-        lc_proto_read_all(c->fd, cbuf, 8, 30000, why, wl) != 1)
+    if (lc_proto_read_all(c->fd, msg, mlen, LC_MSG_TIMEOUT_MS, why, wl) != 1 ||
+        lc_proto_read_all(c->fd, sbuf, sizeof sbuf, LC_MSG_TIMEOUT_MS, why, wl) != 1 ||
+        lc_proto_read_all(c->fd, cbuf, 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
         return -1;
     msg[mlen] = '\0';
     count = lc_get_u64(cbuf);
@@ -133,16 +132,16 @@ static int read_result(lc_svc_conn *c, const lc_msg_header *h, locd_job *j, char
         return -1;
     }
     if (!j)
-        return lc_proto_skip(c->fd, count * 8, 30000, why, wl) == 1 ? 0 : -1;
+        return lc_proto_skip(c->fd, count * 8, LC_MSG_TIMEOUT_MS, why, wl) == 1 ? 0 : -1;
     lc_proto_get_stats(sbuf, &st);
     if (status == LOCD_OK) {
         if (lc_pairs_reserve(&j->result, (size_t)count) != LOCD_OK) {
-            if (lc_proto_skip(c->fd, count * 8, 30000, why, wl) != 1)
+            if (lc_proto_skip(c->fd, count * 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
                 return -1;
             job_done(j, LOCD_ERR_NO_MEMORY, "no memory for the service's result", -1);
             return 0;
         }
-        if (count && lc_proto_read_all(c->fd, j->result.data, (size_t)count * 8, 30000, why, wl) != 1) {
+        if (count && lc_proto_read_all(c->fd, j->result.data, (size_t)count * 8, LC_MSG_TIMEOUT_MS, why, wl) != 1) {
             job_done(j, LOCD_ERR_CONNECTION, why, -1);
             return -1;
         }
@@ -155,7 +154,7 @@ static int read_result(lc_svc_conn *c, const lc_msg_header *h, locd_job *j, char
         job_done(j, LOCD_OK, NULL, -1);
         return 0;
     }
-    if (count && lc_proto_skip(c->fd, count * 8, 30000, why, wl) != 1)
+    if (count && lc_proto_skip(c->fd, count * 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
         return -1;
     if (status >= 0)
         status = LOCD_ERR_PROTOCOL;
@@ -409,14 +408,10 @@ static locd_status get_conn(locd_engine *e, lc_svc_conn **out)
 /* Puts the boxes in a fresh shm segment; the name goes into j->shm_name. */
 static locd_status boxes_to_shm(locd_job *j, const void *boxes, size_t bytes)
 {
-    static unsigned counter;
-    struct timespec ts;
     void *map;
     int fd = -1, tries, rc;
     for (tries = 0; tries < 8 && fd < 0; tries++) {
-        clock_gettime(CLOCK_MONOTONIC, &ts);
-        snprintf(j->shm_name, sizeof j->shm_name, "%sc%ld-%u-%lx", LC_PROTO_SHM_PREFIX, (long)getpid(),
-                 __atomic_add_fetch(&counter, 1u, __ATOMIC_RELAXED), (unsigned long)ts.tv_nsec);
+        lc_shm_unique_name(j->shm_name, sizeof j->shm_name, "c");
         fd = shm_open(j->shm_name, O_RDWR | O_CREAT | O_EXCL, 0600);
         if (fd < 0 && errno != EEXIST)
             break;

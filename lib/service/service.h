@@ -1,5 +1,5 @@
 /* Level 3: the service's wire protocol, shared by the client
- * (client.c) and the server (server.c).
+ * (client.c) and the server (server*.c), then the server's private part.
  *
  * Every message is a 24-byte header followed by `length` payload bytes:
  *   u32 magic "LCDS" | u16 version | u16 type | u64 job id | u64 length
@@ -22,6 +22,8 @@
 
 #include "engine/engine.h"
 
+#include <pthread.h>
+
 #define LC_PROTO_MAGIC 0x5344434cu /* "LCDS" as little-endian bytes */
 #define LC_PROTO_VERSION 1u
 #define LC_PROTO_HEADER 24
@@ -34,13 +36,20 @@
 #define LC_MSG_ERROR 6
 
 #define LC_PROTO_SUBMIT_FIXED 36
+#define LC_PROTO_RESULT_FIXED 16 /* status, error index, message length */
+#define LC_PROTO_ERROR_FIXED 8   /* status, message length */
 #define LC_PROTO_STATS_BYTES 112
+#define LC_PROTO_BOX_VALUES 6 /* min x, y, z, max x, y, z */
+#define LC_PROTO_PAIR_BYTES 8 /* two u32 */
 #define LC_PROTO_MAX_TEXT 1024
 #define LC_PROTO_MAX_SECRET 1024
 /* Boxes at least this large go through shared memory on a local socket. */
 #define LC_PROTO_SHM_MIN_BYTES (64u * 1024u)
-/* Segment names the server accepts: "/locd-" + [A-Za-z0-9-]. */
-#define LC_PROTO_SHM_PREFIX "/locd-"
+/* Segment names the server accepts: "/locd-" + [A-Za-z0-9-] (the names
+ * lc_shm_unique_name makes). */
+#define LC_PROTO_SHM_PREFIX LC_SHM_PREFIX
+/* A message that has started must arrive (or be written) within this. */
+#define LC_MSG_TIMEOUT_MS 30000
 
 typedef struct lc_msg_header {
     uint32_t magic;
@@ -95,5 +104,112 @@ int lc_proto_parse_address(const char *s, lc_address *a, char *why, size_t why_l
 
 /* Constant-time comparison of two secrets (1 when equal). */
 int lc_proto_secret_equal(const char *a, size_t alen, const char *b, size_t blen);
+
+/* ==== The service (server*.c); nothing here is the client's business ====
+ *
+ * Files, from the bottom up (each calls only the ones before it):
+ *   server_conn.c     the log; writing on a connection (RESULT, ERROR); its references
+ *   server_jobs.c     the run queue, the runner threads, cancelling
+ *   server_input.c    reading a SUBMIT: inline boxes or the client's shm segment
+ *   server_session.c  one connection: accepting it, HELLO/WELCOME, its messages
+ *   server_listen.c   the listening socket (unix or tcp)
+ *   server.c          the locd_service handle: create/run/stop/destroy */
+
+#define LC_MAGIC_SERVICE 0x4c4f4353u /* "LOCS" */
+/* The HELLO is short: a client that cannot send it in this time is not one. */
+#define LC_HELLO_TIMEOUT_MS 5000
+/* locd_service_config defaults (for 0) and caps. */
+#define LC_SRV_MAX_THREADS 256
+#define LC_SRV_DEFAULT_MAX_MESSAGE (1ull << 30)
+#define LC_SRV_DEFAULT_MAX_CLIENTS 256
+#define LC_SRV_DEFAULT_MAX_JOBS 1024
+#define LC_SRV_LISTEN_BACKLOG 128
+/* Longest segment name a SUBMIT may carry (the client's names are ~45). */
+#define LC_SRV_MAX_SHM_NAME 60
+
+typedef struct lc_server lc_server;
+typedef struct lc_srv_conn lc_srv_conn;
+
+typedef struct lc_srv_job {
+    struct lc_srv_job *qnext;         /* run queue */
+    struct lc_srv_job *cnext, *cprev; /* the connection's jobs */
+    lc_srv_conn *c;
+    uint64_t id;
+    int cancelled;
+    lc_submit_fixed f;
+    void *boxes;
+    size_t bytes;
+    int mapped; /* boxes is an mmap of the client's segment */
+} lc_srv_job;
+
+struct lc_srv_conn {
+    lc_server *s;
+    int fd;
+    int refs;   /* under s->mu: the connection thread + each job */
+    int closed; /* under wmu: no more writes */
+    pthread_mutex_t wmu;
+    lc_srv_job *jobs; /* under s->mu */
+    uint32_t njobs;
+    int shm_ok;
+    char peer[96];
+    lc_srv_conn *next; /* s->conns */
+};
+
+/* The state behind a locd_service handle (server.c says why the handle
+ * wraps it rather than being it). */
+struct lc_server {
+    uint32_t magic;
+    locd_service_config cfg;
+    char *secret;
+    char address[300];
+    char unix_path[108];
+    int lfd;
+    int wake[2];
+    pthread_mutex_t mu;
+    pthread_cond_t cv;       /* queue not empty / stopping */
+    pthread_cond_t conns_cv; /* a connection ended */
+    lc_srv_job *qhead, *qtail;
+    lc_srv_conn *conns;
+    uint32_t nconns;
+    int stopping;
+    pthread_t *runners;
+    uint32_t nrunners;
+    uint64_t served;
+};
+
+/* server_conn.c */
+void lc_srv_log(const lc_server *s, int32_t sev, const char *fmt, ...) LC_PRINTF(3, 4);
+/* Writes a then b (blen may be 0) as one message; -1 when the connection
+ * is closed or breaks (it is then shut down for its reader to notice). */
+int lc_srv_send(lc_srv_conn *c, const void *a, size_t alen, const void *b, size_t blen);
+void lc_srv_send_result(lc_srv_conn *c, uint64_t id, locd_status st, const char *msg, int64_t index,
+                        const locd_stats *stats, const uint32_t *pairs, size_t count);
+/* An ERROR on a socket that has no connection (yet); best effort. */
+void lc_srv_send_error(int fd, locd_status st, const char *msg);
+/* Under s->mu; frees the connection with its last reference. */
+void lc_srv_conn_unref_locked(lc_srv_conn *c);
+
+/* server_jobs.c */
+void lc_srv_job_free(lc_srv_job *j);
+/* Queues j for the runners; -1 (why) when the connection has too many. */
+int lc_srv_enqueue(lc_srv_conn *c, lc_srv_job *j, char *why, size_t wl);
+void lc_srv_cancel(lc_srv_conn *c, uint64_t id);
+/* Under s->mu: marks every job of the connection cancelled. */
+void lc_srv_cancel_all_locked(lc_srv_conn *c);
+/* A runner thread: runs queued jobs until the service stops. */
+void *lc_srv_runner_main(void *service);
+
+/* server_input.c */
+/* Reads a SUBMIT payload. Returns 0 and a job, 1 when the job is refused
+ * but the connection is fine (an error result was sent), -1 to drop. */
+int lc_srv_read_submit(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **out, char *why, size_t wl);
+
+/* server_session.c */
+/* Accepts one connection on s->lfd and starts its thread. */
+void lc_srv_accept(lc_server *s);
+
+/* server_listen.c */
+/* Binds and listens on a, filling s->lfd, s->address (and s->unix_path). */
+locd_status lc_srv_listen(lc_server *s, const lc_address *a);
 
 #endif

@@ -1,0 +1,263 @@
+/* The service, one client connection: accepting it (within max_clients),
+ * naming the peer, the HELLO/WELCOME handshake, then reading its messages
+ * on its own thread until it goes away. Every header is checked before
+ * anything is allocated for it; a message that starts must finish within
+ * LC_MSG_TIMEOUT_MS; a bad one drops this connection with a logged reason.
+ * A connection that goes away cancels its jobs. */
+#define _GNU_SOURCE /* struct ucred, SO_PEERCRED */
+#include "service/service.h"
+
+#include <fcntl.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+/* ---- the handshake ---- */
+
+/* Reads HELLO's payload (the secret) into pl; returns its length, or -1. */
+static int64_t read_hello_secret(lc_srv_conn *c, uint8_t *pl, char *why, size_t wl)
+{
+    uint8_t hb[LC_PROTO_HEADER];
+    lc_msg_header h;
+    uint32_t slen;
+    if (lc_proto_read_all(c->fd, hb, sizeof hb, LC_HELLO_TIMEOUT_MS, why, wl) != 1)
+        return -1;
+    if (lc_proto_get_header(hb, 4 + LC_PROTO_MAX_SECRET, &h, why, wl) != 0)
+        return -1;
+    if (h.type != LC_MSG_HELLO || h.length < 4) {
+        snprintf(why, wl, "expected HELLO, got message type %u", h.type);
+        return -1;
+    }
+    if (lc_proto_read_all(c->fd, pl, (size_t)h.length, LC_HELLO_TIMEOUT_MS, why, wl) != 1)
+        return -1;
+    slen = lc_get_u32(pl);
+    if ((uint64_t)slen + 4 != h.length) {
+        snprintf(why, wl, "malformed HELLO");
+        return -1;
+    }
+    return slen;
+}
+
+/* HELLO: the secret, when the service has one; then WELCOME. */
+static int handshake(lc_srv_conn *c, char *why, size_t wl)
+{
+    lc_server *s = c->s;
+    uint8_t pl[4 + LC_PROTO_MAX_SECRET], reply[LC_PROTO_HEADER + 4];
+    int64_t slen = read_hello_secret(c, pl, why, wl);
+    if (slen < 0)
+        return -1;
+    if (s->secret && !lc_proto_secret_equal(s->secret, strlen(s->secret), (const char *)pl + 4, (size_t)slen)) {
+        snprintf(why, wl, "%s", slen ? "wrong secret" : "no secret given");
+        lc_srv_send_error(c->fd, LOCD_ERR_AUTH, "a valid shared secret is required");
+        return -1;
+    }
+    lc_proto_put_header(reply, LC_MSG_WELCOME, 0, 4);
+    lc_put_u32(reply + LC_PROTO_HEADER, (uint32_t)c->shm_ok);
+    if (lc_srv_send(c, reply, sizeof reply, NULL, 0) != 0) {
+        snprintf(why, wl, "write failed");
+        return -1;
+    }
+    return 0;
+}
+
+/* ---- the messages ---- */
+
+/* Reads the next header. 1: h is valid; 0: the client left cleanly; -1:
+ * drop (why). */
+static int read_header(lc_srv_conn *c, lc_msg_header *h, char *why, size_t wl)
+{
+    uint8_t hb[LC_PROTO_HEADER];
+    int r = lc_proto_read_all(c->fd, hb, 1, -1, why, wl); /* idle clients may wait forever */
+    if (r == 1)
+        r = lc_proto_read_all(c->fd, hb + 1, sizeof hb - 1, LC_MSG_TIMEOUT_MS, why, wl);
+    if (r == 1 && lc_proto_get_header(hb, c->s->cfg.max_message, h, why, wl) != 0)
+        r = -1;
+    return r;
+}
+
+/* Acts on one message; -1 drops the connection (why). */
+static int handle_message(lc_srv_conn *c, const lc_msg_header *h, char *why, size_t wl)
+{
+    lc_srv_job *j;
+    int r;
+    if (h->type == LC_MSG_SUBMIT) {
+        r = lc_srv_read_submit(c, h, &j, why, wl);
+        if (r == 0 && lc_srv_enqueue(c, j, why, wl) != 0) {
+            lc_srv_job_free(j);
+            r = -1;
+        }
+        return r < 0 ? -1 : 0;
+    }
+    if (h->type == LC_MSG_CANCEL && h->length == 0) {
+        lc_srv_cancel(c, h->id);
+        return 0;
+    }
+    snprintf(why, wl, "unexpected message type %u (length %llu)", h->type, (unsigned long long)h->length);
+    return -1;
+}
+
+static void serve_connection(lc_srv_conn *c)
+{
+    lc_server *s = c->s;
+    char why[300] = "";
+    lc_msg_header h;
+    int r;
+    if (handshake(c, why, sizeof why) != 0) {
+        lc_srv_log(s, LOCD_LOG_WARNING, "dropping connection from %s: %s", c->peer, why);
+        return;
+    }
+    lc_srv_log(s, LOCD_LOG_DEBUG, "client %s connected", c->peer);
+    while ((r = read_header(c, &h, why, sizeof why)) == 1)
+        if (handle_message(c, &h, why, sizeof why) != 0)
+            break;
+    if (r == 0)
+        lc_srv_log(s, LOCD_LOG_DEBUG, "client %s disconnected", c->peer);
+    else
+        lc_srv_log(s, LOCD_LOG_WARNING, "dropping connection from %s: %s", c->peer, why);
+}
+
+/* ---- a connection's life ---- */
+
+/* Under s->mu. */
+static void conn_unlink_locked(lc_server *s, lc_srv_conn *c)
+{
+    lc_srv_conn **pp;
+    for (pp = &s->conns; *pp; pp = &(*pp)->next)
+        if (*pp == c) {
+            *pp = c->next;
+            break;
+        }
+    s->nconns--;
+}
+
+static void *conn_main(void *arg)
+{
+    lc_srv_conn *c = arg;
+    lc_server *s = c->s;
+    serve_connection(c);
+    /* No more writes; cancel what is left (runners discard it). */
+    pthread_mutex_lock(&c->wmu);
+    c->closed = 1;
+    shutdown(c->fd, SHUT_RDWR);
+    close(c->fd);
+    c->fd = -1;
+    pthread_mutex_unlock(&c->wmu);
+    pthread_mutex_lock(&s->mu);
+    lc_srv_cancel_all_locked(c);
+    conn_unlink_locked(s, c);
+    lc_srv_conn_unref_locked(c);
+    pthread_cond_broadcast(&s->conns_cv);
+    pthread_mutex_unlock(&s->mu);
+    return NULL;
+}
+
+static void peer_name_unix(lc_srv_conn *c)
+{
+    struct ucred cr;
+    socklen_t cl = sizeof cr;
+    if (getsockopt(c->fd, SOL_SOCKET, SO_PEERCRED, &cr, &cl) == 0) {
+        snprintf(c->peer, sizeof c->peer, "pid %ld (uid %ld)", (long)cr.pid, (long)cr.uid);
+        /* Only a process of the service's own user may hand it a segment. */
+        c->shm_ok = cr.uid == geteuid();
+    } else {
+        snprintf(c->peer, sizeof c->peer, "a local client");
+    }
+}
+
+static void peer_name_tcp(lc_srv_conn *c, const struct sockaddr_storage *ss, socklen_t sl)
+{
+    char host[NI_MAXHOST], port[NI_MAXSERV];
+    if (getnameinfo((const struct sockaddr *)ss, sl, host, sizeof host, port, sizeof port,
+                    NI_NUMERICHOST | NI_NUMERICSERV) == 0)
+        snprintf(c->peer, sizeof c->peer, "%.60s:%.16s", host, port);
+    else
+        snprintf(c->peer, sizeof c->peer, "a TCP client");
+}
+
+/* A new connection on fd; NULL when out of memory (fd is then closed). */
+static lc_srv_conn *conn_new(lc_server *s, int fd, const struct sockaddr_storage *ss, socklen_t sl)
+{
+    struct timeval tv;
+    int one = 1;
+    lc_srv_conn *c = calloc(1, sizeof *c);
+    if (!c) {
+        close(fd);
+        return NULL;
+    }
+    c->s = s;
+    c->fd = fd;
+    c->refs = 1;
+    pthread_mutex_init(&c->wmu, NULL);
+    if (ss->ss_family != AF_UNIX)
+        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    /* A client that stops reading must not hold a runner forever: a result
+     * that cannot be written in time drops the connection. */
+    tv.tv_sec = LC_MSG_TIMEOUT_MS / 1000;
+    tv.tv_usec = 0;
+    setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    if (ss->ss_family == AF_UNIX)
+        peer_name_unix(c);
+    else
+        peer_name_tcp(c, ss, sl);
+    return c;
+}
+
+/* 1 when the service already serves max_clients (fd is then refused). */
+static int refuse_if_full(lc_server *s, int fd)
+{
+    int full;
+    pthread_mutex_lock(&s->mu);
+    full = s->nconns >= s->cfg.max_clients;
+    pthread_mutex_unlock(&s->mu);
+    if (full) {
+        lc_srv_log(s, LOCD_LOG_WARNING, "refusing a connection: %u clients already", s->cfg.max_clients);
+        lc_srv_send_error(fd, LOCD_ERR_BUSY, "too many clients");
+        close(fd);
+    }
+    return full;
+}
+
+/* Registers c and starts its thread (detached: it cleans up after itself). */
+static void conn_start(lc_server *s, lc_srv_conn *c)
+{
+    pthread_attr_t attr;
+    pthread_t th;
+    pthread_mutex_lock(&s->mu);
+    c->next = s->conns;
+    s->conns = c;
+    s->nconns++;
+    pthread_mutex_unlock(&s->mu);
+    pthread_attr_init(&attr);
+    pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
+    if (pthread_create(&th, &attr, conn_main, c) != 0) {
+        lc_srv_log(s, LOCD_LOG_ERROR, "could not start a connection thread");
+        pthread_mutex_lock(&s->mu);
+        conn_unlink_locked(s, c);
+        pthread_mutex_unlock(&s->mu);
+        close(c->fd);
+        pthread_mutex_destroy(&c->wmu);
+        free(c);
+    }
+    pthread_attr_destroy(&attr);
+}
+
+void lc_srv_accept(lc_server *s)
+{
+    struct sockaddr_storage ss;
+    socklen_t sl = sizeof ss;
+    lc_srv_conn *c;
+    int fd = accept(s->lfd, (struct sockaddr *)&ss, &sl);
+    if (fd < 0)
+        return;
+    fcntl(fd, F_SETFD, FD_CLOEXEC);
+    if (refuse_if_full(s, fd))
+        return;
+    c = conn_new(s, fd, &ss, sl);
+    if (c)
+        conn_start(s, c);
+}
