@@ -91,6 +91,9 @@ typedef struct locd_pipeline_options {
     uint8_t route[LOCD_SHAPE_KINDS * LOCD_SHAPE_KINDS];
 } locd_pipeline_options;
 
+/* Smallest options->size accepted: the fields up to swept_threshold. */
+#define LOCD_PIPELINE_OPTIONS_MIN_SIZE 32u
+
 LOCD_API void locd_pipeline_options_init(locd_pipeline_options *options);
 /* Sets route[a][b] and route[b][a]. */
 LOCD_API locd_status locd_pipeline_options_route(locd_pipeline_options *options, int32_t kind_a, int32_t kind_b,
@@ -122,6 +125,9 @@ typedef struct locd_pipeline_stats {
     uint64_t tests_fcl;          /* ... by FCL */
     double ms_total;
 } locd_pipeline_stats;
+
+/* Smallest stats->size accepted: size alone (nothing else is written). */
+#define LOCD_PIPELINE_STATS_MIN_SIZE 4u
 
 LOCD_API void locd_pipeline_stats_init(locd_pipeline_stats *stats);
 

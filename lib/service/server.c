@@ -231,7 +231,7 @@ static void run_job(runner *r, srv_job *j)
         rc = j->f.f64 ? locd_engine_find_pairs_f64(r->engine, j->boxes, (size_t)j->f.n, j->f.flags, r->pairs)
                       : locd_engine_find_pairs_f32(r->engine, j->boxes, (size_t)j->f.n, j->f.flags, r->pairs);
     if (rc) {
-        send_result(j->c, j->id, rc, locd_last_error(), locd_last_error_index(), NULL, NULL, 0);
+        send_result(j->c, j->id, rc, lc_last_error_detail(), locd_last_error_index(), NULL, NULL, 0);
         return;
     }
     if (__atomic_load_n(&j->cancelled, __ATOMIC_ACQUIRE)) { /* cancelled while running: dropped */
@@ -656,13 +656,8 @@ locd_status locd_service_create(const locd_service_config *config, locd_service 
         return lc_error(LOCD_ERR_NULL_POINTER, "out is NULL");
     *out = NULL;
     locd_service_config_init(&cfg);
-    if (config) {
-        if (config->size < 2 * sizeof(uint32_t) || config->size > sizeof cfg)
-            return lc_error(LOCD_ERR_INVALID_ARGUMENT, "config->size is %u; use locd_service_config_init()",
-                            config->size);
-        memcpy(&cfg, config, config->size);
-        cfg.size = sizeof cfg;
-    }
+    if (config && (st = lc_struct_in(&cfg, sizeof cfg, config, LOCD_SERVICE_CONFIG_MIN_SIZE, "config")) != LOCD_OK)
+        return st;
     if (!cfg.listen) {
         const char *xdg = getenv("XDG_RUNTIME_DIR");
         if (xdg && xdg[0] && strlen(xdg) < 80)
