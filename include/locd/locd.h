@@ -89,9 +89,9 @@ LOCD_API const char *locd_status_string(locd_status status);
 /* The last error raised on the calling thread (thread-local), as
  * "status text: detail" (the status text is locd_status_string()'s); "" when
  * the last call succeeded: every call that returns a status >= 0 (LOCD_OK,
- * LOCD_PENDING) clears it, and so do the calls that return a count or a
- * pointer (locd_pairs_count, ...) only when they cannot fail. The string
- * stays valid until the next locd call on this thread. */
+ * LOCD_PENDING) clears it; calls that return no status (counts, pointers,
+ * void) leave it as it was. The string stays valid until the next locd call
+ * on this thread. */
 LOCD_API const char *locd_last_error(void);
 
 /* Index of the first bad box for LOCD_ERR_NONFINITE / LOCD_ERR_INVERTED_BOX

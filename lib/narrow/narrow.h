@@ -87,6 +87,7 @@ int lc_pair_sweep(const lc_placed *a, const lc_placed *b, const double *d, int32
 /* ---- world and contacts handles (world.c, pipeline.c) ---- */
 struct locd_world {
     uint32_t magic;
+    locd_allocator alloc; /* the config's: every array below and the world itself */
     locd_engine *engine;
     locd_pairs *pairs;
     locd_shape **shapes;
@@ -110,6 +111,8 @@ struct locd_contacts {
 };
 
 locd_status lc_world_check(const locd_world *w);
+/* Frees the pipeline's per-object scratch (R, boxes, fast). */
+void lc_world_free_scratch(locd_world *w);
 locd_status lc_contacts_check(const locd_contacts *c);
 locd_status lc_contacts_reserve(locd_contacts *c, size_t count);
 

@@ -74,25 +74,25 @@ static locd_status read_options(const locd_pipeline_options *in, locd_pipeline_o
 
 static locd_status reserve_scratch(locd_world *w, size_t pairs)
 {
+    /* Scratch is refilled by every call: new blocks, nothing copied. */
     if (w->scratch_n < w->n) {
         size_t n = w->n;
-        double *R = realloc(w->R, n * 12 * sizeof(double));
-        if (R)
-            w->R = R;
-        double *boxes = realloc(w->boxes, n * 6 * sizeof(double));
-        if (boxes)
-            w->boxes = boxes;
-        uint8_t *fast = realloc(w->fast, n);
-        if (fast)
-            w->fast = fast;
-        if (!R || !boxes || !fast)
-            return lc_error(LOCD_ERR_NO_MEMORY, "pipeline scratch");
+        lc_world_free_scratch(w);
+        w->R = lc_alloc(&w->alloc, n * 12 * sizeof(double));
+        w->boxes = lc_alloc(&w->alloc, n * 6 * sizeof(double));
+        w->fast = lc_alloc(&w->alloc, n);
         w->scratch_n = n;
+        if (!w->R || !w->boxes || !w->fast) {
+            lc_world_free_scratch(w);
+            return lc_error(LOCD_ERR_NO_MEMORY, "pipeline scratch");
+        }
     }
     if (w->work_cap < pairs) {
-        uint32_t *work = realloc(w->work, pairs * sizeof(uint32_t));
-        if (!work)
+        size_t bytes;
+        uint32_t *work;
+        if (!lc_mul_size(pairs, sizeof(uint32_t), &bytes) || !(work = lc_alloc(&w->alloc, bytes)))
             return lc_error(LOCD_ERR_NO_MEMORY, "pipeline scratch");
+        lc_free(&w->alloc, w->work, w->work_cap * sizeof(uint32_t));
         w->work = work;
         w->work_cap = pairs;
     }

@@ -860,6 +860,7 @@ locd_status locd_service_run(locd_service *s)
         pthread_join(s->runners[i], NULL);
     s->nrunners = 0;
     slog(s, LOCD_LOG_INFO, "stopped after %llu jobs", (unsigned long long)s->served);
+    lc_clear_error();
     return LOCD_OK;
 }
 
