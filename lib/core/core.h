@@ -28,12 +28,16 @@
 #define LC_MAGIC_JOB 0x4c4f434au    /* "LOCJ" */
 #define LC_MAGIC_DEAD 0xdeadbeefu
 
-/* Conventions of the internal functions: a function that can fail returns a
- * locd_status (LOCD_OK or the LOCD_ERR_* it also raised with lc_error, so
- * the caller only passes it on); a predicate or a check that cannot raise
- * returns int 1 (true) or 0 (false); a function that cannot fail returns
- * void or its result. Every public function clears the last error
- * (lc_clear_error) on each path that returns a status >= 0. */
+/* Conventions of the internal functions:
+ *   - a function that can fail returns a locd_status: LOCD_OK, or the
+ *     LOCD_ERR_* it raised with lc_error (the caller only passes it on);
+ *   - a predicate, or a check that does not raise, returns int 1 (true/ok)
+ *     or 0;
+ *   - a test whose answer is yes/no and that can also fail returns int 1 or
+ *     0, or a negative locd_status it raised (the narrow phase's pair tests);
+ *   - a function that cannot fail returns void or its result.
+ * Every public function clears the last error (lc_clear_error) on each path
+ * that returns a status >= 0. */
 
 /* ---- errors (error.c) ---- */
 locd_status lc_error(locd_status status, const char *fmt, ...) LC_PRINTF(2, 3);

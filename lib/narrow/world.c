@@ -117,7 +117,7 @@ static locd_status grow_objects(locd_world *w)
 static locd_status check_pose(const double *pose, int64_t index)
 {
     double R[9], t[3];
-    if (lc_pose_to_rt(pose, R, t) != 0)
+    if (!lc_pose_to_rt(pose, R, t))
         return lc_error_box(LOCD_ERR_SHAPE, index,
                             "object %lld: pose is non-finite or its quaternion is zero", (long long)index);
     return LOCD_OK;
