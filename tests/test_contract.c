@@ -301,29 +301,29 @@ static locd_status shape_collide(ctx *c)
 /* Every exported function that returns a status, on a successful path
  * (rows for the service and level 3 are in service_calls_clear_...). */
 #define ROWS(X)                                                                                              \
-    X(brute_force_f32, 0, 0, locd_brute_force_f32(c->f, SCENE_N, c->p))                                     \
-    X(brute_force_f64, 0, 0, locd_brute_force_f64(c->d, SCENE_N, c->p))                                     \
+    X(brute_force_f32, 0, 0, locd_brute_force_f32(c->f, SCENE_N, c->p))                                      \
+    X(brute_force_f64, 0, 0, locd_brute_force_f64(c->d, SCENE_N, c->p))                                      \
     X(engine_create, 0, 0, engine_create(c))                                                                 \
-    X(find_pairs_f32, 0, 0, locd_engine_find_pairs_f32(c->e, c->f, SCENE_N, 0, c->p))                       \
-    X(find_pairs_f64, 0, 0, locd_engine_find_pairs_f64(c->e, c->d, SCENE_N, LOCD_FIND_SORTED, c->p))        \
-    X(find_pairs_none, 0, 0, locd_engine_find_pairs_f32(c->e, NULL, 0, 0, c->p))                            \
+    X(find_pairs_f32, 0, 0, locd_engine_find_pairs_f32(c->e, c->f, SCENE_N, 0, c->p))                        \
+    X(find_pairs_f64, 0, 0, locd_engine_find_pairs_f64(c->e, c->d, SCENE_N, LOCD_FIND_SORTED, c->p))         \
+    X(find_pairs_none, 0, 0, locd_engine_find_pairs_f32(c->e, NULL, 0, 0, c->p))                             \
     X(find_pairs_f32_into, 0, 0,                                                                             \
-      locd_engine_find_pairs_f32_into(c->e, c->f, SCENE_N, 0, (uint32_t *)c->merged, SCENE_N * 4, &c->count))    \
+      locd_engine_find_pairs_f32_into(c->e, c->f, SCENE_N, 0, (uint32_t *)c->merged, SCENE_N * 4, &c->count)) \
     X(find_pairs_f64_into, 0, 0,                                                                             \
-      locd_engine_find_pairs_f64_into(c->e, c->d, SCENE_N, 0, (uint32_t *)c->merged, SCENE_N * 4, &c->count))    \
-    X(engine_last_pairs, 0, 0, locd_engine_last_pairs(c->e, &c->last, &c->count))  \
+      locd_engine_find_pairs_f64_into(c->e, c->d, SCENE_N, 0, (uint32_t *)c->merged, SCENE_N * 4, &c->count)) \
+    X(engine_last_pairs, 0, 0, locd_engine_last_pairs(c->e, &c->last, &c->count))                            \
     X(engine_stats, 0, 0, locd_engine_stats(c->e, &c->stats))                                                \
-    X(grid_fit_f32, 0, 0, locd_grid_fit_f32(c->f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, &c->grid))         \
-    X(grid_fit_f64, 0, 0, locd_grid_fit_f64(c->d, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, &c->grid))         \
+    X(grid_fit_f32, 0, 0, locd_grid_fit_f32(c->f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, &c->grid))          \
+    X(grid_fit_f64, 0, 0, locd_grid_fit_f64(c->d, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, &c->grid))          \
     X(encode_f32, 0, 0,                                                                                      \
       locd_encode_f32(&c->grid, c->f, 0, SCENE_N, c->entries, LOCD_MAX_ENTRIES_PER_BOX * SCENE_N, &c->nentries)) \
     X(encode_f64, 0, 0,                                                                                      \
       locd_encode_f64(&c->grid, c->d, 0, SCENE_N, c->entries, LOCD_MAX_ENTRIES_PER_BOX * SCENE_N, &c->nentries)) \
-    X(sort_entries, 0, 0, locd_sort_entries(&c->grid, c->entries, c->merged, c->nentries))                  \
+    X(sort_entries, 0, 0, locd_sort_entries(&c->grid, c->entries, c->merged, c->nentries))                   \
     X(merge_entries, 0, 0, merge(c))                                                                         \
     X(merge_no_runs, 0, 0, locd_merge_entries(NULL, NULL, 0, NULL))                                          \
-    X(sweep_f32, 0, 0, locd_sweep_f32(&c->grid, c->f, SCENE_N, c->entries, c->nentries, c->p, &c->stats))   \
-    X(sweep_f64, 0, 0, locd_sweep_f64(&c->grid, c->d, SCENE_N, c->entries, c->nentries, c->p, NULL))        \
+    X(sweep_f32, 0, 0, locd_sweep_f32(&c->grid, c->f, SCENE_N, c->entries, c->nentries, c->p, &c->stats))    \
+    X(sweep_f64, 0, 0, locd_sweep_f64(&c->grid, c->d, SCENE_N, c->entries, c->nentries, c->p, NULL))         \
     X(pairs_create, 0, 0, pairs_create(c))                                                                   \
     X(pairs_sort, 0, 0, locd_pairs_sort(c->p))                                                               \
     X(pairs_sort_few, 0, 0, sort_few_pairs(c))                                                               \
@@ -339,11 +339,11 @@ static locd_status shape_collide(ctx *c)
     X(shape_capsule, 1, 0, shape_capsule(c))                                                                 \
     X(shape_convex, 1, 0, shape_convex(c))                                                                   \
     X(shape_mesh, 1, 0, shape_mesh(c))                                                                       \
-    X(shape_aabb, 1, 0, locd_shape_aabb(c->box, g_pose, (double *)c->merged))                               \
+    X(shape_aabb, 1, 0, locd_shape_aabb(c->box, g_pose, (double *)c->merged))                                \
     X(shape_collide, 1, 0, shape_collide(c))                                                                 \
     X(options_route, 1, 0, route(c))                                                                         \
     X(world_create, 1, 0, world_create(c))                                                                   \
-    X(world_add, 1, 0, locd_world_add(c->world, c->sphere, g_pose2, g_vel, NULL))                           \
+    X(world_add, 1, 0, locd_world_add(c->world, c->sphere, g_pose2, g_vel, NULL))                            \
     X(world_set_pose, 1, 0, locd_world_set_pose(c->world, 0, g_pose))                                        \
     X(world_set_velocity, 1, 0, locd_world_set_velocity(c->world, 0, g_vel))                                 \
     X(world_set_poses, 1, 0, set_all(c, 1))                                                                  \

@@ -6,7 +6,7 @@
 /* Writes a fitted grid into the caller's, bounded by its size as locd.h
  * states for locd_grid_fit_*: the grid is output only, so its size may be
  * unset, and every caller's grid has at least LOCD_GRID_MIN_SIZE bytes. */
-static void lc_grid_out(locd_grid *dst, const locd_grid *g)
+static void grid_out(locd_grid *dst, const locd_grid *g)
 {
     uint32_t size = dst->size;
     if (size < LOCD_GRID_MIN_SIZE)
@@ -36,7 +36,7 @@ static void lc_grid_out(locd_grid *dst, const locd_grid *g)
         if (!st && !max_depth)                                                                               \
             lc_grid_tune_depth_##SUFFIX(&g, boxes, n);                                                       \
         if (!st) {                                                                                           \
-            lc_grid_out(grid, &g);                                                                           \
+            grid_out(grid, &g);                                                                              \
             lc_clear_error();                                                                                \
         }                                                                                                    \
         return st;                                                                                           \
@@ -148,7 +148,7 @@ static void sweep_stats_out(locd_stats *stats, size_t n, size_t count, const lc_
             return st;                                                                                       \
         if (count && (!entries || !boxes))                                                                   \
             return lc_error(LOCD_ERR_NULL_POINTER, "entries and boxes must not be NULL");                   \
-        if (stats && (st = lc_struct_check_out(stats, LOCD_STATS_MIN_SIZE, "stats")) != LOCD_OK)              \
+        if (stats && (st = lc_struct_check_out(stats, LOCD_STATS_MIN_SIZE, "stats")) != LOCD_OK)             \
             return st;                                                                                       \
         if (!entries_sorted(entries, count))                                                                 \
             return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entries are not strictly ascending");               \
