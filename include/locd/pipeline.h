@@ -95,7 +95,8 @@ typedef struct locd_pipeline_options {
 #define LOCD_PIPELINE_OPTIONS_MIN_SIZE 32u
 
 LOCD_API void locd_pipeline_options_init(locd_pipeline_options *options);
-/* Sets route[a][b] and route[b][a]. */
+/* Sets route[a][b] and route[b][a]. options->size must reach past the route
+ * table (LOCD_ERR_INVALID_ARGUMENT for an older, shorter struct). */
 LOCD_API locd_status locd_pipeline_options_route(locd_pipeline_options *options, int32_t kind_a, int32_t kind_b,
                                                  int32_t route);
 
@@ -140,6 +141,7 @@ LOCD_API void locd_pipeline_stats_init(locd_pipeline_stats *stats);
  * the steady state. Arrays stay valid until the next collide or destroy. */
 typedef struct locd_contacts locd_contacts;
 
+/* Contacts take no allocator: malloc/free (see locd_allocator). */
 LOCD_API locd_status locd_contacts_create(locd_contacts **out);
 LOCD_API void locd_contacts_destroy(locd_contacts *contacts);
 LOCD_API size_t locd_contacts_count(const locd_contacts *contacts);
@@ -159,7 +161,8 @@ LOCD_API const double *locd_contacts_point(const locd_contacts *contacts);
 
 typedef struct locd_world locd_world;
 
-/* config (may be NULL) configures the broad-phase engine the world owns. */
+/* config (may be NULL) configures the broad-phase engine the world owns;
+ * its allocator also serves the world's own memory. */
 LOCD_API locd_status locd_world_create(const locd_engine_config *config, locd_world **out);
 LOCD_API void locd_world_destroy(locd_world *world);
 /* Adds an object; *index (may be NULL) receives its index (0, 1, 2, ...).
