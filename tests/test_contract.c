@@ -527,10 +527,13 @@ static void outputs_stop_at_the_callers_size(void **state)
     assert_true(untouched(&b, LOCD_STATS_MIN_SIZE, sizeof b.bytes));
     set_size(&b, LOCD_STATS_MIN_SIZE - 1);
     assert_int_equal(locd_engine_stats(c.e, (locd_stats *)b.bytes), LOCD_ERR_INVALID_ARGUMENT);
-    /* A newer caller's longer stats: its extra fields keep their values. */
+    /* A newer caller's longer stats is refused, untouched. */
     set_size(&b, sizeof(locd_stats) + PAD);
+    assert_int_equal(locd_engine_stats(c.e, (locd_stats *)b.bytes), LOCD_ERR_INVALID_ARGUMENT);
+    assert_true(untouched(&b, sizeof(uint32_t), sizeof b.bytes));
+    /* The library's own size: every field. */
+    set_size(&b, sizeof(locd_stats));
     assert_int_equal(locd_engine_stats(c.e, (locd_stats *)b.bytes), LOCD_OK);
-    assert_int_equal(get_size(&b), sizeof(locd_stats) + PAD);
     assert_int_equal(((locd_stats *)b.bytes)->objects, SCENE_N);
     assert_true(untouched(&b, sizeof(locd_stats), sizeof b.bytes));
     /* The sweep's stats follow the same rule (it used to want the whole struct). */
@@ -630,9 +633,11 @@ static void pipeline_structs_follow_the_rules(void **state)
     assert_int_equal(locd_contacts_count(ct), 1);
     assert_int_equal(((locd_pipeline_stats *)b.bytes)->objects, 2);
     assert_true(untouched(&b, LOCD_PIPELINE_STATS_MIN_SIZE + 4, sizeof b.bytes));
-    set_size(&b, sizeof(locd_pipeline_stats) + PAD);
+    set_size(&b, sizeof(locd_pipeline_stats));
     assert_int_equal(locd_world_collide(w, NULL, ct, (locd_pipeline_stats *)b.bytes), LOCD_OK);
     assert_true(untouched(&b, sizeof(locd_pipeline_stats), sizeof b.bytes));
+    set_size(&b, sizeof(locd_pipeline_stats) + PAD);
+    assert_int_equal(locd_world_collide(w, NULL, ct, (locd_pipeline_stats *)b.bytes), LOCD_ERR_INVALID_ARGUMENT);
     o.size = LOCD_PIPELINE_OPTIONS_MIN_SIZE - 1;
     assert_int_equal(locd_world_collide(w, &o, ct, NULL), LOCD_ERR_INVALID_ARGUMENT);
     set_size(&b, 0);

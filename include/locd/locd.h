@@ -10,11 +10,10 @@
  * Versioned structs (docs/abi.md, "the size rules"): a struct passed in
  * (a config) is read up to its `size`, which must lie between the struct's
  * LOCD_*_MIN_SIZE and the library's own sizeof, and fields past `size` get
- * their defaults; a struct filled in (stats, a grid) is written up to its
- * `size` and no further (its size must be at least LOCD_*_MIN_SIZE; a
- * larger one keeps its extra fields) and `size` itself is left as it was
- * (locd_grid_fit_* says how it treats the grid's size). A call never writes
- * past the caller's `size`.
+ * their defaults; a struct filled in (stats) is written up to its `size`
+ * and no further, its size in the same range, and `size` itself is left as
+ * it was (locd_grid_fit_* says how it treats the grid's size). A call never
+ * writes past the caller's `size`.
  *
  * Semantics (docs/api.md has the full reference):
  *   boxes are n rows of 6 values  minx miny minz maxx maxy maxz;

@@ -70,11 +70,11 @@ void lc_buf_release(const locd_allocator *a, lc_buf *b, size_t elem);
  * copied over dst, which holds the defaults (full_size bytes); dst->size is
  * kept. NULL src, or a size out of range, raise (what names the argument). */
 locd_status lc_struct_in(void *dst, size_t full_size, const void *src, size_t min_size, const char *what);
-/* Output: dst must not be NULL and its size must be >= min_size. */
-locd_status lc_struct_check_out(const void *dst, size_t min_size, const char *what);
-/* Copies src (full_size bytes) into the caller's dst, but never past
- * dst->size, and keeps dst->size (checked by lc_struct_check_out). */
-void lc_struct_out(void *dst, const void *src, size_t full_size);
+/* Output: dst must not be NULL and must have min_size <= size <= full_size. */
+locd_status lc_struct_check_out(const void *dst, size_t full_size, size_t min_size, const char *what);
+/* Copies the library's full struct src into the caller's dst (checked by
+ * lc_struct_check_out) no further than dst->size, and keeps dst->size. */
+void lc_struct_out(void *dst, const void *src);
 
 /* ---- SIMD kernels (kernel.c) ---- */
 enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512 };

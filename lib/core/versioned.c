@@ -26,23 +26,20 @@ locd_status lc_struct_in(void *dst, size_t full_size, const void *src, size_t mi
     return LOCD_OK;
 }
 
-locd_status lc_struct_check_out(const void *dst, size_t min_size, const char *what)
+locd_status lc_struct_check_out(const void *dst, size_t full_size, size_t min_size, const char *what)
 {
     uint32_t size;
     if (!dst)
         return lc_error(LOCD_ERR_NULL_POINTER, "%s is NULL", what);
     size = size_of(dst);
-    if (size < min_size)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "%s->size is %u, below %zu: initialize it with its locd_*_init()",
-                        what, size, min_size);
+    if (size < min_size || size > full_size)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "%s->size is %u, not %zu..%zu: initialize it with its locd_*_init()",
+                        what, size, min_size, full_size);
     return LOCD_OK;
 }
 
-void lc_struct_out(void *dst, const void *src, size_t full_size)
+void lc_struct_out(void *dst, const void *src)
 {
     uint32_t size = size_of(dst);
-    /* A newer caller's longer struct keeps its extra fields as it set them. */
-    if (size > full_size)
-        size = (uint32_t)full_size;
     memcpy((char *)dst + sizeof size, (const char *)src + sizeof size, size - sizeof size);
 }

@@ -279,12 +279,12 @@ locd_status locd_engine_last_pairs(locd_engine *engine, const uint32_t **pairs, 
 
 locd_status lc_stats_check_out(const locd_stats *stats)
 {
-    return lc_struct_check_out(stats, LOCD_STATS_MIN_SIZE, "stats");
+    return lc_struct_check_out(stats, sizeof *stats, LOCD_STATS_MIN_SIZE, "stats");
 }
 
 void lc_stats_copy_out(locd_stats *dst, const locd_stats *src)
 {
-    lc_struct_out(dst, src, sizeof *src);
+    lc_struct_out(dst, src);
 }
 
 locd_status locd_engine_stats(const locd_engine *engine, locd_stats *stats)

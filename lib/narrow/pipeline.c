@@ -27,8 +27,8 @@ locd_status locd_pipeline_options_route(locd_pipeline_options *o, int32_t a, int
         return lc_error(LOCD_ERR_NULL_POINTER, "options is NULL");
     /* An older caller's struct may end before the route table. */
     if (o->size < offsetof(locd_pipeline_options, route) + sizeof o->route)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "options->size %u has no route table: call locd_pipeline_options_init",
-                        o->size);
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT,
+                        "options->size %u has no route table: call locd_pipeline_options_init", o->size);
     if (a < 1 || a > LOCD_SHAPE_MESH || b < 1 || b > LOCD_SHAPE_MESH)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown shape kind %d or %d", (int)a, (int)b);
     if (route < LOCD_ROUTE_AUTO || route > LOCD_ROUTE_FCL)
@@ -369,7 +369,7 @@ locd_status locd_world_collide(locd_world *w, const locd_pipeline_options *optio
     locd_status st;
     if ((st = lc_world_check(w)) != LOCD_OK || (st = lc_contacts_check(out)) != LOCD_OK)
         return st;
-    if (stats && (st = lc_struct_check_out(stats, LOCD_PIPELINE_STATS_MIN_SIZE, "stats")) != LOCD_OK)
+    if (stats && (st = lc_struct_check_out(stats, sizeof s, LOCD_PIPELINE_STATS_MIN_SIZE, "stats")) != LOCD_OK)
         return st;
     if ((st = read_options(options, &o)) != LOCD_OK)
         return st;
@@ -384,7 +384,7 @@ locd_status locd_world_collide(locd_world *w, const locd_pipeline_options *optio
     }
     s.ms_total = lc_now_ms() - t0;
     if (stats)
-        lc_struct_out(stats, &s, sizeof s);
+        lc_struct_out(stats, &s);
     lc_clear_error();
     return LOCD_OK;
 }

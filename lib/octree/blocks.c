@@ -126,13 +126,13 @@ static void sweep_stats_out(locd_stats *stats, size_t n, size_t count, const lc_
 {
     locd_stats s;
     memset(&s, 0, sizeof s);
-    memcpy(&s, stats, stats->size < sizeof s ? stats->size : sizeof s);
+    memcpy(&s, stats, stats->size);
     s.objects = n;
     s.entries = count;
     s.candidates = o->candidates;
     s.exact_tests = o->exact_tests;
     s.pairs = o->count;
-    lc_struct_out(stats, &s, sizeof s);
+    lc_struct_out(stats, &s);
 }
 
 #define LC_SWEEP_PUBLIC(SUFFIX, T)                                                                           \
@@ -148,7 +148,7 @@ static void sweep_stats_out(locd_stats *stats, size_t n, size_t count, const lc_
             return st;                                                                                       \
         if (count && (!entries || !boxes))                                                                   \
             return lc_error(LOCD_ERR_NULL_POINTER, "entries and boxes must not be NULL");                   \
-        if (stats && (st = lc_struct_check_out(stats, LOCD_STATS_MIN_SIZE, "stats")) != LOCD_OK)             \
+        if (stats && (st = lc_struct_check_out(stats, sizeof *stats, LOCD_STATS_MIN_SIZE, "stats")) != LOCD_OK) \
             return st;                                                                                       \
         if (!entries_sorted(entries, count))                                                                 \
             return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entries are not strictly ascending");               \
