@@ -867,6 +867,76 @@ static void jobs_fail_cleanly(void **state)
     }
 }
 
+/* ------------------------------------------------------------------ */
+/* World: create, add (its arrays grow), collide (its scratch)         */
+/* ------------------------------------------------------------------ */
+
+typedef struct world_ctx {
+    locd_shape *sphere;
+    locd_contacts *out;
+    locd_world *w;
+    size_t count; /* pairs of the unarmed run */
+} world_ctx;
+
+static void world_prepare(void *v)
+{
+    world_ctx *c = v;
+    c->w = NULL;
+}
+
+static locd_status world_call(void *v)
+{
+    world_ctx *c = v;
+    locd_engine_config cfg;
+    double pose[7] = {0, 0, 0, 0, 0, 0, 1};
+    locd_status st;
+    size_t i;
+    locd_engine_config_init(&cfg);
+    cfg.threads = 1;
+    cfg.allocator = *fa_allocator();
+    if ((st = locd_world_create(&cfg, &c->w)) != LOCD_OK)
+        return st;
+    for (i = 0; i < 150 && !st; i++) { /* past the first capacity (64): the arrays grow twice */
+        pose[0] = 1.5 * (double)(i % 10);
+        pose[1] = 1.5 * (double)(i / 10);
+        st = locd_world_add(c->w, c->sphere, pose, NULL, NULL);
+    }
+    return st ? st : locd_world_collide(c->w, NULL, c->out, NULL);
+}
+
+static void world_correct(void *v)
+{
+    world_ctx *c = v;
+    assert_int_equal(locd_contacts_count(c->out), c->count);
+}
+
+static void world_teardown(void *v)
+{
+    world_ctx *c = v;
+    locd_world_destroy(c->w);
+    c->w = NULL;
+}
+
+static void world_fails_cleanly(void **state)
+{
+    world_ctx c;
+    scenario s = {"world create/add/collide", world_prepare, world_call, NULL, world_correct, NULL, world_teardown};
+    (void)state;
+    memset(&c, 0, sizeof c);
+    if (locd_shape_sphere(0.8, &c.sphere) != LOCD_OK) {
+        printf("# world: no narrow phase in this build: nothing to test\n");
+        return;
+    }
+    assert_int_equal(locd_contacts_create(&c.out), LOCD_OK);
+    assert_int_equal(world_call(&c), LOCD_OK); /* unarmed: the reference count, and contacts at full size */
+    c.count = locd_contacts_count(c.out);
+    assert_true(c.count > 0);
+    world_teardown(&c);
+    report(s.name, drive(&s, &c));
+    locd_contacts_destroy(c.out);
+    locd_shape_destroy(c.sphere);
+}
+
 /* The allocator itself: a test that cannot fail proves nothing. */
 static void allocator_counts_and_fails(void **state)
 {
@@ -904,6 +974,7 @@ int main(void)
         cmocka_unit_test(brute_force_fails_cleanly),
         cmocka_unit_test(building_blocks_fail_cleanly),
         cmocka_unit_test(jobs_fail_cleanly),
+        cmocka_unit_test(world_fails_cleanly),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -7,6 +7,14 @@
  * Every fallible call returns a locd_status: 0 is success, negatives are
  * errors (see locd_status_string() and locd_last_error()).
  *
+ * Versioned structs (docs/abi.md, "the size rules"): a struct passed in
+ * (a config) is read up to its `size`, which must lie between the struct's
+ * LOCD_*_MIN_SIZE and the library's own sizeof, and fields past `size` get
+ * their defaults; a struct filled in (stats) is written up to its `size`
+ * and no further, its size in the same range, and `size` itself is left as
+ * it was (locd_grid_fit_* says how it treats the grid's size). A call never
+ * writes past the caller's `size`.
+ *
  * Semantics (docs/api.md has the full reference):
  *   boxes are n rows of 6 values  minx miny minz maxx maxy maxz;
  *   two boxes overlap iff on every axis a.min <= b.max && b.min <= a.max
@@ -77,9 +85,12 @@ typedef int32_t locd_status;
 /* Static English description of a status code; never NULL. */
 LOCD_API const char *locd_status_string(locd_status status);
 
-/* Detail of the last error raised on the calling thread (thread-local);
- * "" when the last call succeeded. The string stays valid until the next
- * locd call on this thread. */
+/* The last error raised on the calling thread (thread-local), as
+ * "status text: detail" (the status text is locd_status_string()'s); "" when
+ * the last call succeeded: every call that returns a status >= 0 (LOCD_OK,
+ * LOCD_PENDING) clears it; calls that return no status (counts, pointers,
+ * void) leave it as it was. The string stays valid until the next locd call
+ * on this thread. */
 LOCD_API const char *locd_last_error(void);
 
 /* Index of the first bad box for LOCD_ERR_NONFINITE / LOCD_ERR_INVERTED_BOX
@@ -93,7 +104,18 @@ LOCD_API int64_t locd_last_error_index(void);
 /* All memory an engine uses comes from these functions when they are set.
  * alloc returns memory aligned to at least 16 bytes, or NULL on failure
  * (locd then returns LOCD_ERR_NO_MEMORY and leaks nothing). free receives the
- * size that was asked for. Leave both NULL for malloc/free. */
+ * size that was asked for. Leave both NULL for malloc/free.
+ *
+ * Which allocator a handle uses: an engine, its pairs and jobs and the
+ * world that owns it use config->allocator; a locd_pairs the one given to
+ * locd_pairs_create. The exceptions, which use malloc/free:
+ *   - handles whose constructor takes no allocator: shapes (locd_shape_*),
+ *     contacts (locd_contacts_create), the service (locd_service_create) and
+ *     the engines of its job runners;
+ *   - memory libccd and FCL allocate themselves inside a shape test
+ *     (operator new, malloc): locd cannot reach it;
+ *   - level 2's shared memory segments (shm_open + mmap) and level 3's
+ *     sockets are kernel objects, not heap memory. */
 typedef struct locd_allocator {
     void *(*alloc)(size_t size, void *user);
     void (*free)(void *ptr, size_t size, void *user);
@@ -130,6 +152,10 @@ typedef struct locd_engine_config {
     locd_log_fn log;             /* NULL = silent */
     void *log_user;
 } locd_engine_config;
+
+/* Smallest config->size accepted: size, level, threads, max_depth, cell_bias
+ * and flags (the fields the first configs had). */
+#define LOCD_ENGINE_CONFIG_MIN_SIZE 24u
 
 /* Default cell_bias: a cell edge at least 4 times the box's largest extent
  * (docs/accuracy.md measures the alternatives). */
@@ -185,6 +211,9 @@ typedef struct locd_stats {
     double ms_transfer;   /* levels 2 and 3: shared memory / socket traffic */
 } locd_stats;
 
+/* Smallest stats->size accepted: size and threads. */
+#define LOCD_STATS_MIN_SIZE 8u
+
 LOCD_API void locd_stats_init(locd_stats *stats);
 
 /* ------------------------------------------------------------------ */
@@ -227,7 +256,7 @@ LOCD_API locd_status locd_engine_find_pairs_f64_into(locd_engine *engine, const 
 LOCD_API locd_status locd_engine_last_pairs(locd_engine *engine, const uint32_t **pairs, size_t *count);
 
 /* Statistics of the engine's last successful call. Set stats->size first
- * (locd_stats_init). */
+ * (locd_stats_init); only the first stats->size bytes are written. */
 LOCD_API locd_status locd_engine_stats(const locd_engine *engine, locd_stats *stats);
 
 /* ------------------------------------------------------------------ */
@@ -249,8 +278,13 @@ LOCD_API locd_status locd_engine_submit_f64(locd_engine *engine, const double *b
 LOCD_API locd_status locd_job_poll(locd_job *job);
 /* Waits up to timeout_ms (negative = forever). LOCD_ERR_TIMEOUT if still running. */
 LOCD_API locd_status locd_job_wait(locd_job *job, int64_t timeout_ms);
-/* Moves the result into *out (after a successful wait/poll). */
+/* Moves the result into *out (after a successful wait/poll). While the job
+ * runs it returns LOCD_PENDING and leaves *out unchanged; once it failed, the
+ * job's error. A second take is LOCD_ERR_INVALID_ARGUMENT. */
 LOCD_API locd_status locd_job_take(locd_job *job, locd_pairs *out);
+/* Statistics of the finished job (set stats->size first, as for
+ * locd_engine_stats). While the job runs it returns LOCD_PENDING and leaves
+ * *stats unchanged; once it failed, the job's error. */
 LOCD_API locd_status locd_job_stats(const locd_job *job, locd_stats *stats);
 /* Asks the job to stop; a later wait returns LOCD_ERR_CANCELLED unless it had finished. */
 LOCD_API locd_status locd_job_cancel(locd_job *job);
@@ -280,9 +314,18 @@ typedef struct locd_grid {
     double scale_b;
 } locd_grid;
 
+/* Smallest grid->size accepted: every field above (encode, sort and sweep
+ * need them all). */
+#define LOCD_GRID_MIN_SIZE 64u
+
 /* Validates the boxes and fits the root cube. max_depth 0 = automatic;
  * cell_bias as in the config; flags LOCD_CONFIG_CUBES or 0. On a bad box
- * returns LOCD_ERR_NONFINITE / LOCD_ERR_INVERTED_BOX with its index. */
+ * returns LOCD_ERR_NONFINITE / LOCD_ERR_INVERTED_BOX with its index.
+ * *grid is output only; its size is read only to bound the write: the call
+ * writes grid->size bytes, clamped to LOCD_GRID_MIN_SIZE..sizeof(locd_grid)
+ * (every caller's grid has at least LOCD_GRID_MIN_SIZE bytes, so a grid left
+ * uninitialized works), and sets grid->size to the number written, which
+ * encode, sort and sweep then read. */
 LOCD_API locd_status locd_grid_fit_f32(const float *boxes, size_t n, uint32_t max_depth, int32_t cell_bias,
                                        uint32_t flags, locd_grid *grid);
 LOCD_API locd_status locd_grid_fit_f64(const double *boxes, size_t n, uint32_t max_depth, int32_t cell_bias,
@@ -308,7 +351,9 @@ LOCD_API locd_status locd_merge_entries(const uint64_t *const *runs, const size_
 
 /* One pass over ascending entries of the whole scene: appends exactly the
  * overlapping pairs to *out (after clearing it), in sweep order. stats may be
- * NULL. */
+ * NULL; else (size set, as for locd_engine_stats) it receives objects,
+ * entries, candidates, exact_tests and pairs, and its other fields are left
+ * as they were. */
 LOCD_API locd_status locd_sweep_f32(const locd_grid *grid, const float *boxes, size_t n, const uint64_t *entries,
                                     size_t count, locd_pairs *out, locd_stats *stats);
 LOCD_API locd_status locd_sweep_f64(const locd_grid *grid, const double *boxes, size_t n, const uint64_t *entries,

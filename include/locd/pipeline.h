@@ -91,8 +91,12 @@ typedef struct locd_pipeline_options {
     uint8_t route[LOCD_SHAPE_KINDS * LOCD_SHAPE_KINDS];
 } locd_pipeline_options;
 
+/* Smallest options->size accepted: the fields up to swept_threshold. */
+#define LOCD_PIPELINE_OPTIONS_MIN_SIZE 32u
+
 LOCD_API void locd_pipeline_options_init(locd_pipeline_options *options);
-/* Sets route[a][b] and route[b][a]. */
+/* Sets route[a][b] and route[b][a]. options->size must reach past the route
+ * table (LOCD_ERR_INVALID_ARGUMENT for an older, shorter struct). */
 LOCD_API locd_status locd_pipeline_options_route(locd_pipeline_options *options, int32_t kind_a, int32_t kind_b,
                                                  int32_t route);
 
@@ -123,6 +127,9 @@ typedef struct locd_pipeline_stats {
     double ms_total;
 } locd_pipeline_stats;
 
+/* Smallest stats->size accepted: size alone (nothing else is written). */
+#define LOCD_PIPELINE_STATS_MIN_SIZE 4u
+
 LOCD_API void locd_pipeline_stats_init(locd_pipeline_stats *stats);
 
 /* ------------------------------------------------------------------ */
@@ -134,6 +141,7 @@ LOCD_API void locd_pipeline_stats_init(locd_pipeline_stats *stats);
  * the steady state. Arrays stay valid until the next collide or destroy. */
 typedef struct locd_contacts locd_contacts;
 
+/* Contacts take no allocator: malloc/free (see locd_allocator). */
 LOCD_API locd_status locd_contacts_create(locd_contacts **out);
 LOCD_API void locd_contacts_destroy(locd_contacts *contacts);
 LOCD_API size_t locd_contacts_count(const locd_contacts *contacts);
@@ -153,7 +161,8 @@ LOCD_API const double *locd_contacts_point(const locd_contacts *contacts);
 
 typedef struct locd_world locd_world;
 
-/* config (may be NULL) configures the broad-phase engine the world owns. */
+/* config (may be NULL) configures the broad-phase engine the world owns;
+ * its allocator also serves the world's own memory. */
 LOCD_API locd_status locd_world_create(const locd_engine_config *config, locd_world **out);
 LOCD_API void locd_world_destroy(locd_world *world);
 /* Adds an object; *index (may be NULL) receives its index (0, 1, 2, ...).

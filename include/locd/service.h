@@ -23,6 +23,10 @@ typedef struct locd_service_config {
     void *log_user;
 } locd_service_config;
 
+/* Smallest config->size accepted: size alone (and the padding after it),
+ * which leaves every field at its default. */
+#define LOCD_SERVICE_CONFIG_MIN_SIZE 8u
+
 typedef struct locd_service locd_service;
 
 LOCD_API void locd_service_config_init(locd_service_config *config);

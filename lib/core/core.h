@@ -32,10 +32,25 @@
  * merge takes: per-thread state lives in fixed arrays of this size. */
 #define LC_MAX_THREADS 64
 
+/* Conventions of the internal functions:
+ *   - a function that can fail returns a locd_status: LOCD_OK, or the
+ *     LOCD_ERR_* it raised with lc_error (the caller only passes it on);
+ *   - a predicate, or a check that does not raise, returns int 1 (true/ok)
+ *     or 0;
+ *   - a test whose answer is yes/no and that can also fail returns int 1 or
+ *     0, or a negative locd_status it raised (the narrow phase's pair tests);
+ *   - a function that cannot fail returns void or its result.
+ * Every public function clears the last error (lc_clear_error) on each path
+ * that returns a status >= 0. */
+
 /* ---- errors (error.c) ---- */
 locd_status lc_error(locd_status status, const char *fmt, ...) LC_PRINTF(2, 3);
 locd_status lc_error_box(locd_status status, int64_t index, const char *fmt, ...) LC_PRINTF(3, 4);
 void lc_clear_error(void);
+/* The detail of the calling thread's last error without the status text
+ * that locd_last_error() puts in front ("" when none): what is passed on
+ * when an error is raised again elsewhere (a job, the service's reply). */
+const char *lc_last_error_detail(void);
 /* Formats a message and hands it to a user log hook (nothing when log is NULL). */
 void lc_log_emit(locd_log_fn log, void *user, int32_t severity, const char *fmt, va_list ap);
 
@@ -52,6 +67,18 @@ typedef struct lc_buf {
 } lc_buf;
 locd_status lc_buf_reserve(const locd_allocator *a, lc_buf *b, size_t elem, size_t count);
 void lc_buf_release(const locd_allocator *a, lc_buf *b, size_t elem);
+
+/* ---- versioned structs (versioned.c; docs/abi.md, "the size rules") ---- */
+/* Input: src (a public struct that leads with uint32_t size) must have
+ * min_size <= size <= full_size; its first `size` bytes after `size` are
+ * copied over dst, which holds the defaults (full_size bytes); dst->size is
+ * kept. NULL src, or a size out of range, raise (what names the argument). */
+locd_status lc_struct_in(void *dst, size_t full_size, const void *src, size_t min_size, const char *what);
+/* Output: dst must not be NULL and must have min_size <= size <= full_size. */
+locd_status lc_struct_check_out(const void *dst, size_t full_size, size_t min_size, const char *what);
+/* Copies the library's full struct src into the caller's dst (checked by
+ * lc_struct_check_out) no further than dst->size, and keeps dst->size. */
+void lc_struct_out(void *dst, const void *src);
 
 /* ---- SIMD kernels (kernel.c) ---- */
 enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512 };

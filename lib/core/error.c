@@ -1,9 +1,14 @@
-/* Status strings and the thread-local last-error detail. */
+/* Status strings and the thread-local last error. The status and the
+ * detail are kept apart, so code that passes an error on (a job, the
+ * service's wire) takes the detail without cutting the status text off;
+ * locd_last_error() composes "status text: detail" when it is read. */
 #include "core/core.h"
 
 #include <stdio.h>
 
-static LC_TLS char last_message[256];
+static LC_TLS locd_status last_status; /* LOCD_OK: no error */
+static LC_TLS char last_detail[256];
+static LC_TLS char last_message[256]; /* composed by locd_last_error() */
 static LC_TLS int64_t last_index = -1;
 
 const char *locd_status_string(locd_status status)
@@ -46,7 +51,18 @@ void lc_log_emit(locd_log_fn log, void *user, int32_t severity, const char *fmt,
 
 const char *locd_last_error(void)
 {
+    if (last_status == LOCD_OK)
+        return "";
+    /* Cut at the buffer's size: the text a caller saw when it was stored
+     * composed (the return value is read only to say so). */
+    if (snprintf(last_message, sizeof last_message, "%s: %s", locd_status_string(last_status), last_detail) < 0)
+        last_message[0] = '\0';
     return last_message;
+}
+
+const char *lc_last_error_detail(void)
+{
+    return last_detail;
 }
 
 int64_t locd_last_error_index(void)
@@ -56,16 +72,19 @@ int64_t locd_last_error_index(void)
 
 void lc_clear_error(void)
 {
-    last_message[0] = '\0';
+    last_status = LOCD_OK;
+    last_detail[0] = '\0';
     last_index = -1;
 }
 
+/* Formats into a local buffer first: an argument may be the detail itself
+ * (an error passed on unchanged). */
 static void set_message(locd_status status, const char *fmt, va_list ap)
 {
-    int len = snprintf(last_message, sizeof last_message, "%s: ", locd_status_string(status));
-    if (len < 0 || (size_t)len >= sizeof last_message)
-        return;
-    vsnprintf(last_message + len, sizeof last_message - (size_t)len, fmt, ap);
+    char detail[sizeof last_detail];
+    vsnprintf(detail, sizeof detail, fmt, ap);
+    memcpy(last_detail, detail, sizeof detail);
+    last_status = status;
 }
 
 locd_status lc_error(locd_status status, const char *fmt, ...)

@@ -137,8 +137,10 @@ locd_status locd_pairs_sort(locd_pairs *pairs)
     uint64_t *tmp;
     if (st)
         return st;
-    if (pairs->count < 2)
+    if (pairs->count < 2) {
+        lc_clear_error();
         return LOCD_OK;
+    }
     if (!lc_mul_size(pairs->count, 2 * sizeof(uint64_t), &bytes))
         return lc_error(LOCD_ERR_NO_MEMORY, "too many pairs to sort");
     tmp = lc_alloc(&pairs->alloc, bytes);

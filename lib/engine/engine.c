@@ -102,15 +102,8 @@ locd_status locd_engine_create(const locd_engine_config *config, locd_engine **o
         return lc_error(LOCD_ERR_NULL_POINTER, "out is NULL");
     *out = NULL;
     locd_engine_config_init(&cfg);
-    if (config) {
-        if (config->size < sizeof(uint32_t) * 6 || config->size > sizeof cfg)
-            return lc_error(LOCD_ERR_INVALID_ARGUMENT,
-                            "config->size is %u; initialize the config with locd_engine_config_init()",
-                            config->size);
-        /* An older, shorter struct keeps the defaults for the fields it lacks. */
-        memcpy(&cfg, config, config->size);
-        cfg.size = sizeof cfg;
-    }
+    if (config && (st = lc_struct_in(&cfg, sizeof cfg, config, LOCD_ENGINE_CONFIG_MIN_SIZE, "config")) != LOCD_OK)
+        return st;
     if (cfg.level < LOCD_LEVEL_INPROCESS || cfg.level > LOCD_LEVEL_SERVICE)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "level %d is not 1, 2 or 3", (int)cfg.level);
     if (cfg.cell_bias < 0 || cfg.cell_bias > 8)
@@ -280,23 +273,18 @@ locd_status locd_engine_last_pairs(locd_engine *engine, const uint32_t **pairs, 
         return lc_error(LOCD_ERR_NULL_POINTER, "pairs and count must not be NULL");
     *pairs = engine->last.data;
     *count = engine->last.count;
+    lc_clear_error();
     return LOCD_OK;
 }
 
 locd_status lc_stats_check_out(const locd_stats *stats)
 {
-    if (!stats)
-        return lc_error(LOCD_ERR_NULL_POINTER, "stats is NULL");
-    if (stats->size < 2 * sizeof(uint32_t) || stats->size > sizeof(locd_stats))
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "stats->size is %u; use locd_stats_init()", stats->size);
-    return LOCD_OK;
+    return lc_struct_check_out(stats, sizeof *stats, LOCD_STATS_MIN_SIZE, "stats");
 }
 
 void lc_stats_copy_out(locd_stats *dst, const locd_stats *src)
 {
-    const uint32_t size = dst->size;
-    memcpy(dst, src, size);
-    dst->size = size;
+    lc_struct_out(dst, src);
 }
 
 locd_status locd_engine_stats(const locd_engine *engine, locd_stats *stats)
@@ -305,5 +293,6 @@ locd_status locd_engine_stats(const locd_engine *engine, locd_stats *stats)
     if (st || (st = lc_stats_check_out(stats)) != LOCD_OK)
         return st;
     lc_stats_copy_out(stats, &engine->stats);
+    lc_clear_error();
     return LOCD_OK;
 }

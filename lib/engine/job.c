@@ -108,15 +108,11 @@ void lc_job_unref(locd_job *j)
         job_free(j);
 }
 
-/* Raises the job's stored error on the calling thread. The stored text
- * already starts with the status description: strip it so it is not
- * repeated. */
+/* Raises the job's stored error (a detail, lc_last_error_detail) on the
+ * calling thread. */
 static locd_status raise_job_error(const locd_job *j, locd_status status)
 {
-    const char *msg = j->message, *prefix = locd_status_string(status);
-    size_t len = strlen(prefix);
-    if (!strncmp(msg, prefix, len) && msg[len] == ':' && msg[len + 1] == ' ')
-        msg += len + 2;
+    const char *msg = j->message;
     return lc_error_box(status, j->error_index, "%s", msg[0] ? msg : "job failed");
 }
 
@@ -191,7 +187,7 @@ static void run_generic(locd_job *j, locd_engine *e)
     j->status_pending_result = s;
     j->error_pending_index = s ? locd_last_error_index() : -1;
     if (s)
-        snprintf(j->run_message, sizeof j->run_message, "%s", locd_last_error());
+        snprintf(j->run_message, sizeof j->run_message, "%s", lc_last_error_detail());
 }
 
 static void *queue_main(void *arg)
@@ -403,8 +399,10 @@ locd_status locd_job_take(locd_job *job, locd_pairs *out)
         lc_pairs_init_embedded(&job->result, &job->alloc);
     }
     pthread_mutex_unlock(&job->mu);
-    if (st == LOCD_PENDING)
+    if (st == LOCD_PENDING) {
+        lc_clear_error();
         return LOCD_PENDING;
+    }
     if (st == LOCD_ERR_INVALID_ARGUMENT)
         return lc_error(st, "the job's result was already taken");
     if (st == LOCD_ERR_NO_MEMORY)
@@ -427,8 +425,7 @@ locd_status locd_job_stats(const locd_job *job, locd_stats *stats)
     pthread_mutex_unlock((pthread_mutex_t *)&job->mu);
     if (st < 0)
         return raise_job_error(job, st);
-    if (st == LOCD_OK)
-        lc_clear_error();
+    lc_clear_error();
     return st;
 }
 

@@ -1,6 +1,7 @@
 /* libccd paths: support functions of the locd shapes, GJK (yes/no), EPA or
  * MPR (contact data), a translational swept test, and meshes tested one
  * triangle at a time against a convex shape. */
+#include "core/core.h"
 #include "narrow/narrow.h"
 
 #include <ccd/ccd.h>
@@ -249,8 +250,8 @@ int lc_ccd_test(const lc_placed *a, const lc_placed *b, int want_contact, int32_
 {
     ccd_t ccd;
     ccd_setup(&ccd, a, b);
-    if (a->s->kind == LOCD_SHAPE_MESH && b->s->kind == LOCD_SHAPE_MESH)
-        return -1; /* the router sends mesh pairs to FCL */
+    if (a->s->kind == LOCD_SHAPE_MESH && b->s->kind == LOCD_SHAPE_MESH) /* the router sends those to FCL */
+        return lc_error(LOCD_ERR_INTERNAL, "libccd route got a mesh pair");
     if (a->s->kind == LOCD_SHAPE_MESH)
         return mesh_vs_convex(a, b, &ccd, want_contact, method, c);
     if (b->s->kind == LOCD_SHAPE_MESH) {
@@ -320,7 +321,7 @@ int lc_ccd_sweep(const lc_placed *a, const lc_placed *b, const double *d, double
     double nd[3] = {-d[0], -d[1], -d[2]};
     ccd_setup(&ccd, a, b);
     if (a->s->kind == LOCD_SHAPE_MESH && b->s->kind == LOCD_SHAPE_MESH)
-        return -1;
+        return lc_error(LOCD_ERR_INTERNAL, "libccd route got a mesh pair");
     if (a->s->kind == LOCD_SHAPE_MESH)
         return mesh_sweep(a, b, d, &ccd, toi);
     if (b->s->kind == LOCD_SHAPE_MESH)

@@ -48,7 +48,7 @@ typedef struct lc_contact {
 } lc_contact;
 
 /* ---- pose math (shape.c) ---- */
-/* 0 when the pose is finite with a non-zero quaternion; fills R and t. */
+/* 1 when the pose is finite with a non-zero quaternion (R and t filled), else 0. */
 int lc_pose_to_rt(const double *pose, double *R, double *t);
 void lc_place(const locd_shape *s, const double *pose_R, const double *pose_t, lc_placed *out);
 /* World box of a placed shape. */
@@ -63,7 +63,7 @@ int lc_closed_test(const lc_placed *a, const lc_placed *b, lc_contact *c);
 /* Swept sphere-sphere: b moves by d relative to a; *toi in [0, 1]. */
 int lc_closed_sweep_spheres(const lc_placed *a, const lc_placed *b, const double *d, double *toi);
 
-/* ---- libccd (ccd_tests.c) ---- */
+/* ---- libccd (ccd_tests.c): 1 hit, 0 miss, LOCD_ERR_INTERNAL (raised) for a mesh pair ---- */
 int lc_ccd_test(const lc_placed *a, const lc_placed *b, int want_contact, int32_t method, lc_contact *c);
 /* b moves by d (world) relative to a during the step; 1 and *toi when they meet. */
 int lc_ccd_sweep(const lc_placed *a, const lc_placed *b, const double *d, double *toi);
@@ -72,7 +72,8 @@ int lc_ccd_sweep(const lc_placed *a, const lc_placed *b, const double *d, double
 /* NULL on failure with err filled. */
 lc_fcl_geom *lc_fcl_make(const locd_shape *s, char *err, size_t errlen);
 void lc_fcl_free(lc_fcl_geom *g);
-/* 1 hit, 0 miss, -1 error (err filled). */
+/* 1 hit, 0 miss, -1 error (err filled; the caller raises it: this side is
+ * C++ and reports through err rather than lc_error). */
 int lc_fcl_test(const lc_placed *a, const lc_placed *b, int want_contact, lc_contact *c, char *err, size_t errlen);
 
 /* ---- routing (pair_test.c) ---- */
@@ -87,6 +88,7 @@ int lc_pair_sweep(const lc_placed *a, const lc_placed *b, const double *d, int32
 /* ---- world and contacts handles (world.c, pipeline.c) ---- */
 struct locd_world {
     uint32_t magic;
+    locd_allocator alloc; /* the config's: every array below and the world itself */
     locd_engine *engine;
     locd_pairs *pairs;
     locd_shape **shapes;
@@ -110,6 +112,8 @@ struct locd_contacts {
 };
 
 locd_status lc_world_check(const locd_world *w);
+/* Frees the pipeline's per-object scratch (R, boxes, fast). */
+void lc_world_free_scratch(locd_world *w);
 locd_status lc_contacts_check(const locd_contacts *c);
 locd_status lc_contacts_reserve(locd_contacts *c, size_t count);
 

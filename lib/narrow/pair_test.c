@@ -58,8 +58,7 @@ int lc_pair_test(const lc_placed *a, const lc_placed *b, int32_t route, int want
     }
     if (counts)
         counts[1]++;
-    r = lc_ccd_test(a, b, want_contact, method, c);
-    return r < 0 ? lc_error(LOCD_ERR_INTERNAL, "libccd route got a mesh pair") : r;
+    return lc_ccd_test(a, b, want_contact, method, c);
 }
 
 int lc_pair_sweep(const lc_placed *a, const lc_placed *b, const double *d, int32_t route, double *toi,
@@ -115,9 +114,9 @@ locd_status locd_shape_collide(const locd_shape *a, const double *pose_a, const 
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown route %d", (int)route);
     if (contact_method != LOCD_CONTACT_EPA && contact_method != LOCD_CONTACT_MPR)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown contact method %d", (int)contact_method);
-    if (lc_pose_to_rt(pose_a, Ra, ta) != 0)
+    if (!lc_pose_to_rt(pose_a, Ra, ta))
         return lc_error_box(LOCD_ERR_SHAPE, 0, "pose of the first shape is non-finite or has a zero quaternion");
-    if (lc_pose_to_rt(pose_b, Rb, tb) != 0)
+    if (!lc_pose_to_rt(pose_b, Rb, tb))
         return lc_error_box(LOCD_ERR_SHAPE, 1, "pose of the second shape is non-finite or has a zero quaternion");
     lc_place(a, Ra, ta, &pa);
     lc_place(b, Rb, tb, &pb);

@@ -25,12 +25,17 @@ locd_status locd_pipeline_options_route(locd_pipeline_options *o, int32_t a, int
 {
     if (!o)
         return lc_error(LOCD_ERR_NULL_POINTER, "options is NULL");
+    /* An older caller's struct may end before the route table. */
+    if (o->size < offsetof(locd_pipeline_options, route) + sizeof o->route)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT,
+                        "options->size %u has no route table: call locd_pipeline_options_init", o->size);
     if (a < 1 || a > LOCD_SHAPE_MESH || b < 1 || b > LOCD_SHAPE_MESH)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown shape kind %d or %d", (int)a, (int)b);
     if (route < LOCD_ROUTE_AUTO || route > LOCD_ROUTE_FCL)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown route %d", (int)route);
     o->route[a * LOCD_SHAPE_KINDS + b] = (uint8_t)route;
     o->route[b * LOCD_SHAPE_KINDS + a] = (uint8_t)route;
+    lc_clear_error();
     return LOCD_OK;
 }
 
@@ -46,13 +51,12 @@ void locd_pipeline_stats_init(locd_pipeline_stats *s)
 static locd_status read_options(const locd_pipeline_options *in, locd_pipeline_options *o)
 {
     size_t k;
+    locd_status st;
     locd_pipeline_options_init(o);
     if (!in)
         return LOCD_OK;
-    if (in->size < offsetof(locd_pipeline_options, find_flags) || in->size > sizeof *o)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "options.size %u: call locd_pipeline_options_init", in->size);
-    memcpy(o, in, in->size);
-    o->size = sizeof *o;
+    if ((st = lc_struct_in(o, sizeof *o, in, LOCD_PIPELINE_OPTIONS_MIN_SIZE, "options")) != LOCD_OK)
+        return st;
     if (o->stages & ~(LOCD_STAGE_SHAPE | LOCD_STAGE_CONTACT))
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown stage bits 0x%x", o->stages);
     if (o->swept < LOCD_SWEPT_OFF || o->swept > LOCD_SWEPT_AUTO)
@@ -70,25 +74,25 @@ static locd_status read_options(const locd_pipeline_options *in, locd_pipeline_o
 
 static locd_status reserve_scratch(locd_world *w, size_t pairs)
 {
+    /* Scratch is refilled by every call: new blocks, nothing copied. */
     if (w->scratch_n < w->n) {
         size_t n = w->n;
-        double *R = realloc(w->R, n * 12 * sizeof(double));
-        if (R)
-            w->R = R;
-        double *boxes = realloc(w->boxes, n * 6 * sizeof(double));
-        if (boxes)
-            w->boxes = boxes;
-        uint8_t *fast = realloc(w->fast, n);
-        if (fast)
-            w->fast = fast;
-        if (!R || !boxes || !fast)
-            return lc_error(LOCD_ERR_NO_MEMORY, "pipeline scratch");
+        lc_world_free_scratch(w);
+        w->R = lc_alloc(&w->alloc, n * 12 * sizeof(double));
+        w->boxes = lc_alloc(&w->alloc, n * 6 * sizeof(double));
+        w->fast = lc_alloc(&w->alloc, n);
         w->scratch_n = n;
+        if (!w->R || !w->boxes || !w->fast) {
+            lc_world_free_scratch(w);
+            return lc_error(LOCD_ERR_NO_MEMORY, "pipeline scratch");
+        }
     }
     if (w->work_cap < pairs) {
-        uint32_t *work = realloc(w->work, pairs * sizeof(uint32_t));
-        if (!work)
+        size_t bytes;
+        uint32_t *work;
+        if (!lc_mul_size(pairs, sizeof(uint32_t), &bytes) || !(work = lc_alloc(&w->alloc, bytes)))
             return lc_error(LOCD_ERR_NO_MEMORY, "pipeline scratch");
+        lc_free(&w->alloc, w->work, w->work_cap * sizeof(uint32_t));
         w->work = work;
         w->work_cap = pairs;
     }
@@ -365,8 +369,8 @@ locd_status locd_world_collide(locd_world *w, const locd_pipeline_options *optio
     locd_status st;
     if ((st = lc_world_check(w)) != LOCD_OK || (st = lc_contacts_check(out)) != LOCD_OK)
         return st;
-    if (stats && (stats->size < sizeof(uint32_t) || stats->size > sizeof s))
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "stats.size %u: call locd_pipeline_stats_init", stats->size);
+    if (stats && (st = lc_struct_check_out(stats, sizeof s, LOCD_PIPELINE_STATS_MIN_SIZE, "stats")) != LOCD_OK)
+        return st;
     if ((st = read_options(options, &o)) != LOCD_OK)
         return st;
     out->count = 0;
@@ -379,11 +383,8 @@ locd_status locd_world_collide(locd_world *w, const locd_pipeline_options *optio
         return st;
     }
     s.ms_total = lc_now_ms() - t0;
-    if (stats) {
-        uint32_t size = stats->size;
-        memcpy(stats, &s, size);
-        stats->size = size;
-    }
+    if (stats)
+        lc_struct_out(stats, &s);
     lc_clear_error();
     return LOCD_OK;
 }

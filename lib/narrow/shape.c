@@ -315,10 +315,10 @@ int lc_pose_to_rt(const double *pose, double *R, double *t)
     int i;
     for (i = 0; i < 7; i++)
         if (!isfinite(pose[i]))
-            return -1;
+            return 0;
     n = sqrt(x * x + y * y + z * z + w * w);
     if (!(n > 1e-12))
-        return -1;
+        return 0;
     x /= n;
     y /= n;
     z /= n;
@@ -335,7 +335,7 @@ int lc_pose_to_rt(const double *pose, double *R, double *t)
     t[0] = pose[0];
     t[1] = pose[1];
     t[2] = pose[2];
-    return 0;
+    return 1;
 }
 
 void lc_place(const locd_shape *s, const double *R, const double *t, lc_placed *out)
@@ -400,7 +400,7 @@ locd_status locd_shape_aabb(const locd_shape *shape, const double *pose, double 
         return st;
     if (!pose || !box)
         return lc_error(LOCD_ERR_NULL_POINTER, "pose or box is NULL");
-    if (lc_pose_to_rt(pose, R, t) != 0)
+    if (!lc_pose_to_rt(pose, R, t))
         return lc_error(LOCD_ERR_SHAPE, "pose is non-finite or has a zero quaternion");
     lc_place(shape, R, t, &p);
     lc_placed_box(&p, box);

@@ -15,23 +15,40 @@ locd_status lc_world_check(const locd_world *w)
 
 locd_status locd_world_create(const locd_engine_config *config, locd_world **out)
 {
+    locd_engine_config cfg;
+    locd_allocator a;
     locd_world *w;
     locd_status st;
     if (!out)
         return lc_error(LOCD_ERR_NULL_POINTER, "out is NULL");
     *out = NULL;
-    w = calloc(1, sizeof *w);
+    /* The world's memory comes from the allocator of its engine's config. */
+    locd_engine_config_init(&cfg);
+    if (config && (st = lc_struct_in(&cfg, sizeof cfg, config, LOCD_ENGINE_CONFIG_MIN_SIZE, "config")) != LOCD_OK)
+        return st;
+    lc_allocator_resolve(&a, &cfg.allocator);
+    w = lc_alloc(&a, sizeof *w);
     if (!w)
         return lc_error(LOCD_ERR_NO_MEMORY, "world");
+    memset(w, 0, sizeof *w);
     w->magic = LC_MAGIC_WORLD;
+    w->alloc = a;
     if ((st = locd_engine_create(config, &w->engine)) != LOCD_OK ||
-        (st = locd_pairs_create(NULL, &w->pairs)) != LOCD_OK) {
+        (st = locd_pairs_create(&w->alloc, &w->pairs)) != LOCD_OK) {
         locd_world_destroy(w);
         return st;
     }
     *out = w;
     lc_clear_error();
     return LOCD_OK;
+}
+
+/* Frees the per-object arrays (not the shapes they hold). */
+static void free_objects(locd_world *w)
+{
+    lc_free(&w->alloc, w->shapes, w->cap * sizeof *w->shapes);
+    lc_free(&w->alloc, w->poses, w->cap * 7 * sizeof(double));
+    lc_free(&w->alloc, w->vel, w->cap * 6 * sizeof(double));
 }
 
 void locd_world_destroy(locd_world *w)
@@ -41,17 +58,24 @@ void locd_world_destroy(locd_world *w)
         return;
     for (i = 0; i < w->n; i++)
         lc_shape_release(w->shapes[i]);
-    free(w->shapes);
-    free(w->poses);
-    free(w->vel);
-    free(w->R);
-    free(w->boxes);
-    free(w->fast);
-    free(w->work);
+    free_objects(w);
+    lc_world_free_scratch(w);
+    lc_free(&w->alloc, w->work, w->work_cap * sizeof(uint32_t));
     locd_engine_destroy(w->engine);
     locd_pairs_destroy(w->pairs);
     w->magic = LC_MAGIC_DEAD;
-    free(w);
+    lc_free(&w->alloc, w, sizeof *w);
+}
+
+void lc_world_free_scratch(locd_world *w)
+{
+    lc_free(&w->alloc, w->R, w->scratch_n * 12 * sizeof(double));
+    lc_free(&w->alloc, w->boxes, w->scratch_n * 6 * sizeof(double));
+    lc_free(&w->alloc, w->fast, w->scratch_n);
+    w->R = NULL;
+    w->boxes = NULL;
+    w->fast = NULL;
+    w->scratch_n = 0;
 }
 
 size_t locd_world_count(const locd_world *w)
@@ -59,19 +83,41 @@ size_t locd_world_count(const locd_world *w)
     return w && w->magic == LC_MAGIC_WORLD ? w->n : 0;
 }
 
-static locd_status grow(void **p, size_t count, size_t elem)
+/* Doubles the per-object arrays, all three or none: their sizes for
+ * lc_free come from the one w->cap. */
+static locd_status grow_objects(locd_world *w)
 {
-    void *q = realloc(*p, count * elem);
-    if (!q)
+    size_t cap = w->cap ? 2 * w->cap : 64, pose_bytes;
+    locd_shape **shapes;
+    double *poses, *vel;
+    if (!lc_mul_size(cap, 7 * sizeof(double), &pose_bytes))
+        return lc_error(LOCD_ERR_NO_MEMORY, "world arrays of %zu objects overflow size_t", cap);
+    shapes = lc_alloc(&w->alloc, cap * sizeof *shapes);
+    poses = lc_alloc(&w->alloc, pose_bytes);
+    vel = lc_alloc(&w->alloc, cap * 6 * sizeof(double));
+    if (!shapes || !poses || !vel) {
+        lc_free(&w->alloc, shapes, cap * sizeof *shapes);
+        lc_free(&w->alloc, poses, pose_bytes);
+        lc_free(&w->alloc, vel, cap * 6 * sizeof(double));
         return lc_error(LOCD_ERR_NO_MEMORY, "world arrays");
-    *p = q;
+    }
+    if (w->n) {
+        memcpy(shapes, w->shapes, w->n * sizeof *shapes);
+        memcpy(poses, w->poses, w->n * 7 * sizeof(double));
+        memcpy(vel, w->vel, w->n * 6 * sizeof(double));
+    }
+    free_objects(w);
+    w->shapes = shapes;
+    w->poses = poses;
+    w->vel = vel;
+    w->cap = cap;
     return LOCD_OK;
 }
 
 static locd_status check_pose(const double *pose, int64_t index)
 {
     double R[9], t[3];
-    if (lc_pose_to_rt(pose, R, t) != 0)
+    if (!lc_pose_to_rt(pose, R, t))
         return lc_error_box(LOCD_ERR_SHAPE, index,
                             "object %lld: pose is non-finite or its quaternion is zero", (long long)index);
     return LOCD_OK;
@@ -101,14 +147,8 @@ locd_status locd_world_add(locd_world *w, locd_shape *shape, const double *pose,
         return st;
     if (w->n >= UINT32_MAX - 1)
         return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "a world holds at most 2^32 - 2 objects");
-    if (w->n == w->cap) {
-        size_t cap = w->cap ? 2 * w->cap : 64;
-        if ((st = grow((void **)&w->shapes, cap, sizeof *w->shapes)) != LOCD_OK ||
-            (st = grow((void **)&w->poses, cap, 7 * sizeof(double))) != LOCD_OK ||
-            (st = grow((void **)&w->vel, cap, 6 * sizeof(double))) != LOCD_OK)
-            return st;
-        w->cap = cap;
-    }
+    if (w->n == w->cap && (st = grow_objects(w)) != LOCD_OK)
+        return st;
     lc_shape_retain(shape);
     w->shapes[w->n] = shape;
     memcpy(w->poses + 7 * w->n, pose, 7 * sizeof(double));
@@ -224,6 +264,7 @@ locd_status locd_contacts_create(locd_contacts **out)
     if (!c)
         return lc_error(LOCD_ERR_NO_MEMORY, "contacts");
     c->magic = LC_MAGIC_CONTACTS;
+    lc_clear_error();
     return LOCD_OK;
 }
 
@@ -238,6 +279,16 @@ void locd_contacts_destroy(locd_contacts *c)
     free(c->point);
     c->magic = LC_MAGIC_DEAD;
     free(c);
+}
+
+/* Contacts have no allocator (locd.h lists them among the exceptions). */
+static locd_status grow(void **p, size_t count, size_t elem)
+{
+    void *q = realloc(*p, count * elem);
+    if (!q)
+        return lc_error(LOCD_ERR_NO_MEMORY, "contact arrays");
+    *p = q;
+    return LOCD_OK;
 }
 
 locd_status lc_contacts_reserve(locd_contacts *c, size_t count)

@@ -3,11 +3,26 @@
  * which stay free of the public contract's concerns. */
 #include "octree/octree.h"
 
+/* Writes a fitted grid into the caller's, bounded by its size as locd.h
+ * states for locd_grid_fit_*: the grid is output only, so its size may be
+ * unset, and every caller's grid has at least LOCD_GRID_MIN_SIZE bytes. */
+static void grid_out(locd_grid *dst, const locd_grid *g)
+{
+    uint32_t size = dst->size;
+    if (size < LOCD_GRID_MIN_SIZE)
+        size = LOCD_GRID_MIN_SIZE;
+    if (size > sizeof *g)
+        size = sizeof *g;
+    memcpy(dst, g, size);
+    dst->size = size;
+}
+
 #define LC_GRID_FIT(SUFFIX, T)                                                                               \
     locd_status locd_grid_fit_##SUFFIX(const T *boxes, size_t n, uint32_t max_depth, int32_t cell_bias,     \
                                        uint32_t flags, locd_grid *grid)                                      \
     {                                                                                                        \
         lc_bounds b;                                                                                         \
+        locd_grid g;                                                                                         \
         locd_status st;                                                                                      \
         if (!grid || (!boxes && n))                                                                          \
             return lc_error(LOCD_ERR_NULL_POINTER, "%s is NULL", grid ? "boxes" : "grid");                  \
@@ -17,11 +32,13 @@
         lc_bounds_##SUFFIX(boxes, 0, n, &b);                                                                 \
         if (b.bad >= 0)                                                                                      \
             return lc_error_box(b.bad_status, b.bad, "box %lld", (long long)b.bad);                          \
-        st = lc_grid_from_bounds(&b, n, max_depth, cell_bias, flags, grid);                                  \
+        st = lc_grid_from_bounds(&b, n, max_depth, cell_bias, flags, &g);                                    \
         if (!st && !max_depth)                                                                               \
-            lc_grid_tune_depth_##SUFFIX(grid, boxes, n);                                                     \
-        if (!st)                                                                                             \
+            lc_grid_tune_depth_##SUFFIX(&g, boxes, n);                                                       \
+        if (!st) {                                                                                           \
+            grid_out(grid, &g);                                                                              \
             lc_clear_error();                                                                                \
+        }                                                                                                    \
         return st;                                                                                           \
     }
 
@@ -76,8 +93,10 @@ locd_status locd_sort_entries(const locd_grid *grid, uint64_t *entries, uint64_t
 locd_status locd_merge_entries(const uint64_t *const *runs, const size_t *counts, size_t k, uint64_t *out)
 {
     size_t r, begin[64];
-    if (k == 0)
+    if (k == 0) {
+        lc_clear_error();
         return LOCD_OK;
+    }
     if (!runs || !counts || !out)
         return lc_error(LOCD_ERR_NULL_POINTER, "runs, counts and out must not be NULL");
     if (k > 64)
@@ -101,6 +120,21 @@ static int entries_sorted(const uint64_t *e, size_t count)
     return 1;
 }
 
+/* The sweep's figures into the caller's stats, no further than its size
+ * (its other fields keep their values). */
+static void sweep_stats_out(locd_stats *stats, size_t n, size_t count, const lc_sweep_out *o)
+{
+    locd_stats s;
+    memset(&s, 0, sizeof s);
+    memcpy(&s, stats, stats->size);
+    s.objects = n;
+    s.entries = count;
+    s.candidates = o->candidates;
+    s.exact_tests = o->exact_tests;
+    s.pairs = o->count;
+    lc_struct_out(stats, &s);
+}
+
 #define LC_SWEEP_PUBLIC(SUFFIX, T)                                                                           \
     locd_status locd_sweep_##SUFFIX(const locd_grid *grid, const T *boxes, size_t n, const uint64_t *entries, \
                                     size_t count, locd_pairs *out, locd_stats *stats)                        \
@@ -114,8 +148,8 @@ static int entries_sorted(const uint64_t *e, size_t count)
             return st;                                                                                       \
         if (count && (!entries || !boxes))                                                                   \
             return lc_error(LOCD_ERR_NULL_POINTER, "entries and boxes must not be NULL");                   \
-        if (stats && stats->size < sizeof(locd_stats))                                                       \
-            return lc_error(LOCD_ERR_INVALID_ARGUMENT, "stats->size is too small (use locd_stats_init)");   \
+        if (stats && (st = lc_struct_check_out(stats, sizeof *stats, LOCD_STATS_MIN_SIZE, "stats")) != LOCD_OK) \
+            return st;                                                                                       \
         if (!entries_sorted(entries, count))                                                                 \
             return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entries are not strictly ascending");               \
         for (i = 0; i < count; i++)                                                                          \
@@ -129,13 +163,8 @@ static int entries_sorted(const uint64_t *e, size_t count)
             if (o.count)                                                                                     \
                 memcpy(out->data, o.pairs.data, o.count * 2 * sizeof(uint32_t));                             \
             out->count = o.count;                                                                            \
-            if (stats) {                                                                                     \
-                stats->entries = count;                                                                      \
-                stats->objects = n;                                                                          \
-                stats->candidates = o.candidates;                                                            \
-                stats->exact_tests = o.exact_tests;                                                          \
-                stats->pairs = o.count;                                                                      \
-            }                                                                                                \
+            if (stats)                                                                                       \
+                sweep_stats_out(stats, n, count, &o);                                                        \
             lc_clear_error();                                                                                \
         }                                                                                                    \
         lc_sweep_out_fini(&o);                                                                               \

@@ -152,9 +152,9 @@ locd_status lc_grid_check(const locd_grid *g)
 {
     if (!g)
         return lc_error(LOCD_ERR_NULL_POINTER, "grid is NULL");
-    if (g->size < sizeof(locd_grid))
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "grid->size is %u, expected %zu (use locd_grid_fit_*)", g->size,
-                        sizeof(locd_grid));
+    if (g->size < LOCD_GRID_MIN_SIZE || g->size > sizeof(locd_grid))
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "grid->size is %u, not %u..%zu (use locd_grid_fit_*)", g->size,
+                        LOCD_GRID_MIN_SIZE, sizeof(locd_grid));
     if (g->depth > 21 || g->index_bits < 1 || g->index_bits > 32 ||
         g->index_bits + LC_LEVEL_BITS + 3 * g->depth > 64 || g->cell_bias < 0 || g->cell_bias > 8 ||
         !(g->scale_a > 0.0) || !(g->scale_b >= 0.0))

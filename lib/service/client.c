@@ -514,7 +514,7 @@ static locd_status service_submit(locd_engine *e, const void *boxes, size_t n, i
     if ((st = send_submit(c, j, e, boxes, bytes)) != LOCD_OK) {
         locd_job *mine = take_pending(c, j->id);
         if (mine)
-            job_done(mine, st, locd_last_error(), -1);
+            job_done(mine, st, lc_last_error_detail(), -1);
         lc_service_job_released(j);
         lc_job_unref(j);
         return lc_error(LOCD_ERR_CONNECTION, "the service connection broke while sending the job");
@@ -575,9 +575,9 @@ static locd_status service_find(locd_engine *e, const void *boxes, size_t n, int
     if (st) {
         char msg[256];
         int64_t idx = locd_last_error_index();
-        snprintf(msg, sizeof msg, "%s", locd_last_error());
+        snprintf(msg, sizeof msg, "%s", lc_last_error_detail());
         locd_job_release(j);
-        return lc_error_box(st, idx, "%s", msg + (strchr(msg, ':') ? (size_t)(strchr(msg, ':') - msg) + 2 : 0));
+        return lc_error_box(st, idx, "%s", msg);
     }
     locd_job_release(j);
     return LOCD_OK;

@@ -50,14 +50,10 @@ static void default_listen(char *def, size_t len)
  * cfg->listen may then point into def. */
 static locd_status resolve_config(const locd_service_config *config, locd_service_config *cfg, char *def, size_t len)
 {
+    locd_status st;
     locd_service_config_init(cfg);
-    if (config) {
-        if (config->size < 2 * sizeof(uint32_t) || config->size > sizeof *cfg)
-            return lc_error(LOCD_ERR_INVALID_ARGUMENT, "config->size is %u; use locd_service_config_init()",
-                            config->size);
-        memcpy(cfg, config, config->size);
-        cfg->size = sizeof *cfg;
-    }
+    if (config && (st = lc_struct_in(cfg, sizeof *cfg, config, LOCD_SERVICE_CONFIG_MIN_SIZE, "config")) != LOCD_OK)
+        return st;
     if (!cfg->listen) {
         default_listen(def, len);
         cfg->listen = def;
@@ -243,6 +239,7 @@ locd_status locd_service_run(locd_service *h)
     close_connections(s);
     stop_runners(s);
     lc_srv_log(s, LOCD_LOG_INFO, "stopped after %llu jobs", (unsigned long long)s->served);
+    lc_clear_error();
     return LOCD_OK;
 }
 

@@ -124,7 +124,7 @@ static void run_job(runner *r, lc_srv_job *j)
         rc = j->f.f64 ? locd_engine_find_pairs_f64(r->engine, j->boxes, (size_t)j->f.n, j->f.flags, r->pairs)
                       : locd_engine_find_pairs_f32(r->engine, j->boxes, (size_t)j->f.n, j->f.flags, r->pairs);
     if (rc) {
-        lc_srv_send_result(j->c, j->id, rc, locd_last_error(), locd_last_error_index(), NULL, NULL, 0);
+        lc_srv_send_result(j->c, j->id, rc, lc_last_error_detail(), locd_last_error_index(), NULL, NULL, 0);
         return;
     }
     if (job_cancelled(j)) /* cancelled while running: dropped */
