@@ -30,12 +30,22 @@
 #define LC_CONNECT_TIMEOUT_MS 5000
 #define LC_RESULT_MAX_BYTES (1ull << 37)
 
+/* A service job: the common part first (see engine/engine.h), then what
+ * the connection needs to match the service's answer. */
+typedef struct lc_svc_job {
+    locd_job job;
+    struct lc_svc_conn *conn;
+    uint64_t id;
+    char shm_name[64];          /* bulk input segment to unlink when done ("" = none) */
+    struct lc_svc_job *next;    /* in the connection's pending list */
+} lc_svc_job;
+
 typedef struct lc_svc_conn {
     pthread_mutex_t mu; /* refs, dead, pending, next_id */
     int refs;
     int dead;
     char why[200];
-    locd_job *pending;
+    lc_svc_job *pending;
     uint64_t next_id;
     pthread_mutex_t wmu; /* one writer at a time; fd */
     int fd;
@@ -65,9 +75,9 @@ static void conn_unref(lc_svc_conn *c)
 }
 
 /* Removes job `id` from the pending list; the caller gets its reference. */
-static locd_job *take_pending(lc_svc_conn *c, uint64_t id)
+static lc_svc_job *take_pending(lc_svc_conn *c, uint64_t id)
 {
-    locd_job **pp, *j = NULL;
+    lc_svc_job **pp, *j = NULL;
     pthread_mutex_lock(&c->mu);
     for (pp = &c->pending; *pp; pp = &(*pp)->next)
         if ((*pp)->id == id) {
@@ -82,24 +92,24 @@ static locd_job *take_pending(lc_svc_conn *c, uint64_t id)
 
 /* Removes the job's input segment name, if any (it may still be there
  * when the service never opened it). */
-static void drop_segment(locd_job *j)
+static void drop_segment(lc_svc_job *j)
 {
-    pthread_mutex_lock(&j->mu);
+    pthread_mutex_lock(&j->job.mu);
     if (j->shm_name[0]) {
         shm_unlink(j->shm_name);
         j->shm_name[0] = '\0';
     }
-    pthread_mutex_unlock(&j->mu);
+    pthread_mutex_unlock(&j->job.mu);
 }
 
-static void job_done(locd_job *j, locd_status st, const char *msg, int64_t index)
+static void job_done(lc_svc_job *j, locd_status st, const char *msg, int64_t index)
 {
     drop_segment(j);
-    lc_job_finish_unref(j, st, msg, index);
+    lc_job_finish_unref(&j->job, st, msg, index);
 }
 
 /* Reads one RESULT payload (after its header) for job j (NULL: discard). */
-static int read_result(lc_svc_conn *c, const lc_msg_header *h, locd_job *j, char *why, size_t wl)
+static int read_result(lc_svc_conn *c, const lc_msg_header *h, lc_svc_job *j, char *why, size_t wl)
 {
     uint8_t fixed[16], sbuf[LC_PROTO_STATS_BYTES], cbuf[8];
     char msg[LC_PROTO_MAX_TEXT + 1];
@@ -136,22 +146,22 @@ static int read_result(lc_svc_conn *c, const lc_msg_header *h, locd_job *j, char
         return lc_proto_skip(c->fd, count * 8, 30000, why, wl) == 1 ? 0 : -1;
     lc_proto_get_stats(sbuf, &st);
     if (status == LOCD_OK) {
-        if (lc_pairs_reserve(&j->result, (size_t)count) != LOCD_OK) {
+        if (lc_pairs_reserve(&j->job.result, (size_t)count) != LOCD_OK) {
             if (lc_proto_skip(c->fd, count * 8, 30000, why, wl) != 1)
                 return -1;
             job_done(j, LOCD_ERR_NO_MEMORY, "no memory for the service's result", -1);
             return 0;
         }
-        if (count && lc_proto_read_all(c->fd, j->result.data, (size_t)count * 8, 30000, why, wl) != 1) {
+        if (count && lc_proto_read_all(c->fd, j->job.result.data, (size_t)count * 8, 30000, why, wl) != 1) {
             job_done(j, LOCD_ERR_CONNECTION, why, -1);
             return -1;
         }
-        j->result.count = (size_t)count;
+        j->job.result.count = (size_t)count;
         /* Transfer: what the round trip cost beyond the service's own call. */
-        st.ms_transfer = lc_now_ms() - j->t_submit - st.ms_total;
+        st.ms_transfer = lc_now_ms() - j->job.t_submit - st.ms_total;
         if (st.ms_transfer < 0)
             st.ms_transfer = 0;
-        j->stats = st;
+        j->job.stats = st;
         job_done(j, LOCD_OK, NULL, -1);
         return 0;
     }
@@ -169,7 +179,7 @@ static void *reader_main(void *arg)
     char why[200] = "connection closed";
     uint8_t hb[LC_PROTO_HEADER];
     lc_msg_header h;
-    locd_job *list, *j;
+    lc_svc_job *list, *j;
     for (;;) {
         int r = lc_proto_read_all(c->fd, hb, sizeof hb, -1, why, sizeof why);
         if (r != 1)
@@ -407,7 +417,7 @@ static locd_status get_conn(locd_engine *e, lc_svc_conn **out)
 }
 
 /* Puts the boxes in a fresh shm segment; the name goes into j->shm_name. */
-static locd_status boxes_to_shm(locd_job *j, const void *boxes, size_t bytes)
+static locd_status boxes_to_shm(lc_svc_job *j, const void *boxes, size_t bytes)
 {
     static unsigned counter;
     struct timespec ts;
@@ -439,30 +449,25 @@ static locd_status boxes_to_shm(locd_job *j, const void *boxes, size_t bytes)
     return LOCD_OK;
 }
 
-static locd_status send_submit(lc_svc_conn *c, locd_job *j, const locd_engine *e, const void *boxes, size_t bytes)
+/* Sends the SUBMIT message of job j: f, then the segment name or the
+ * boxes themselves. */
+static locd_status send_submit(lc_svc_conn *c, lc_svc_job *j, lc_submit_fixed *f, const void *boxes, size_t bytes)
 {
     uint8_t buf[LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4 + 64];
     char name[sizeof j->shm_name];
-    lc_submit_fixed f;
     size_t nl, len;
     int rc;
     /* The reader thread may fail the job (and clear its segment name) as
        soon as it is registered: read the name under the job's lock. */
-    pthread_mutex_lock(&j->mu);
+    pthread_mutex_lock(&j->job.mu);
     memcpy(name, j->shm_name, sizeof name);
-    pthread_mutex_unlock(&j->mu);
+    pthread_mutex_unlock(&j->job.mu);
     name[sizeof name - 1] = '\0';
     nl = name[0] ? strlen(name) : 0;
-    f.flags = j->flags;
-    f.f64 = (uint32_t)j->f64;
-    f.n = j->n;
-    f.max_depth = e->cfg.max_depth;
-    f.cell_bias = e->cfg.cell_bias;
-    f.config_flags = e->cfg.flags;
-    f.transport = nl ? 1u : 0u;
+    f->transport = nl ? 1u : 0u;
     len = LC_PROTO_SUBMIT_FIXED + (nl ? 4 + nl : bytes);
     lc_proto_put_header(buf, LC_MSG_SUBMIT, j->id, len);
-    lc_proto_put_submit(buf + LC_PROTO_HEADER, &f);
+    lc_proto_put_submit(buf + LC_PROTO_HEADER, f);
     pthread_mutex_lock(&c->wmu);
     if (c->fd < 0) {
         rc = -1;
@@ -481,55 +486,10 @@ static locd_status send_submit(lc_svc_conn *c, locd_job *j, const locd_engine *e
     return rc ? lc_error(LOCD_ERR_CONNECTION, "the service connection broke while sending") : LOCD_OK;
 }
 
-static locd_status service_submit(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
-                                  locd_job **out)
+/* lc_job_ops.cancel: asks the service to drop the job. */
+static void svc_job_cancel(locd_job *job)
 {
-    size_t bytes = n * 6 * (f64 ? sizeof(double) : sizeof(float));
-    lc_svc_conn *c;
-    locd_job *j;
-    locd_status st;
-    if ((st = get_conn(e, &c)) != LOCD_OK)
-        return st;
-    if ((st = lc_job_new(&e->alloc, LC_JOB_SERVICE, &j)) != LOCD_OK) {
-        conn_unref(c);
-        return st;
-    }
-    j->conn = c; /* the job keeps the caller's reference on c */
-    j->n = n;
-    j->f64 = f64;
-    j->flags = flags;
-    if (c->shm_ok && bytes >= LC_PROTO_SHM_MIN_BYTES && (st = boxes_to_shm(j, boxes, bytes)) != LOCD_OK) {
-        j->refs = 1;
-        lc_service_job_released(j);
-        lc_job_unref(j);
-        return st;
-    }
-    pthread_mutex_lock(&c->mu);
-    if (c->dead) {
-        pthread_mutex_unlock(&c->mu);
-        j->refs = 1;
-        lc_service_job_released(j);
-        lc_job_unref(j);
-        return lc_error(LOCD_ERR_CONNECTION, "the service connection is closed");
-    }
-    j->id = ++c->next_id;
-    j->next = c->pending;
-    c->pending = j;
-    pthread_mutex_unlock(&c->mu);
-    if ((st = send_submit(c, j, e, boxes, bytes)) != LOCD_OK) {
-        locd_job *mine = take_pending(c, j->id);
-        if (mine)
-            job_done(mine, st, locd_last_error(), -1);
-        lc_service_job_released(j);
-        lc_job_unref(j);
-        return lc_error(LOCD_ERR_CONNECTION, "the service connection broke while sending the job");
-    }
-    *out = j;
-    return LOCD_OK;
-}
-
-void lc_service_job_cancel(locd_job *j)
-{
+    lc_svc_job *j = (lc_svc_job *)job;
     lc_svc_conn *c = j->conn;
     uint8_t hb[LC_PROTO_HEADER];
     if (!c)
@@ -541,20 +501,90 @@ void lc_service_job_cancel(locd_job *j)
     pthread_mutex_unlock(&c->wmu);
 }
 
-/* The caller let go of the job: its input segment can go, and so can its
- * reference on the connection once the job itself is freed. */
-void lc_service_job_released(locd_job *j)
+/* lc_job_ops.released: the caller let go of the job. Its input segment
+ * can go once the job is finished (the reader removes it otherwise), and
+ * the job's reference on the connection goes now, on the caller's thread:
+ * dropped by the reader, the last one would free the connection under it. */
+static void svc_job_released(locd_job *job)
 {
+    lc_svc_job *j = (lc_svc_job *)job;
     lc_svc_conn *c = j->conn;
-    pthread_mutex_lock(&j->mu);
-    if (j->shm_name[0] && j->status != LOCD_PENDING) {
+    pthread_mutex_lock(&job->mu);
+    if (j->shm_name[0] && job->status != LOCD_PENDING) {
         shm_unlink(j->shm_name);
         j->shm_name[0] = '\0';
     }
-    pthread_mutex_unlock(&j->mu);
+    pthread_mutex_unlock(&job->mu);
     j->conn = NULL;
     if (c)
         conn_unref(c);
+}
+
+/* lc_job_ops.free: a job discarded before it was sent still names its
+ * segment. */
+static void svc_job_free(locd_job *job)
+{
+    lc_svc_job *j = (lc_svc_job *)job;
+    if (j->shm_name[0])
+        shm_unlink(j->shm_name);
+}
+
+static const lc_job_ops svc_job_ops = {sizeof(lc_svc_job), svc_job_cancel, svc_job_released, svc_job_free};
+
+/* Puts j on the connection's pending list under a fresh id, unless the
+ * connection is already closed. */
+static locd_status register_job(lc_svc_conn *c, lc_svc_job *j)
+{
+    pthread_mutex_lock(&c->mu);
+    if (c->dead) {
+        pthread_mutex_unlock(&c->mu);
+        return lc_error(LOCD_ERR_CONNECTION, "the service connection is closed");
+    }
+    j->id = ++c->next_id;
+    j->next = c->pending;
+    c->pending = j;
+    pthread_mutex_unlock(&c->mu);
+    return LOCD_OK;
+}
+
+static locd_status service_submit(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
+                                  locd_job **out)
+{
+    size_t bytes = n * 6 * (f64 ? sizeof(double) : sizeof(float));
+    lc_submit_fixed f;
+    lc_svc_conn *c;
+    lc_svc_job *j;
+    locd_job *job;
+    locd_status st;
+    if ((st = get_conn(e, &c)) != LOCD_OK)
+        return st;
+    if ((st = lc_job_new(&e->alloc, &svc_job_ops, &job)) != LOCD_OK) {
+        conn_unref(c);
+        return st;
+    }
+    j = (lc_svc_job *)job;
+    j->conn = c; /* the job keeps the caller's reference on c */
+    if ((c->shm_ok && bytes >= LC_PROTO_SHM_MIN_BYTES && (st = boxes_to_shm(j, boxes, bytes)) != LOCD_OK) ||
+        (st = register_job(c, j)) != LOCD_OK) {
+        lc_job_discard(job);
+        return st;
+    }
+    f.flags = flags;
+    f.f64 = (uint32_t)f64;
+    f.n = n;
+    f.max_depth = e->cfg.max_depth;
+    f.cell_bias = e->cfg.cell_bias;
+    f.config_flags = e->cfg.flags;
+    if ((st = send_submit(c, j, &f, boxes, bytes)) != LOCD_OK) {
+        lc_svc_job *mine = take_pending(c, j->id);
+        if (mine)
+            job_done(mine, st, locd_last_error(), -1);
+        svc_job_released(job);
+        lc_job_unref(job);
+        return lc_error(LOCD_ERR_CONNECTION, "the service connection broke while sending the job");
+    }
+    *out = job;
+    return LOCD_OK;
 }
 
 static locd_status service_find(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
