@@ -28,7 +28,6 @@
 #include <sys/un.h>
 #include <unistd.h>
 
-#define LC_MAGIC_SERVICE 0x4c4f4353u /* "LOCS" */
 #define LC_MSG_TIMEOUT_MS 30000
 #define LC_HELLO_TIMEOUT_MS 5000
 
