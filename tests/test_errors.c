@@ -134,6 +134,72 @@ static void null_pointers_and_bad_handles(void **state)
     assert_null(locd_pairs_data(NULL));
 }
 
+/* One live handle of each kind, and the call that checks a handle of that
+ * kind; contacts are checked through a world (its first argument). The
+ * service comes last: its check (run) would serve forever on a handle it
+ * took by mistake, so a clash shows first as another kind's failure. */
+enum { K_ENGINE, K_PAIRS, K_JOB, K_SHAPE, K_WORLD, K_CONTACTS, K_SERVICE, K_KINDS };
+static const char *const kind_names[K_KINDS] = {"engine", "pairs", "job", "shape", "world", "contacts", "service"};
+
+static locd_status check_as(int kind, void *h, locd_world *world)
+{
+    const double pose[7] = {0, 0, 0, 1, 0, 0, 0};
+    double out[7];
+    locd_stats st;
+    locd_stats_init(&st);
+    switch (kind) {
+    case K_ENGINE: return locd_engine_stats((locd_engine *)h, &st);
+    case K_PAIRS: return locd_pairs_sort((locd_pairs *)h);
+    case K_JOB: return locd_job_poll((locd_job *)h);
+    case K_SHAPE: return locd_shape_aabb((const locd_shape *)h, pose, out);
+    case K_WORLD: return locd_world_get_pose((const locd_world *)h, 0, out);
+    case K_CONTACTS: return locd_world_collide(world, NULL, (locd_contacts *)h, NULL);
+    default: return locd_service_run((locd_service *)h);
+    }
+}
+
+/* Every kind of handle has its own magic: passed where another kind is
+ * expected, it is refused (the narrow-phase kinds only when built). */
+static void each_handle_kind_is_refused_as_another(void **state)
+{
+    fixture *f = *state;
+    void *h[K_KINDS] = {0};
+    locd_service_config sc;
+    locd_job *job;
+    locd_service *svc;
+    locd_shape *shape = NULL;
+    locd_world *world = NULL;
+    locd_contacts *contacts = NULL;
+    locd_status st;
+    int have, want;
+    assert_int_equal(locd_engine_submit_f32(f->e, NULL, 0, 0, &job), LOCD_OK);
+    assert_int_equal(locd_job_wait(job, -1), LOCD_OK);
+    locd_service_config_init(&sc);
+    sc.listen = "tcp:127.0.0.1:0";
+    sc.secret = "handles";
+    sc.threads = 1;
+    assert_int_equal(locd_service_create(&sc, &svc), LOCD_OK);
+    if (locd_shape_sphere(1.0, &shape) == LOCD_OK) {
+        assert_int_equal(locd_world_create(NULL, &world), LOCD_OK);
+        assert_int_equal(locd_contacts_create(&contacts), LOCD_OK);
+    }
+    h[K_ENGINE] = f->e, h[K_PAIRS] = f->p, h[K_JOB] = job, h[K_SERVICE] = svc;
+    h[K_SHAPE] = shape, h[K_WORLD] = world, h[K_CONTACTS] = contacts;
+    for (want = 0; want < K_KINDS; want++)
+        for (have = 0; have < K_KINDS; have++) {
+            if (have == want || !h[have] || !h[want])
+                continue;
+            st = check_as(want, h[have], world);
+            if (st != LOCD_ERR_INVALID_HANDLE)
+                fail_msg("a %s passed as a %s gave status %d", kind_names[have], kind_names[want], (int)st);
+        }
+    locd_contacts_destroy(contacts);
+    locd_world_destroy(world);
+    locd_shape_destroy(shape);
+    locd_service_destroy(svc);
+    locd_job_release(job);
+}
+
 static void too_many_objects(void **state)
 {
     fixture *f = *state;
@@ -201,6 +267,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(f64_bad_box_too, setup, teardown),
         cmocka_unit_test_setup_teardown(zero_and_one_box_give_no_pairs, setup, teardown),
         cmocka_unit_test_setup_teardown(null_pointers_and_bad_handles, setup, teardown),
+        cmocka_unit_test_setup_teardown(each_handle_kind_is_refused_as_another, setup, teardown),
         cmocka_unit_test_setup_teardown(too_many_objects, setup, teardown),
         cmocka_unit_test_setup_teardown(into_buffer_too_small_keeps_pairs_available, setup, teardown),
         cmocka_unit_test(statuses_have_strings_and_version_matches),

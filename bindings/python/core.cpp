@@ -228,9 +228,11 @@ public:
 
 private:
     // A cancelled or released job of levels 1 and 2 keeps running inside
-    // the engine until its current call returns (lib/engine/job.c), and
-    // locd_engine_destroy does not wait for it. An empty find succeeds only
-    // once the engine is free again, so wait for that before destroying.
+    // the engine until its current call returns (lib/engine/submit.c).
+    // locd_engine_destroy waits for that call, and for the job's thread to
+    // exit, before it closes the level (lib/engine/engine.c); this wait
+    // ahead of it (an empty find succeeds only once the engine is free
+    // again) is the same wait, done by polling.
     void drain()
     {
         static const float none[6] = {0, 0, 0, 0, 0, 0};

@@ -8,6 +8,11 @@
 #include <stdarg.h>
 #include <string.h>
 
+/* C++ sees this header through narrow/narrow.h (narrow/fcl_glue.cpp). */
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #if defined(__GNUC__)
 #define LC_LIKELY(x) __builtin_expect(!!(x), 1)
 #define LC_UNLIKELY(x) __builtin_expect(!!(x), 0)
@@ -22,11 +27,21 @@
 #define LC_PRINTF(a, b)
 #endif
 
-/* Handle kinds: the first field of every handle, checked on entry. */
-#define LC_MAGIC_ENGINE 0x4c4f4345u /* "LOCE" */
-#define LC_MAGIC_PAIRS 0x4c4f4350u  /* "LOCP" */
-#define LC_MAGIC_JOB 0x4c4f434au    /* "LOCJ" */
-#define LC_MAGIC_DEAD 0xdeadbeefu
+/* Handle kinds: the first field of every handle, checked on entry (and of
+ * level 2's shared control block). One list, so that no two kinds share a
+ * value and a handle of one kind passed as another is refused. "LOC" and a
+ * letter: C99 wants enumerators that fit an int. */
+enum lc_magic {
+    LC_MAGIC_ENGINE = 0x4c4f4345,   /* "LOCE" */
+    LC_MAGIC_PAIRS = 0x4c4f4350,    /* "LOCP" */
+    LC_MAGIC_JOB = 0x4c4f434a,      /* "LOCJ" */
+    LC_MAGIC_SERVICE = 0x4c4f4356,  /* "LOCV" service/server.c */
+    LC_MAGIC_SHAPE = 0x4c4f4353,    /* "LOCS" narrow/ */
+    LC_MAGIC_WORLD = 0x4c4f4357,    /* "LOCW" narrow/ */
+    LC_MAGIC_CONTACTS = 0x4c4f434e, /* "LOCN" narrow/ */
+    LC_MAGIC_SHM = 0x4c4f434d,      /* "LOCM" levels/levels.h: the shm control block */
+    LC_MAGIC_DEAD = 0x4c4f4358      /* "LOCX" a destroyed handle */
+};
 
 /* The most threads (level 1), worker processes (level 2) or sorted runs one
  * merge takes: per-thread state lives in fixed arrays of this size. */
@@ -131,5 +146,9 @@ void lc_pool_destroy(lc_pool *p);
  * and returns when all are done. */
 void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx);
 uint32_t lc_cpu_count(void);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

@@ -2,9 +2,6 @@
  * integration level chosen at creation. */
 #include "engine/engine.h"
 
-#include <stdio.h>
-#include <time.h>
-
 void locd_engine_config_init(locd_engine_config *config)
 {
     if (!config)
@@ -15,51 +12,6 @@ void locd_engine_config_init(locd_engine_config *config)
     config->threads = 0;
     config->max_depth = 0;
     config->cell_bias = LOCD_DEFAULT_CELL_BIAS;
-}
-
-void locd_stats_init(locd_stats *stats)
-{
-    if (!stats)
-        return;
-    memset(stats, 0, sizeof *stats);
-    stats->size = sizeof *stats;
-}
-
-locd_status lc_engine_check(const locd_engine *e)
-{
-    if (!e)
-        return lc_error(LOCD_ERR_INVALID_HANDLE, "engine is NULL");
-    if (e->magic != LC_MAGIC_ENGINE)
-        return lc_error(LOCD_ERR_INVALID_HANDLE, "not a locd_engine handle (destroyed?)");
-    return LOCD_OK;
-}
-
-int lc_engine_acquire(locd_engine *e)
-{
-    int expected = 0;
-    return __atomic_compare_exchange_n(&e->busy, &expected, 1, 0, __ATOMIC_ACQUIRE, __ATOMIC_RELAXED);
-}
-
-void lc_engine_release(locd_engine *e)
-{
-    __atomic_store_n(&e->busy, 0, __ATOMIC_RELEASE);
-}
-
-void lc_engine_log(const locd_engine *e, int32_t severity, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    lc_log_emit(e->cfg.log, e->cfg.log_user, severity, fmt, ap);
-    va_end(ap);
-}
-
-locd_status lc_order_pairs(locd_pairs *p, locd_stats *stats)
-{
-    double t0 = lc_now_ms();
-    locd_status st = locd_pairs_sort(p);
-    if (stats)
-        stats->ms_order = lc_now_ms() - t0;
-    return st;
 }
 
 static char *dup_string(const locd_allocator *a, const char *s)
@@ -88,8 +40,64 @@ static void engine_free(locd_engine *e)
     free_string(&a, e->service_secret);
     free_string(&a, e->worker_path);
     lc_pairs_fini_embedded(&e->last);
+    pthread_cond_destroy(&e->idle);
+    pthread_mutex_destroy(&e->mu);
     e->magic = LC_MAGIC_DEAD;
     lc_free(&a, e, sizeof *e);
+}
+
+/* The caller's config over the defaults, validated. */
+static locd_status read_config(const locd_engine_config *config, locd_engine_config *cfg)
+{
+    locd_status st;
+    locd_engine_config_init(cfg);
+    /* An older, shorter struct keeps the defaults for the fields it lacks. */
+    if (config && (st = lc_struct_in(cfg, sizeof *cfg, config, LOCD_ENGINE_CONFIG_MIN_SIZE, "config")) != LOCD_OK)
+        return st;
+    if (cfg->level < LOCD_LEVEL_INPROCESS || cfg->level > LOCD_LEVEL_SERVICE)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "level %d is not 1, 2 or 3", (int)cfg->level);
+    if (cfg->cell_bias < 0 || cfg->cell_bias > 8)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "cell_bias %d is outside 0..8", (int)cfg->cell_bias);
+    if (cfg->max_depth > 21)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "max_depth %u exceeds 21", cfg->max_depth);
+    if (cfg->threads > 64)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "threads %u exceeds 64", cfg->threads);
+    if ((cfg->allocator.alloc == NULL) != (cfg->allocator.free == NULL))
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "allocator: set both alloc and free, or neither");
+    if (cfg->level == LOCD_LEVEL_SERVICE && !cfg->service_address)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "level 3 needs service_address (\"unix:PATH\" or \"tcp:HOST:PORT\")");
+    return LOCD_OK;
+}
+
+/* A zeroed engine with its lock ready, owning copies of cfg's strings. */
+static locd_status engine_new(const locd_engine_config *cfg, const locd_allocator *a, locd_engine **out)
+{
+    locd_engine *e = lc_alloc(a, sizeof *e);
+    *out = NULL;
+    if (!e)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the engine");
+    memset(e, 0, sizeof *e);
+    if (pthread_mutex_init(&e->mu, NULL) != 0) {
+        lc_free(a, e, sizeof *e);
+        return lc_error(LOCD_ERR_THREAD, "pthread_mutex_init failed");
+    }
+    if (pthread_cond_init(&e->idle, NULL) != 0) {
+        pthread_mutex_destroy(&e->mu);
+        lc_free(a, e, sizeof *e);
+        return lc_error(LOCD_ERR_THREAD, "pthread_cond_init failed");
+    }
+    e->alloc = *a;
+    lc_pairs_init_embedded(&e->last, a);
+    e->service_address = dup_string(a, cfg->service_address);
+    e->service_secret = dup_string(a, cfg->service_secret);
+    e->worker_path = dup_string(a, cfg->worker_path);
+    if ((cfg->service_address && !e->service_address) || (cfg->service_secret && !e->service_secret) ||
+        (cfg->worker_path && !e->worker_path)) {
+        engine_free(e);
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not copy the configuration strings");
+    }
+    *out = e;
+    return LOCD_OK;
 }
 
 locd_status locd_engine_create(const locd_engine_config *config, locd_engine **out)
@@ -101,43 +109,18 @@ locd_status locd_engine_create(const locd_engine_config *config, locd_engine **o
     if (!out)
         return lc_error(LOCD_ERR_NULL_POINTER, "out is NULL");
     *out = NULL;
-    locd_engine_config_init(&cfg);
-    if (config && (st = lc_struct_in(&cfg, sizeof cfg, config, LOCD_ENGINE_CONFIG_MIN_SIZE, "config")) != LOCD_OK)
+    if ((st = read_config(config, &cfg)) != LOCD_OK)
         return st;
-    if (cfg.level < LOCD_LEVEL_INPROCESS || cfg.level > LOCD_LEVEL_SERVICE)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "level %d is not 1, 2 or 3", (int)cfg.level);
-    if (cfg.cell_bias < 0 || cfg.cell_bias > 8)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "cell_bias %d is outside 0..8", (int)cfg.cell_bias);
-    if (cfg.max_depth > 21)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "max_depth %u exceeds 21", cfg.max_depth);
-    if (cfg.threads > 64)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "threads %u exceeds 64", cfg.threads);
-    if ((cfg.allocator.alloc == NULL) != (cfg.allocator.free == NULL))
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "allocator: set both alloc and free, or neither");
-    if (cfg.level == LOCD_LEVEL_SERVICE && !cfg.service_address)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "level 3 needs service_address (\"unix:PATH\" or \"tcp:HOST:PORT\")");
     lc_allocator_resolve(&a, &cfg.allocator);
-    e = lc_alloc(&a, sizeof *e);
-    if (!e)
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the engine");
-    memset(e, 0, sizeof *e);
-    e->alloc = a;
+    if ((st = engine_new(&cfg, &a, &e)) != LOCD_OK)
+        return st;
     e->cfg = cfg;
     e->cfg.allocator = a;
-    e->level = cfg.level;
-    e->threads = cfg.threads ? cfg.threads : lc_cpu_count();
-    lc_pairs_init_embedded(&e->last, &a);
-    e->service_address = dup_string(&a, cfg.service_address);
-    e->service_secret = dup_string(&a, cfg.service_secret);
-    e->worker_path = dup_string(&a, cfg.worker_path);
-    if ((cfg.service_address && !e->service_address) || (cfg.service_secret && !e->service_secret) ||
-        (cfg.worker_path && !e->worker_path)) {
-        engine_free(e);
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not copy the configuration strings");
-    }
     e->cfg.service_address = e->service_address;
     e->cfg.service_secret = e->service_secret;
     e->cfg.worker_path = e->worker_path;
+    e->level = cfg.level;
+    e->threads = cfg.threads ? cfg.threads : lc_cpu_count();
     e->ops = cfg.level == LOCD_LEVEL_WORKERS   ? &lc_workers_backend
              : cfg.level == LOCD_LEVEL_SERVICE ? &lc_service_backend
                                                : &lc_inproc_backend;
@@ -160,13 +143,13 @@ void locd_engine_destroy(locd_engine *engine)
     if (!engine || engine->magic != LC_MAGIC_ENGINE)
         return;
     /* A job released while still running (levels 1 and 2) keeps the engine
-       busy until its find returns, and its thread uses the engine's
-       allocator until it exits: wait for both rather than free the engine
-       under it. */
-    while (__atomic_load_n(&engine->busy, __ATOMIC_ACQUIRE) || __atomic_load_n(&engine->job_threads, __ATOMIC_ACQUIRE)) {
-        struct timespec pause = {0, 200000};
-        nanosleep(&pause, NULL);
-    }
+       busy until its find returns, and its queue thread uses the engine's
+       allocator and lock until it exits: wait for both rather than free
+       the engine under it. */
+    pthread_mutex_lock(&engine->mu);
+    while (engine->busy || engine->queue.threads)
+        pthread_cond_wait(&engine->idle, &engine->mu);
+    pthread_mutex_unlock(&engine->mu);
     engine->ops->close(engine);
     engine_free(engine);
 }
@@ -179,20 +162,6 @@ int32_t locd_engine_level(const locd_engine *engine)
 uint32_t locd_engine_threads(const locd_engine *engine)
 {
     return lc_engine_check(engine) ? 0 : engine->threads;
-}
-
-locd_status lc_check_request(const locd_engine *e, const void *boxes, size_t n, uint32_t flags)
-{
-    locd_status st = lc_engine_check(e);
-    if (st)
-        return st;
-    if (n && !boxes)
-        return lc_error(LOCD_ERR_NULL_POINTER, "boxes is NULL");
-    if (flags & ~LOCD_FIND_SORTED)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown flags 0x%x", flags & ~LOCD_FIND_SORTED);
-    if ((uint64_t)n > (uint64_t)UINT32_MAX + 1u)
-        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu objects do not fit a 32-bit index", n);
-    return LOCD_OK;
 }
 
 static locd_status find_common(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
@@ -275,16 +244,6 @@ locd_status locd_engine_last_pairs(locd_engine *engine, const uint32_t **pairs, 
     *count = engine->last.count;
     lc_clear_error();
     return LOCD_OK;
-}
-
-locd_status lc_stats_check_out(const locd_stats *stats)
-{
-    return lc_struct_check_out(stats, sizeof *stats, LOCD_STATS_MIN_SIZE, "stats");
-}
-
-void lc_stats_copy_out(locd_stats *dst, const locd_stats *src)
-{
-    lc_struct_out(dst, src);
 }
 
 locd_status locd_engine_stats(const locd_engine *engine, locd_stats *stats)

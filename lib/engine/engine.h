@@ -20,8 +20,8 @@ typedef struct lc_backend {
      * Honors LOCD_FIND_SORTED. */
     locd_status (*find)(struct locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags, locd_pairs *out,
                         locd_stats *stats);
-    /* Asynchronous submit; NULL means the generic job (job.c) that runs find
-     * on a thread of its own. */
+    /* Asynchronous submit; NULL means the generic job (submit.c), queued on
+     * the engine and run with find on a thread of its own. */
     locd_status (*submit)(struct locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
                           locd_job **out);
 } lc_backend;
@@ -29,6 +29,16 @@ typedef struct lc_backend {
 extern const lc_backend lc_inproc_backend;  /* levels/inproc.c */
 extern const lc_backend lc_workers_backend; /* levels/workers.c */
 extern const lc_backend lc_service_backend; /* service/client.c */
+
+struct lc_queued_job; /* submit.c */
+
+/* Levels 1 and 2: the engine's queue of generic jobs (submit.c), drained
+ * by one thread at a time. Guarded by the engine's mu. */
+typedef struct lc_job_queue {
+    struct lc_queued_job *head, *tail;
+    int draining; /* a thread holds the engine's busy flag for the queue */
+    int threads;  /* queue threads not yet exited: they still use the engine's mu */
+} lc_job_queue;
 
 struct locd_engine {
     uint32_t magic;
@@ -39,20 +49,28 @@ struct locd_engine {
     char *worker_path;
     int32_t level;
     uint32_t threads;
-    int busy; /* taken with __atomic builtins: one call at a time */
-    int job_threads; /* job queue threads still alive (job.c); destroy waits for 0 */
+    pthread_mutex_t mu;  /* busy and queue */
+    pthread_cond_t idle; /* broadcast when busy drops to 0 or a queue thread exits */
+    int busy;            /* one call at a time: a find, or the queue while it has jobs */
+    lc_job_queue queue;
     locd_stats stats;
     locd_pairs last; /* results of *_into calls */
     const lc_backend *ops;
     void *backend; /* the level's own state */
 };
 
+/* ---- helpers the engine shares with its jobs and levels (shared.c) ----
+ * shared.c names no backend, so a level calling these never calls back
+ * into engine.c, which refers to the levels' tables. */
+
 /* Validates an engine handle. */
 locd_status lc_engine_check(const struct locd_engine *e);
 /* Validates the arguments every find and submit call shares (handle, boxes,
  * n, flags). */
 locd_status lc_check_request(const struct locd_engine *e, const void *boxes, size_t n, uint32_t flags);
+/* Takes the engine's busy flag; 0 when another call or the job queue has it. */
 int lc_engine_acquire(struct locd_engine *e);
+/* Gives the busy flag back and wakes a destroy waiting for it. */
 void lc_engine_release(struct locd_engine *e);
 /* Emits a log line through the engine's log hook, if any. */
 void lc_engine_log(const struct locd_engine *e, int32_t severity, const char *fmt, ...) LC_PRINTF(3, 4);
@@ -64,60 +82,56 @@ void lc_stats_copy_out(locd_stats *dst, const locd_stats *src);
 /* Sorts the first `count` pairs of p by (i, j), timing it into stats->ms_order. */
 locd_status lc_order_pairs(locd_pairs *p, locd_stats *stats);
 
-/* ---- jobs (job.c) ---- */
-#define LC_JOB_GENERIC 1
-#define LC_JOB_SERVICE 2
+/* ---- jobs (job.c) ----
+ * A job is a common part (locd_job, below) and its kind's own data: the
+ * generic queued job of levels 1 and 2 (submit.c) or a service job
+ * (service/client.c). Each kind embeds locd_job as its first member and
+ * casts back to its own struct: one allocation and one lifetime for both
+ * parts, where a separate kind_data pointer would need a second allocation
+ * with its own failure path. job.c reaches the kind only through its
+ * lc_job_ops table, so it names no level. */
 
-struct lc_svc_conn; /* service/client.c */
+typedef struct lc_job_ops {
+    size_t size; /* of the kind's struct, which starts with a locd_job */
+    /* The caller cancelled the job while it was pending (it has already
+       finished as LOCD_ERR_CANCELLED): tell the runner. NULL: nothing to tell. */
+    void (*cancel)(locd_job *j);
+    /* The caller released its handle, or submit failed before the runner
+       got the job: drop what the caller's side holds. May be NULL. */
+    void (*released)(locd_job *j);
+    /* The last reference is gone: free the kind's own buffers (not the job
+       itself). May be NULL. */
+    void (*free)(locd_job *j);
+} lc_job_ops;
 
 struct locd_job {
     uint32_t magic;
-    int kind;
+    const lc_job_ops *ops;
     locd_allocator alloc;
     pthread_mutex_t mu;
-    pthread_cond_t cv; /* signalled when status leaves LOCD_PENDING */
-    int refs;          /* the caller's handle + the thread / connection running it */
+    pthread_cond_t cv;  /* signalled when status leaves LOCD_PENDING */
+    int refs;           /* the caller's handle + the thread / connection running it */
     locd_status status; /* LOCD_PENDING until finished */
-    int cancelled;
     int taken;
-    char message[256]; /* error detail, raised again on the caller's thread */
+    char message[256];   /* error detail, raised again on the caller's thread */
     int64_t error_index; /* locd_last_error_index() of that error */
     locd_pairs result;
     locd_stats stats;
     double t_submit; /* lc_now_ms() at submit */
-
-    /* generic jobs */
-    locd_engine *engine;
-    void *boxes; /* private copy */
-    size_t bytes;
-    size_t n;
-    int f64;
-    uint32_t flags;
-    locd_status status_pending_result; /* the runner's outcome, published by lc_job_finish */
-    int64_t error_pending_index;
-    char run_message[256];
-
-    /* service jobs */
-    struct lc_svc_conn *conn;
-    uint64_t id;
-    char shm_name[64]; /* bulk input segment to unlink when done ("" = none) */
-    struct locd_job *next; /* in the connection's pending list, or the engine's job queue */
 };
 
-/* Allocates a job with one reference held by the caller and one by the
- * runner; status LOCD_PENDING. */
-locd_status lc_job_new(const locd_allocator *a, int kind, locd_job **out);
+/* Allocates a job of ops->size bytes, zeroed, with one reference held by
+ * the caller and one by the runner; status LOCD_PENDING. */
+locd_status lc_job_new(const locd_allocator *a, const lc_job_ops *ops, locd_job **out);
 /* Records the final status (and error message when status < 0) unless the
- * job already finished (e.g. cancelled); wakes waiters. */
-void lc_job_finish(locd_job *j, locd_status status, const char *message, int64_t index);
-/* lc_job_finish and lc_job_unref under one lock: the runner holds nothing
- * once a waiter wakes up. */
+ * job already finished (e.g. cancelled), wakes waiters and drops the
+ * runner's reference, under one lock: the runner holds nothing once a
+ * waiter wakes up. */
 void lc_job_finish_unref(locd_job *j, locd_status status, const char *message, int64_t index);
 /* Drops one reference; the last one frees the job. */
 void lc_job_unref(locd_job *j);
-
-/* Level 3: service/client.c */
-void lc_service_job_cancel(locd_job *j);
-void lc_service_job_released(locd_job *j);
+/* Frees a job whose submit failed before its runner got it: the kind's
+ * released hook, then the memory. */
+void lc_job_discard(locd_job *j);
 
 #endif

@@ -1,37 +1,32 @@
-/* Asynchronous jobs at every level.
- *
- * Levels 1 and 2 use the generic job: submit copies the boxes and queues
- * the job on the engine; one thread per engine runs the queued jobs one
- * after another with the level's own `find`, holding the engine meanwhile
- * (a synchronous find on that engine gets LOCD_ERR_BUSY until the queue is
- * empty, and a submit while a find runs on another thread gets
- * LOCD_ERR_BUSY). Level 3 hands the job to the service (service/client.c),
- * which runs many jobs of one engine at once.
+/* The job handle, common to every kind of job: its status, result, and
+ * the caller's calls on it (poll, wait, take, stats, cancel, release).
+ * The kind's own work goes through its lc_job_ops table: the generic job
+ * of levels 1 and 2 (submit.c) and the service job of level 3
+ * (service/client.c).
  *
  * A job holds two references: the caller's handle (dropped by
- * locd_job_release) and the runner's (the thread, or the service
+ * locd_job_release) and the runner's (the queue thread, or the service
  * connection). Cancel finishes a pending job at once with
- * LOCD_ERR_CANCELLED; a queued generic job is then skipped, a running one
- * cannot be interrupted inside the engine: the engine stays busy until that
- * call returns, and its result is discarded. */
+ * LOCD_ERR_CANCELLED and tells the runner through ops->cancel; whatever
+ * the runner produces afterwards is discarded. */
 #include "engine/engine.h"
 
 #include <errno.h>
 #include <stdio.h>
 #include <time.h>
 
-locd_status lc_job_new(const locd_allocator *a, int kind, locd_job **out)
+locd_status lc_job_new(const locd_allocator *a, const lc_job_ops *ops, locd_job **out)
 {
     pthread_condattr_t ca;
-    locd_job *j = lc_alloc(a, sizeof *j);
+    locd_job *j = lc_alloc(a, ops->size);
     *out = NULL;
     if (!j)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the job");
-    memset(j, 0, sizeof *j);
+    memset(j, 0, ops->size);
     j->alloc = *a;
-    j->kind = kind;
+    j->ops = ops;
     if (pthread_mutex_init(&j->mu, NULL) != 0) {
-        lc_free(a, j, sizeof *j);
+        lc_free(a, j, ops->size);
         return lc_error(LOCD_ERR_THREAD, "pthread_mutex_init failed");
     }
     pthread_condattr_init(&ca);
@@ -39,7 +34,7 @@ locd_status lc_job_new(const locd_allocator *a, int kind, locd_job **out)
     if (pthread_cond_init(&j->cv, &ca) != 0) {
         pthread_condattr_destroy(&ca);
         pthread_mutex_destroy(&j->mu);
-        lc_free(a, j, sizeof *j);
+        lc_free(a, j, ops->size);
         return lc_error(LOCD_ERR_THREAD, "pthread_cond_init failed");
     }
     pthread_condattr_destroy(&ca);
@@ -66,24 +61,16 @@ static int settle_locked(locd_job *j, locd_status status, const char *message, i
     return 1;
 }
 
-void lc_job_finish(locd_job *j, locd_status status, const char *message, int64_t index)
-{
-    pthread_mutex_lock(&j->mu);
-    if (settle_locked(j, status, message, index))
-        pthread_cond_broadcast(&j->cv);
-    pthread_mutex_unlock(&j->mu);
-}
-
 static void job_free(locd_job *j)
 {
     locd_allocator a = j->alloc;
+    if (j->ops->free)
+        j->ops->free(j);
     lc_pairs_fini_embedded(&j->result);
-    if (j->boxes)
-        lc_free(&a, j->boxes, j->bytes);
     pthread_cond_destroy(&j->cv);
     pthread_mutex_destroy(&j->mu);
     j->magic = LC_MAGIC_DEAD;
-    lc_free(&a, j, sizeof *j);
+    lc_free(&a, j, j->ops->size);
 }
 
 void lc_job_finish_unref(locd_job *j, locd_status status, const char *message, int64_t index)
@@ -108,6 +95,14 @@ void lc_job_unref(locd_job *j)
         job_free(j);
 }
 
+void lc_job_discard(locd_job *j)
+{
+    j->refs = 1;
+    if (j->ops->released)
+        j->ops->released(j);
+    lc_job_unref(j);
+}
+
 /* Raises the job's stored error (a detail, lc_last_error_detail) on the
  * calling thread. */
 static locd_status raise_job_error(const locd_job *j, locd_status status)
@@ -123,211 +118,6 @@ static locd_status job_check(const locd_job *j)
     if (j->magic != LC_MAGIC_JOB)
         return lc_error(LOCD_ERR_INVALID_HANDLE, "not a locd_job handle (released?)");
     return LOCD_OK;
-}
-
-/* Levels 1 and 2: one queue of generic jobs per busy engine, drained by one
- * detached thread that holds the engine (its busy flag) until the queue is
- * empty. The queues live in a small global list: the engine struct has no
- * room for them, and there are only as many as engines with jobs. */
-typedef struct lc_job_queue {
-    locd_engine *e;
-    locd_allocator alloc;
-    locd_job *head, *tail;
-    struct lc_job_queue *next;
-} lc_job_queue;
-
-static pthread_mutex_t g_queues_mu = PTHREAD_MUTEX_INITIALIZER;
-static lc_job_queue *g_queues;
-
-/* Under g_queues_mu. */
-static lc_job_queue *queue_of(const locd_engine *e)
-{
-    lc_job_queue *q;
-    for (q = g_queues; q; q = q->next)
-        if (q->e == e)
-            return q;
-    return NULL;
-}
-
-/* Under g_queues_mu. */
-static void queue_unlink(lc_job_queue *q)
-{
-    lc_job_queue **pp;
-    for (pp = &g_queues; *pp; pp = &(*pp)->next)
-        if (*pp == q) {
-            *pp = q->next;
-            return;
-        }
-}
-
-static void run_generic(locd_job *j, locd_engine *e)
-{
-    locd_stats st;
-    locd_status s;
-    int cancelled;
-    double t0;
-    pthread_mutex_lock(&j->mu);
-    cancelled = j->status != LOCD_PENDING;
-    pthread_mutex_unlock(&j->mu);
-    locd_stats_init(&st);
-    if (cancelled) {
-        s = LOCD_ERR_CANCELLED;
-    } else {
-        t0 = lc_now_ms();
-        s = e->ops->find(e, j->boxes, j->n, j->f64, j->flags, &j->result, &st);
-        st.ms_total = lc_now_ms() - t0;
-        st.ms_transfer += t0 - j->t_submit; /* time spent queued */
-        if (!s) {
-            j->stats = st;
-            e->stats = st; /* a job is a call of this engine */
-        }
-    }
-    lc_free(&j->alloc, j->boxes, j->bytes);
-    j->boxes = NULL;
-    j->status_pending_result = s;
-    j->error_pending_index = s ? locd_last_error_index() : -1;
-    if (s)
-        snprintf(j->run_message, sizeof j->run_message, "%s", lc_last_error_detail());
-}
-
-static void *queue_main(void *arg)
-{
-    lc_job_queue *q = arg;
-    locd_engine *e = q->e;
-    locd_allocator a = q->alloc;
-    for (;;) {
-        locd_job *j;
-        int last;
-        pthread_mutex_lock(&g_queues_mu);
-        j = q->head;
-        q->head = j->next;
-        if (!q->head)
-            q->tail = NULL;
-        j->next = NULL;
-        pthread_mutex_unlock(&g_queues_mu);
-
-        run_generic(j, e);
-
-        /* The last job gives the engine back before it wakes its waiters (a
-           waiter may call find at once); the engine is not touched after. */
-        pthread_mutex_lock(&g_queues_mu);
-        last = q->head == NULL;
-        if (last) {
-            queue_unlink(q);
-            lc_engine_release(e);
-        }
-        pthread_mutex_unlock(&g_queues_mu);
-        if (last)
-            lc_free(&a, q, sizeof *q);
-        /* Finished and let go in one step: once a waiter wakes, this thread
-           holds nothing, so the caller's release frees the job itself. */
-        lc_job_finish_unref(j, j->status_pending_result, j->run_message, j->error_pending_index);
-        if (last) {
-            /* Last touch of the engine: destroy waits for this before it
-               frees anything (the allocator is used above). */
-            __atomic_sub_fetch(&e->job_threads, 1, __ATOMIC_RELEASE);
-            return NULL;
-        }
-    }
-}
-
-static locd_status generic_submit(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
-                                  locd_job **out)
-{
-    pthread_attr_t attr;
-    pthread_t th;
-    lc_job_queue *q;
-    locd_job *j;
-    locd_status st = LOCD_OK;
-    size_t bytes;
-    if (!lc_mul_size(n ? n : 1, 6 * (f64 ? sizeof(double) : sizeof(float)), &bytes))
-        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu boxes do not fit in memory", n);
-    if ((st = lc_job_new(&e->alloc, LC_JOB_GENERIC, &j)) != LOCD_OK)
-        return st;
-    j->boxes = lc_alloc(&e->alloc, bytes);
-    if (!j->boxes) {
-        j->refs = 1;
-        lc_job_unref(j);
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not copy %zu bytes of boxes", bytes);
-    }
-    if (n)
-        memcpy(j->boxes, boxes, n * 6 * (f64 ? sizeof(double) : sizeof(float)));
-    j->bytes = bytes;
-    j->engine = e;
-    j->n = n;
-    j->f64 = f64;
-    j->flags = flags;
-
-    pthread_mutex_lock(&g_queues_mu);
-    if ((q = queue_of(e)) != NULL) { /* jobs already running: queue behind them */
-        if (q->tail)
-            q->tail->next = j;
-        else
-            q->head = j; /* the thread took the last one and is running it */
-        q->tail = j;
-        pthread_mutex_unlock(&g_queues_mu);
-        *out = j;
-        return LOCD_OK;
-    }
-    if (!lc_engine_acquire(e)) {
-        st = lc_error(LOCD_ERR_BUSY, "the engine is inside a find call on another thread");
-    } else if ((q = lc_alloc(&e->alloc, sizeof *q)) == NULL) {
-        lc_engine_release(e);
-        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the job queue");
-    } else {
-        memset(q, 0, sizeof *q);
-        q->e = e;
-        q->alloc = e->alloc;
-        q->head = q->tail = j;
-        q->next = g_queues;
-        g_queues = q;
-        pthread_attr_init(&attr);
-        pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
-        __atomic_add_fetch(&e->job_threads, 1, __ATOMIC_RELAXED);
-        if (pthread_create(&th, &attr, queue_main, q) != 0) {
-            __atomic_sub_fetch(&e->job_threads, 1, __ATOMIC_RELAXED);
-            queue_unlink(q);
-            lc_free(&e->alloc, q, sizeof *q);
-            lc_engine_release(e);
-            st = lc_error(LOCD_ERR_THREAD, "could not start the job thread");
-        }
-        pthread_attr_destroy(&attr);
-    }
-    pthread_mutex_unlock(&g_queues_mu);
-    if (st) {
-        j->refs = 1;
-        lc_job_unref(j);
-        return st;
-    }
-    *out = j;
-    return LOCD_OK;
-}
-
-static locd_status submit_common(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
-                                 locd_job **out)
-{
-    locd_status st;
-    if (!out)
-        return lc_error(LOCD_ERR_NULL_POINTER, "out is NULL");
-    *out = NULL;
-    if ((st = lc_check_request(e, boxes, n, flags)) != LOCD_OK)
-        return st;
-    st = e->ops->submit ? e->ops->submit(e, boxes, n, f64, flags, out) : generic_submit(e, boxes, n, f64, flags, out);
-    if (!st)
-        lc_clear_error();
-    return st;
-}
-
-locd_status locd_engine_submit_f32(locd_engine *engine, const float *boxes, size_t n, uint32_t flags,
-                                   locd_job **out)
-{
-    return submit_common(engine, boxes, n, 0, flags, out);
-}
-
-locd_status locd_engine_submit_f64(locd_engine *engine, const double *boxes, size_t n, uint32_t flags,
-                                   locd_job **out)
-{
-    return submit_common(engine, boxes, n, 1, flags, out);
 }
 
 locd_status locd_job_poll(locd_job *job)
@@ -429,19 +219,19 @@ locd_status locd_job_stats(const locd_job *job, locd_stats *stats)
     return st;
 }
 
-/* Cancels without touching the thread's last error (used by release). */
+/* Cancels without touching the thread's last error (used by release):
+ * the job finishes as cancelled, if it was still pending, and its runner
+ * is told. */
 static void job_cancel(locd_job *job)
 {
-    int was_pending;
+    int settled;
     pthread_mutex_lock(&job->mu);
-    was_pending = job->status == LOCD_PENDING;
-    job->cancelled = 1;
+    settled = settle_locked(job, LOCD_ERR_CANCELLED, "cancelled by the caller", -1);
+    if (settled)
+        pthread_cond_broadcast(&job->cv);
     pthread_mutex_unlock(&job->mu);
-    if (was_pending) {
-        lc_job_finish(job, LOCD_ERR_CANCELLED, "cancelled by the caller", -1);
-        if (job->kind == LC_JOB_SERVICE)
-            lc_service_job_cancel(job);
-    }
+    if (settled && job->ops->cancel)
+        job->ops->cancel(job);
 }
 
 locd_status locd_job_cancel(locd_job *job)
@@ -459,7 +249,7 @@ void locd_job_release(locd_job *job)
     if (!job || job->magic != LC_MAGIC_JOB)
         return;
     job_cancel(job);
-    if (job->kind == LC_JOB_SERVICE)
-        lc_service_job_released(job);
+    if (job->ops->released)
+        job->ops->released(job);
     lc_job_unref(job);
 }

@@ -23,7 +23,7 @@
 #include <semaphore.h>
 #include <stdint.h>
 
-#define LC_SHM_MAGIC 0x4c4f4357u /* "LOCW" */
+#define LC_SHM_MAGIC LC_MAGIC_SHM /* valued in core.h, distinct from every handle's */
 #define LC_SHM_VERSION 1u
 #define LC_SHM_NAME_MAX 64
 

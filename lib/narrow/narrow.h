@@ -3,15 +3,11 @@
 #ifndef LOCD_NARROW_H
 #define LOCD_NARROW_H
 
-#include "locd/locd.h"
+#include "core/core.h" /* the handle magics, among the others' */
 
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-#define LC_MAGIC_SHAPE 0x4c4f4353u    /* "LOCS" */
-#define LC_MAGIC_WORLD 0x4c4f4357u    /* "LOCW" */
-#define LC_MAGIC_CONTACTS 0x4c4f434eu /* "LOCN" */
 
 typedef struct lc_fcl_geom lc_fcl_geom;
 

@@ -1,5 +1,6 @@
 /* Level 3: the service's wire protocol, shared by the client
- * (client.c) and the server (server*.c), then the server's private part.
+ * (client*.c) and the server (server*.c); then the client's own types, then
+ * the server's.
  *
  * Every message is a 24-byte header followed by `length` payload bytes:
  *   u32 magic "LCDS" | u16 version | u16 type | u64 job id | u64 length
@@ -105,6 +106,54 @@ int lc_proto_parse_address(const char *s, lc_address *a, char *why, size_t why_l
 /* Constant-time comparison of two secrets (1 when equal). */
 int lc_proto_secret_equal(const char *a, size_t alen, const char *b, size_t blen);
 
+/* ---- level 3 client ----
+ * client.c: the backend table and the synchronous find;
+ * client_conn.c: connecting, the connection's references, reconnecting;
+ * client_reader.c: the reader thread, which finishes jobs from RESULTs;
+ * client_jobs.c: service jobs and their submit. */
+
+/* A service job: the common part first (see engine/engine.h), then what
+ * the connection needs to match the service's answer. */
+typedef struct lc_svc_job {
+    locd_job job;
+    struct lc_svc_conn *conn;
+    uint64_t id;
+    char shm_name[64];       /* bulk input segment to unlink when done ("" = none) */
+    struct lc_svc_job *next; /* in the connection's pending list */
+} lc_svc_job;
+
+typedef struct lc_svc_conn {
+    pthread_mutex_t mu; /* refs, dead, pending, next_id */
+    int refs;
+    int dead;
+    char why[200];
+    lc_svc_job *pending;
+    uint64_t next_id;
+    pthread_mutex_t wmu; /* one writer at a time; fd */
+    int fd;
+    int shm_ok;
+    pthread_t reader;
+    locd_allocator alloc;
+} lc_svc_conn;
+
+/* lc_backend.open / close: the engine's connection. */
+locd_status lc_svc_open(locd_engine *e);
+void lc_svc_close(locd_engine *e);
+/* The live connection with a reference for the caller, reconnecting once
+ * when the last one broke. */
+locd_status lc_svc_get_conn(locd_engine *e, lc_svc_conn **out);
+/* Drops one reference; the last one closes and frees the connection. */
+void lc_svc_conn_unref(lc_svc_conn *c);
+/* The connection's reader thread (arg: the lc_svc_conn). */
+void *lc_svc_reader_main(void *arg);
+/* Removes job `id` from the pending list; the caller gets its reference. */
+lc_svc_job *lc_svc_take_pending(lc_svc_conn *c, uint64_t id);
+/* Finishes a job, unlinking its input segment, and drops the runner's
+ * reference. */
+void lc_svc_job_done(lc_svc_job *j, locd_status st, const char *msg, int64_t index);
+/* lc_backend.submit. */
+locd_status lc_svc_submit(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags, locd_job **out);
+
 /* ==== The service (server*.c); nothing here is the client's business ====
  *
  * Files, from the bottom up (each calls only the ones before it):
@@ -115,7 +164,6 @@ int lc_proto_secret_equal(const char *a, size_t alen, const char *b, size_t blen
  *   server_listen.c   the listening socket (unix or tcp)
  *   server.c          the locd_service handle: create/run/stop/destroy */
 
-#define LC_MAGIC_SERVICE 0x4c4f4353u /* "LOCS" */
 /* The HELLO is short: a client that cannot send it in this time is not one. */
 #define LC_HELLO_TIMEOUT_MS 5000
 /* locd_service_config defaults (for 0) and caps. */

@@ -1,0 +1,246 @@
+/* Level 3 client: the engine's connection to the service. Connecting
+ * (Unix or TCP socket, then the HELLO handshake), the connection's
+ * references (the engine's and one per job), and reconnecting when it
+ * broke: the next submit tries again, so a restarted service is picked up. */
+#define _GNU_SOURCE
+#include "service/service.h"
+
+#include <errno.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <stdio.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#define LC_CONNECT_TIMEOUT_MS 5000
+
+/* The engine's backend state. */
+typedef struct lc_svc {
+    pthread_mutex_t mu; /* conn replacement */
+    lc_svc_conn *conn;
+} lc_svc;
+
+void lc_svc_conn_unref(lc_svc_conn *c)
+{
+    int left;
+    pthread_mutex_lock(&c->mu);
+    left = --c->refs;
+    pthread_mutex_unlock(&c->mu);
+    if (left)
+        return;
+    if (c->fd >= 0)
+        close(c->fd);
+    pthread_mutex_destroy(&c->mu);
+    pthread_mutex_destroy(&c->wmu);
+    lc_free(&c->alloc, c, sizeof *c);
+}
+
+static int connect_socket(const lc_address *a, char *why, size_t wl)
+{
+    int fd = -1;
+    if (!a->tcp) {
+        struct sockaddr_un sa;
+        memset(&sa, 0, sizeof sa);
+        sa.sun_family = AF_UNIX;
+        memcpy(sa.sun_path, a->path, strlen(a->path) + 1);
+        fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        if (fd < 0 || connect(fd, (struct sockaddr *)&sa, sizeof sa) != 0) {
+            snprintf(why, wl, "cannot connect to unix:%s: %s", a->path, strerror(errno));
+            if (fd >= 0)
+                close(fd);
+            return -1;
+        }
+    } else {
+        struct addrinfo hints, *res = NULL, *ai;
+        int rc, one = 1;
+        memset(&hints, 0, sizeof hints);
+        hints.ai_family = AF_UNSPEC;
+        hints.ai_socktype = SOCK_STREAM;
+        rc = getaddrinfo(a->host, a->port, &hints, &res);
+        if (rc != 0) {
+            snprintf(why, wl, "cannot resolve %.100s:%.15s: %.60s", a->host, a->port, gai_strerror(rc));
+            return -1;
+        }
+        snprintf(why, wl, "cannot connect to tcp:%.100s:%.15s", a->host, a->port);
+        for (ai = res; ai; ai = ai->ai_next) {
+            fd = socket(ai->ai_family, ai->ai_socktype | SOCK_CLOEXEC, ai->ai_protocol);
+            if (fd < 0)
+                continue;
+            if (connect(fd, ai->ai_addr, ai->ai_addrlen) == 0)
+                break;
+            snprintf(why, wl, "cannot connect to tcp:%.100s:%.15s: %.50s", a->host, a->port, strerror(errno));
+            close(fd);
+            fd = -1;
+        }
+        freeaddrinfo(res);
+        if (fd < 0)
+            return -1;
+        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    }
+    return fd;
+}
+
+/* HELLO -> WELCOME or ERROR. */
+static locd_status handshake(lc_svc_conn *c, const char *secret)
+{
+    size_t slen = secret ? strlen(secret) : 0;
+    uint8_t buf[LC_PROTO_HEADER + 4 + LC_PROTO_MAX_SECRET], hb[LC_PROTO_HEADER], pl[8];
+    char why[200], msg[LC_PROTO_MAX_TEXT + 1];
+    lc_msg_header h;
+    uint32_t mlen;
+    if (slen > LC_PROTO_MAX_SECRET)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "the secret is longer than %d bytes", LC_PROTO_MAX_SECRET);
+    lc_proto_put_header(buf, LC_MSG_HELLO, 0, 4 + slen);
+    lc_put_u32(buf + LC_PROTO_HEADER, (uint32_t)slen);
+    if (slen)
+        memcpy(buf + LC_PROTO_HEADER + 4, secret, slen);
+    if (lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + 4 + slen) != 0)
+        return lc_error(LOCD_ERR_CONNECTION, "the service closed the connection: %s", strerror(errno));
+    if (lc_proto_read_all(c->fd, hb, sizeof hb, LC_CONNECT_TIMEOUT_MS, why, sizeof why) != 1 ||
+        lc_proto_get_header(hb, 8 + LC_PROTO_MAX_TEXT, &h, why, sizeof why) != 0)
+        return lc_error(LOCD_ERR_CONNECTION, "no welcome from the service: %s", why);
+    if (h.type == LC_MSG_WELCOME && h.length == 4) {
+        if (lc_proto_read_all(c->fd, pl, 4, LC_CONNECT_TIMEOUT_MS, why, sizeof why) != 1)
+            return lc_error(LOCD_ERR_CONNECTION, "no welcome from the service: %s", why);
+        c->shm_ok = lc_get_u32(pl) == 1;
+        return LOCD_OK;
+    }
+    if (h.type == LC_MSG_ERROR && h.length >= 8 &&
+        lc_proto_read_all(c->fd, pl, 8, LC_CONNECT_TIMEOUT_MS, why, sizeof why) == 1) {
+        int32_t st = (int32_t)lc_get_u32(pl);
+        mlen = lc_get_u32(pl + 4);
+        if (mlen > LC_PROTO_MAX_TEXT || h.length != 8 + (uint64_t)mlen ||
+            lc_proto_read_all(c->fd, msg, mlen, LC_CONNECT_TIMEOUT_MS, why, sizeof why) != 1)
+            mlen = 0;
+        msg[mlen] = '\0';
+        return lc_error(st < 0 ? st : LOCD_ERR_PROTOCOL, "the service refused the connection: %s", msg);
+    }
+    return lc_error(LOCD_ERR_PROTOCOL, "unexpected answer (type %u) to the handshake", h.type);
+}
+
+static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
+{
+    lc_svc_conn *c;
+    lc_address a;
+    char why[200];
+    locd_status st;
+    *out = NULL;
+    if (!lc_proto_host_ok())
+        return lc_error(LOCD_ERR_UNSUPPORTED, "level 3 needs a little-endian machine");
+    if (lc_proto_parse_address(e->cfg.service_address, &a, why, sizeof why) != 0)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "service_address: %s", why);
+    c = lc_alloc(&e->alloc, sizeof *c);
+    if (!c)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the connection");
+    memset(c, 0, sizeof *c);
+    c->alloc = e->alloc;
+    c->refs = 1;
+    pthread_mutex_init(&c->mu, NULL);
+    pthread_mutex_init(&c->wmu, NULL);
+    c->fd = connect_socket(&a, why, sizeof why);
+    if (c->fd < 0) {
+        lc_svc_conn_unref(c);
+        return lc_error(LOCD_ERR_CONNECTION, "%s", why);
+    }
+    if ((st = handshake(c, e->cfg.service_secret)) != LOCD_OK) {
+        lc_svc_conn_unref(c);
+        return st;
+    }
+    if (a.tcp)
+        c->shm_ok = 0;
+    if (pthread_create(&c->reader, NULL, lc_svc_reader_main, c) != 0) {
+        lc_svc_conn_unref(c);
+        return lc_error(LOCD_ERR_THREAD, "could not start the connection's reader thread");
+    }
+    *out = c;
+    return LOCD_OK;
+}
+
+/* Breaks the connection, waits for its reader (which fails pending jobs)
+ * and drops the engine's reference. Jobs may still hold the memory. */
+static void conn_close(lc_svc_conn *c)
+{
+    pthread_mutex_lock(&c->wmu);
+    shutdown(c->fd, SHUT_RDWR);
+    pthread_mutex_unlock(&c->wmu);
+    pthread_join(c->reader, NULL);
+    pthread_mutex_lock(&c->wmu);
+    close(c->fd);
+    c->fd = -1;
+    pthread_mutex_unlock(&c->wmu);
+    lc_svc_conn_unref(c);
+}
+
+static int conn_dead(lc_svc_conn *c)
+{
+    int d;
+    pthread_mutex_lock(&c->mu);
+    d = c->dead;
+    pthread_mutex_unlock(&c->mu);
+    return d;
+}
+
+locd_status lc_svc_open(locd_engine *e)
+{
+    lc_svc *s = lc_alloc(&e->alloc, sizeof *s);
+    locd_status st;
+    if (!s)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the service state");
+    memset(s, 0, sizeof *s);
+    pthread_mutex_init(&s->mu, NULL);
+    if ((st = conn_open(e, &s->conn)) != LOCD_OK) {
+        pthread_mutex_destroy(&s->mu);
+        lc_free(&e->alloc, s, sizeof *s);
+        return st;
+    }
+    e->backend = s;
+    return LOCD_OK;
+}
+
+void lc_svc_close(locd_engine *e)
+{
+    lc_svc *s = e->backend;
+    if (!s)
+        return;
+    if (s->conn)
+        conn_close(s->conn);
+    pthread_mutex_destroy(&s->mu);
+    lc_free(&e->alloc, s, sizeof *s);
+    e->backend = NULL;
+}
+
+/* The live connection with a reference for the caller, reconnecting once
+ * when the last one broke. */
+locd_status lc_svc_get_conn(locd_engine *e, lc_svc_conn **out)
+{
+    lc_svc *s = e->backend;
+    locd_status st = LOCD_OK;
+    pthread_mutex_lock(&s->mu);
+    if (!s->conn || conn_dead(s->conn)) {
+        lc_svc_conn *fresh;
+        char why[200] = "not connected";
+        if (s->conn) {
+            pthread_mutex_lock(&s->conn->mu);
+            snprintf(why, sizeof why, "%s", s->conn->why);
+            pthread_mutex_unlock(&s->conn->mu);
+            conn_close(s->conn);
+            s->conn = NULL;
+        }
+        st = conn_open(e, &fresh);
+        if (st == LOCD_OK) {
+            s->conn = fresh;
+            lc_engine_log(e, LOCD_LOG_WARNING, "level 3: reconnected to %s (last connection: %s)",
+                          e->cfg.service_address, why);
+        }
+    }
+    if (st == LOCD_OK) {
+        pthread_mutex_lock(&s->conn->mu);
+        s->conn->refs++;
+        pthread_mutex_unlock(&s->conn->mu);
+        *out = s->conn;
+    }
+    pthread_mutex_unlock(&s->mu);
+    return st;
+}
