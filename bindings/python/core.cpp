@@ -9,12 +9,10 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
-#include <chrono>
 #include <cstdint>
 #include <cstring>
 #include <mutex>
 #include <string>
-#include <thread>
 
 #include "locd/locd.h"
 
@@ -175,7 +173,8 @@ public:
         std::lock_guard<std::mutex> lock(mutex_);
         if (!engine_)
             return;
-        drain();
+        // A released job of levels 1 and 2 may still run inside the engine:
+        // destroy waits for that call and the job's thread (lib/engine/).
         locd_engine_destroy(engine_);
         engine_ = nullptr;
     }
@@ -227,19 +226,6 @@ public:
     std::mutex &mutex() { return mutex_; }
 
 private:
-    // A cancelled or released job of levels 1 and 2 keeps running inside
-    // the engine until its current call returns (lib/engine/submit.c).
-    // locd_engine_destroy waits for that call, and for the job's thread to
-    // exit, before it closes the level (lib/engine/engine.c); this wait
-    // ahead of it (an empty find succeeds only once the engine is free
-    // again) is the same wait, done by polling.
-    void drain()
-    {
-        static const float none[6] = {0, 0, 0, 0, 0, 0};
-        while (locd_engine_find_pairs_f32(engine_, none, 0, 0u, pairs_.p) == LOCD_ERR_BUSY)
-            std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
-
     locd_engine *engine_ = nullptr;
     PairsBuffer pairs_;
     std::mutex mutex_;

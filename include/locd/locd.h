@@ -224,7 +224,10 @@ typedef struct locd_engine locd_engine;
 
 /* config may be NULL for the defaults. On failure *out is set to NULL. */
 LOCD_API locd_status locd_engine_create(const locd_engine_config *config, locd_engine **out);
-/* Stops threads / workers / connections and frees everything. NULL is ignored. */
+/* Waits until no call or job runs inside the engine (a released job's running
+ * call included), then stops threads / workers / connections and frees
+ * everything. Job handles stay valid until locd_job_release (a level-3 job
+ * still pending fails with LOCD_ERR_CONNECTION). NULL is ignored. */
 LOCD_API void locd_engine_destroy(locd_engine *engine);
 /* Level and thread count actually in use. */
 LOCD_API int32_t locd_engine_level(const locd_engine *engine);
@@ -368,10 +371,10 @@ LOCD_API locd_status locd_brute_force_f64(const double *boxes, size_t n, locd_pa
 }
 #endif
 
-/* Filter pipeline: shapes, narrow phase, swept tests (issue 9). */
+/* Filter pipeline: shapes, narrow phase, swept tests. */
 #include "locd/pipeline.h"
 
-/* Level-3 service hosting: locd_service_* (issue 5). */
+/* Level-3 service hosting: locd_service_*. */
 #include "locd/service.h"
 
 #endif /* LOCD_LOCD_H */

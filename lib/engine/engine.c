@@ -60,8 +60,8 @@ static locd_status read_config(const locd_engine_config *config, locd_engine_con
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "cell_bias %d is outside 0..8", (int)cfg->cell_bias);
     if (cfg->max_depth > 21)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "max_depth %u exceeds 21", cfg->max_depth);
-    if (cfg->threads > 64)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "threads %u exceeds 64", cfg->threads);
+    if (cfg->threads > LC_MAX_THREADS)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "threads %u exceeds %d", cfg->threads, LC_MAX_THREADS);
     if ((cfg->allocator.alloc == NULL) != (cfg->allocator.free == NULL))
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "allocator: set both alloc and free, or neither");
     if (cfg->level == LOCD_LEVEL_SERVICE && !cfg->service_address)

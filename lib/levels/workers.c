@@ -382,12 +382,10 @@ static locd_status workers_open(locd_engine *e)
 static void workers_close(locd_engine *e)
 {
     lc_workers *w = e->backend;
-    struct timespec pause = {0, 1000000L};
     if (!w)
         return;
-    /* A job's thread may still be inside find: let it finish first. */
-    while (__atomic_load_n(&e->busy, __ATOMIC_ACQUIRE))
-        nanosleep(&pause, NULL);
+    /* locd_engine_destroy has waited for the engine to be idle (no find,
+       no job thread) before it closes the level. */
     stop_workers(w, 1);
     lc_buf_release(&e->alloc, &w->merged, sizeof(uint64_t));
     lc_pairs_fini_embedded(&w->pairs);

@@ -192,43 +192,36 @@ locd_status locd_world_set_velocity(locd_world *w, uint32_t index, const double 
     return LOCD_OK;
 }
 
-/* Bulk setters validate everything first: nothing is half-written. */
-locd_status locd_world_set_poses(locd_world *w, const double *poses, size_t count)
+/* Bulk setters validate every row first: nothing is half-written. The
+ * caller has checked the handle. */
+static locd_status set_rows(const locd_world *w, const double *rows, size_t count, size_t width, double *dst,
+                            locd_status (*check)(const double *row, int64_t index), const char *what)
 {
     locd_status st;
     size_t i;
-    if ((st = lc_world_check(w)) != LOCD_OK)
-        return st;
-    if (!poses && count)
-        return lc_error(LOCD_ERR_NULL_POINTER, "poses is NULL");
+    if (!rows && count)
+        return lc_error(LOCD_ERR_NULL_POINTER, "%s is NULL", what);
     if (count != w->n)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "%zu poses for %zu objects", count, w->n);
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "%zu %s for %zu objects", count, what, w->n);
     for (i = 0; i < count; i++)
-        if ((st = check_pose(poses + 7 * i, (int64_t)i)) != LOCD_OK)
+        if ((st = check(rows + width * i, (int64_t)i)) != LOCD_OK)
             return st;
     if (count)
-        memcpy(w->poses, poses, 7 * count * sizeof(double));
+        memcpy(dst, rows, width * count * sizeof(double));
     lc_clear_error();
     return LOCD_OK;
 }
 
+locd_status locd_world_set_poses(locd_world *w, const double *poses, size_t count)
+{
+    locd_status st = lc_world_check(w);
+    return st ? st : set_rows(w, poses, count, 7, w->poses, check_pose, "poses");
+}
+
 locd_status locd_world_set_velocities(locd_world *w, const double *velocities, size_t count)
 {
-    locd_status st;
-    size_t i;
-    if ((st = lc_world_check(w)) != LOCD_OK)
-        return st;
-    if (!velocities && count)
-        return lc_error(LOCD_ERR_NULL_POINTER, "velocities is NULL");
-    if (count != w->n)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "%zu velocities for %zu objects", count, w->n);
-    for (i = 0; i < count; i++)
-        if ((st = check_velocity(velocities + 6 * i, (int64_t)i)) != LOCD_OK)
-            return st;
-    if (count)
-        memcpy(w->vel, velocities, 6 * count * sizeof(double));
-    lc_clear_error();
-    return LOCD_OK;
+    locd_status st = lc_world_check(w);
+    return st ? st : set_rows(w, velocities, count, 6, w->vel, check_velocity, "velocities");
 }
 
 locd_status locd_world_get_pose(const locd_world *w, uint32_t index, double *pose)
