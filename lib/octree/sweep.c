@@ -180,20 +180,7 @@ static size_t cell_start_from(const uint64_t *e, size_t count, size_t p, uint32_
     return p;
 }
 
-static size_t lower_bound64(const uint64_t *a, size_t n, uint64_t v)
-{
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (a[mid] < v)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
-}
-
-/* Copies the records of [from, to) that overlap the box [lo, hi] to w... */
+/* Copies record `from` to row `to` (all seven columns). */
 LC_INLINE void copy_row(const lc_cols *c, size_t from, size_t to)
 {
     c->lo[0][to] = c->lo[0][from];

@@ -157,8 +157,8 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
         for (l = 0; l < L0; l++) {
             const uint32_t shift = 3u * (depth - l);
             const uint64_t pml = (pm0 >> shift) << shift, keyl = (pml << LC_LEVEL_BITS) | l;
-            const size_t a = lower_bound64(entries, begin, keyl << ib);
-            const size_t b = lower_bound64(entries, begin, (keyl << ib) + imask + 1);
+            const size_t a = lc_lower_bound(entries, begin, keyl << ib);
+            const size_t b = lc_lower_bound(entries, begin, (keyl << ib) + imask + 1);
             const int32_t cl[3] = {cell0[0] >> (L0 - l), cell0[1] >> (L0 - l), cell0[2] >> (L0 - l)};
             if (a >= b)
                 continue;
