@@ -86,8 +86,8 @@ int cmd_pairs(int argc, char **argv)
             if (cli_parse_size(argv[++a], &repeat) || repeat < 1)
                 cli_die("pairs: bad --repeat");
         } else if (!strcmp(o, "--depth") && more) {
-            if (cli_parse_size(argv[++a], &k) || k > 21)
-                cli_die("pairs: bad --depth (0..21)");
+            if (cli_parse_size(argv[++a], &k) || k > LOCD_MAX_DEPTH)
+                cli_die("pairs: bad --depth (0..LOCD_MAX_DEPTH, 21)");
             cfg.max_depth = (uint32_t)k;
         } else if (!strcmp(o, "--bias") && more) {
             if (cli_parse_size(argv[++a], &k) || k > 8)

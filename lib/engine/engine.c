@@ -1,6 +1,7 @@
 /* The engine handle: configuration, validation, and dispatch to the
  * integration level chosen at creation. */
 #include "engine/engine.h"
+#include "octree/octree.h"
 
 #include <stdio.h>
 #include <time.h>
@@ -115,8 +116,8 @@ locd_status locd_engine_create(const locd_engine_config *config, locd_engine **o
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "level %d is not 1, 2 or 3", (int)cfg.level);
     if (cfg.cell_bias < 0 || cfg.cell_bias > 8)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "cell_bias %d is outside 0..8", (int)cfg.cell_bias);
-    if (cfg.max_depth > 21)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "max_depth %u exceeds 21", cfg.max_depth);
+    if ((st = lc_depth_check(cfg.max_depth, "max_depth")) != LOCD_OK)
+        return st;
     if (cfg.threads > 64)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "threads %u exceeds 64", cfg.threads);
     if ((cfg.allocator.alloc == NULL) != (cfg.allocator.free == NULL))

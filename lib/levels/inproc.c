@@ -18,6 +18,7 @@ typedef struct lc_inproc {
     lc_buf qbox;     /* 2 uint64 per object: packed sweep boxes (lc_pack_qbox), reused by the sweep */
     lc_sweep_out sw[LC_MAX_THREADS];
     double per_object; /* entries per object seen last time */
+    int kernel;        /* LC_KERNEL_*, chosen when the engine is created */
 } lc_inproc;
 
 typedef struct lc_job_ctx {
@@ -52,9 +53,9 @@ static void task_bounds(void *arg, uint32_t t, uint32_t k)
     size_t b = chunk_begin(c->n, t, k), e = chunk_begin(c->n, t + 1, k);
     lc_bounds_init(&c->bounds[t]);
     if (c->f64)
-        lc_bounds_f64(c->boxes, b, e, &c->bounds[t]);
+        lc_bounds_f64(c->boxes, b, e, &c->bounds[t], c->ip->kernel);
     else
-        lc_bounds_f32(c->boxes, b, e, &c->bounds[t]);
+        lc_bounds_f32(c->boxes, b, e, &c->bounds[t], c->ip->kernel);
 }
 
 static void task_encode_sort(void *arg, uint32_t t, uint32_t k)
@@ -66,9 +67,9 @@ static void task_encode_sort(void *arg, uint32_t t, uint32_t k)
     uint64_t *res;
     double t0 = lc_now_ms(), t1;
     if (c->f64)
-        w = lc_encode_f64(&c->grid, c->boxes, b, e - b, ent, c->cap[t], &c->need[t], c->ip->qbox.data);
+        w = lc_encode_f64(&c->grid, c->boxes, b, e - b, ent, c->cap[t], &c->need[t], c->ip->qbox.data, c->ip->kernel);
     else
-        w = lc_encode_f32(&c->grid, c->boxes, b, e - b, ent, c->cap[t], &c->need[t], c->ip->qbox.data);
+        w = lc_encode_f32(&c->grid, c->boxes, b, e - b, ent, c->cap[t], &c->need[t], c->ip->qbox.data, c->ip->kernel);
     if (w == (size_t)-1) {
         c->overflow[t] = 1;
         return;
@@ -126,8 +127,9 @@ static locd_status inproc_open(locd_engine *e)
     memset(ip, 0, sizeof *ip);
     if (e->threads > LC_MAX_THREADS)
         e->threads = LC_MAX_THREADS;
+    ip->kernel = lc_kernel_choose();
     for (t = 0; t < LC_MAX_THREADS; t++)
-        lc_sweep_out_init(&ip->sw[t], &e->alloc);
+        lc_sweep_out_init(&ip->sw[t], &e->alloc, ip->kernel);
     /* A box at most 2^-bias of its cell crosses into the next cell on an
        axis with probability at most 2^-bias: (1 + 2^-bias)^3 entries per
        object on average, 1.95 for the default bias. Later calls use the
@@ -194,9 +196,9 @@ static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int 
             lc_bounds b1;
             lc_bounds_init(&b1);
             if (f64)
-                lc_bounds_f64(boxes, 0, 1, &b1);
+                lc_bounds_f64(boxes, 0, 1, &b1, ip->kernel);
             else
-                lc_bounds_f32(boxes, 0, 1, &b1);
+                lc_bounds_f32(boxes, 0, 1, &b1, ip->kernel);
             if (b1.bad >= 0)
                 return lc_error_box(b1.bad_status, 0, "box 0");
         }

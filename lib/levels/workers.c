@@ -58,6 +58,7 @@ typedef struct lc_workers {
     lc_buf merged;    /* uint64 entries */
     locd_pairs pairs; /* the sweep's output before it is handed over */
     double per_object;
+    int kernel; /* LC_KERNEL_* for the host's stages, chosen when the engine is created */
 } lc_workers;
 
 /* ---- shared memory segments ---- */
@@ -373,6 +374,7 @@ static locd_status workers_open(locd_engine *e)
     memset(w, 0, sizeof *w);
     w->k = e->threads;
     w->per_object = 3.0;
+    w->kernel = lc_kernel_choose();
     lc_pairs_init_embedded(&w->pairs, &e->alloc);
     if ((st = find_worker(e, w->exe, sizeof w->exe)) != LOCD_OK || (st = start_workers(w)) != LOCD_OK) {
         lc_free(&e->alloc, w, sizeof *w);
@@ -562,9 +564,9 @@ static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int
 
     stats->objects = n;
     t0 = lc_now_ms();
-    /* The same validation and root cube as level 1 (public building block). */
-    st = f64 ? locd_grid_fit_f64(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &grid)
-             : locd_grid_fit_f32(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &grid);
+    /* The same validation and root cube as level 1 (the grid-fit building block). */
+    st = f64 ? lc_block_grid_fit_f64(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &grid, w->kernel)
+             : lc_block_grid_fit_f32(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &grid, w->kernel);
     if (st)
         return st;
     if (n < 2) {
@@ -609,8 +611,8 @@ static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int
     /* Into the engine's own buffer first: a failure (even in the ordering)
        must leave *out as it was. */
     locd_stats_init(&sw);
-    st = f64 ? locd_sweep_f64(&grid, boxes, n, sorted, r.total, &w->pairs, &sw)
-             : locd_sweep_f32(&grid, boxes, n, sorted, r.total, &w->pairs, &sw);
+    st = f64 ? lc_block_sweep_f64(&grid, boxes, n, sorted, r.total, &w->pairs, &sw, w->kernel)
+             : lc_block_sweep_f32(&grid, boxes, n, sorted, r.total, &w->pairs, &sw, w->kernel);
     if (st)
         return st;
     stats->pairs = sw.pairs;

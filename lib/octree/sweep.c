@@ -241,8 +241,6 @@ __attribute__((target("avx2"))) static size_t filter_avx2(const lc_cols *c, size
 }
 #endif
 
-static lc_filter_fn pick_filter(void);
-
 /* Pushes the segment of cell `cell` (integer coordinates) at `level`: the
  * records of the current top segment that overlap the cell. */
 static locd_status push_filtered(const locd_grid *g, lc_sweep_out *o, lc_seg *segs, uint32_t *nseg, size_t *ncand,
@@ -445,41 +443,39 @@ LC_AVX512 LC_INLINE size_t scan_avx512(const lc_scan *sc, size_t first, size_t e
 }
 #endif
 
-static lc_filter_fn pick_filter(void)
+static lc_filter_fn pick_filter(int kernel)
 {
 #ifdef LC_HAVE_AVX2_KERNEL
-    if (lc_kernel() >= LC_KERNEL_AVX2)
+    if (kernel >= LC_KERNEL_AVX2)
         return filter_avx2;
 #endif
+    (void)kernel;
     return filter_scalar;
 }
 
-static lc_scan_fn pick_scan(void)
+static lc_scan_fn pick_scan(int kernel)
 {
 #ifdef LC_HAVE_AVX2_KERNEL
-    if (lc_kernel() >= LC_KERNEL_AVX2)
+    if (kernel >= LC_KERNEL_AVX2)
         return scan_avx2;
 #endif
+    (void)kernel;
     return scan_scalar;
 }
 
-/* The main loop, once per input precision and per kernel family: through
- * the scan function pointer (scalar, AVX2), and with the AVX-512 scan
- * inlined into a loop compiled for AVX-512. */
+/* The main loop, once per input precision and per kernel family (the
+ * include-template of octree.h): through the scan function pointer (scalar,
+ * AVX2), and with the AVX-512 scan inlined into a loop compiled for
+ * AVX-512. */
+#define LC_TARGET
+#define LC_SCAN_SETUP const lc_scan_fn scan = pick_scan(o->kernel);
+#define LC_SCAN(sc, first, end, pairs, np, exact) scan(sc, first, end, pairs, np, exact)
 #define LC_T float
 #define LC_SUFFIX f32_generic
-#define LC_TARGET
-#define LC_SCAN_SETUP const lc_scan_fn scan = pick_scan();
-#define LC_SCAN(sc, first, end, pairs, np, exact) scan(sc, first, end, pairs, np, exact)
 #include "sweep_impl.h"
-#undef LC_T
-#undef LC_SUFFIX
-
 #define LC_T double
 #define LC_SUFFIX f64_generic
 #include "sweep_impl.h"
-#undef LC_T
-#undef LC_SUFFIX
 #undef LC_TARGET
 #undef LC_SCAN
 #undef LC_SCAN_SETUP
@@ -505,49 +501,45 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
 #define LC_SUFFIX f32_avx512
 #define LC_QUANTIZE6(g, b, q) quantize6(g, _mm512_cvtps_pd(_mm256_maskz_loadu_ps(0x3f, b)), q)
 #include "sweep_impl.h"
-#undef LC_T
-#undef LC_SUFFIX
 #undef LC_QUANTIZE6
 
 #define LC_T double
 #define LC_SUFFIX f64_avx512
 #define LC_QUANTIZE6(g, b, q) quantize6(g, _mm512_maskz_loadu_pd(0x3f, b), q)
 #include "sweep_impl.h"
-#undef LC_T
-#undef LC_SUFFIX
+#undef LC_QUANTIZE6
 #undef LC_TARGET
 #undef LC_SCAN
 #undef LC_SCAN_SETUP
-#undef LC_QUANTIZE6
 #endif
 
+/* The kernel o was made for picks the loop. */
+locd_status lc_sweep_range_f32(const locd_grid *g, const float *boxes, const uint64_t *qbox, const uint64_t *entries,
+                               size_t count, size_t begin, size_t end, lc_sweep_out *o)
+{
 #ifdef LC_HAVE_AVX512_KERNEL
-#define LC_SWEEP_DISPATCH(SUFFIX, T)                                                                         \
-    locd_status lc_sweep_range_##SUFFIX(const locd_grid *g, const T *boxes, const uint64_t *qbox,             \
-                                        const uint64_t *entries, size_t count, size_t begin, size_t end,     \
-                                        lc_sweep_out *o)                                                     \
-    {                                                                                                        \
-        if (lc_kernel() == LC_KERNEL_AVX512)                                                               \
-            return lc_sweep_range_##SUFFIX##_avx512(g, boxes, qbox, entries, count, begin, end, o);          \
-        return lc_sweep_range_##SUFFIX##_generic(g, boxes, qbox, entries, count, begin, end, o);             \
-    }
-#else
-#define LC_SWEEP_DISPATCH(SUFFIX, T)                                                                         \
-    locd_status lc_sweep_range_##SUFFIX(const locd_grid *g, const T *boxes, const uint64_t *qbox,             \
-                                        const uint64_t *entries, size_t count, size_t begin, size_t end,     \
-                                        lc_sweep_out *o)                                                     \
-    {                                                                                                        \
-        return lc_sweep_range_##SUFFIX##_generic(g, boxes, qbox, entries, count, begin, end, o);             \
-    }
+    if (o->kernel == LC_KERNEL_AVX512)
+        return sweep_range_f32_avx512(g, boxes, qbox, entries, count, begin, end, o);
 #endif
-LC_SWEEP_DISPATCH(f32, float)
-LC_SWEEP_DISPATCH(f64, double)
+    return sweep_range_f32_generic(g, boxes, qbox, entries, count, begin, end, o);
+}
 
-void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a)
+locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const uint64_t *qbox, const uint64_t *entries,
+                               size_t count, size_t begin, size_t end, lc_sweep_out *o)
+{
+#ifdef LC_HAVE_AVX512_KERNEL
+    if (o->kernel == LC_KERNEL_AVX512)
+        return sweep_range_f64_avx512(g, boxes, qbox, entries, count, begin, end, o);
+#endif
+    return sweep_range_f64_generic(g, boxes, qbox, entries, count, begin, end, o);
+}
+
+void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a, int kernel)
 {
     memset(o, 0, sizeof *o);
     o->alloc = a;
-    o->filter = (void (*)(void))pick_filter();
+    o->kernel = kernel;
+    o->filter = (void (*)(void))pick_filter(kernel);
 }
 
 void lc_sweep_out_fini(lc_sweep_out *o)

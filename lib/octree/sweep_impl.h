@@ -1,11 +1,9 @@
 /* Step 4, the sweep's main loop for one input precision and kernel family.
- * Included by sweep.c with LC_T (float or double), LC_SUFFIX, LC_TARGET (a
- * function attribute, or nothing), LC_SCAN (the scan of one entry's
- * candidates) and LC_SCAN_SETUP (what LC_SCAN needs declared) defined. */
-
-#define LC_CAT2(a, b) a##b
-#define LC_CAT(a, b) LC_CAT2(a, b)
-#define LC_FN(name) LC_CAT(name, LC_SUFFIX)
+ * Included by sweep.c (the include-template of octree.h) with LC_T (float
+ * or double), LC_SUFFIX, LC_TARGET (a function attribute, or nothing),
+ * LC_SCAN (the scan of one entry's candidates) and LC_SCAN_SETUP (what
+ * LC_SCAN needs declared) defined, and optionally LC_QUANTIZE6 (a vector
+ * quantization of one box). */
 
 /* The object's box in sweep coordinates (LC_SBITS bits): from encode's
  * packed array, or quantized again with the very same operations
@@ -119,7 +117,7 @@ static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, co
     return 1;
 }
 
-static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox,
+static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox,
                                                     const uint64_t *entries, size_t count, size_t begin, size_t end,
                                                     lc_sweep_out *o)
 {
@@ -274,6 +272,5 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
     return LOCD_OK;
 }
 
-#undef LC_FN
-#undef LC_CAT
-#undef LC_CAT2
+#undef LC_T
+#undef LC_SUFFIX
