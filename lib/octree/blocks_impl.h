@@ -2,8 +2,8 @@
  * argument. Included by blocks.c once per precision with LC_T and LC_SUFFIX
  * defined (the include-template of octree.h). */
 
-locd_status LC_FN(lc_block_grid_fit_)(const LC_T *boxes, size_t n, uint32_t max_depth, int32_t cell_bias, uint32_t flags,
-                                      locd_grid *grid, int kernel)
+locd_status LC_FN(lc_block_grid_fit_)(const LC_T *boxes, size_t n, uint32_t max_depth, int32_t cell_bias,
+                                      uint32_t flags, locd_grid *grid, int kernel)
 {
     lc_bounds b;
     locd_status st;

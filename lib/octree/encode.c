@@ -25,7 +25,8 @@ LC_AVX512 LC_INLINE __m512i spread3x8(__m256i v)
  * j's two words are lanes j of the lo and hi words. */
 LC_AVX512 LC_INLINE void pack_qbox8(const __m256i q[6], uint64_t *qbox)
 {
-    const __m512i even = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11), odd = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
+    const __m512i even = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
+    const __m512i odd = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
     __m512i wd[2];
     int a;
     for (a = 0; a < 2; a++)

@@ -7,14 +7,19 @@
  * ordinary C with LC_T for the box coordinate type and LC_FN(name) for each
  * function name, and the .c file includes it once per variant after
  * defining LC_T and LC_SUFFIX (f32 or f64, and a kernel name where there is
- * more than one; the template #undefs both at its end). A SIMD variant
- * also defines LC_TARGET (its target attribute) and one-line macros for the
- * few operations that differ (a gather, a scan). So every variant is real
- * code a debugger steps through and a formatter formats; no function body
- * sits in a backslash-continued macro. The choice between kernels is an
- * `int kernel` argument (LC_KERNEL_*, chosen once by lc_kernel_choose) that
- * a small dispatch function tests; public locd_* functions are written out
- * by name as one-line wrappers, so they can be found with grep. */
+ * more than one; the template #undefs both at its end). Where a SIMD
+ * kernel runs the same body (the sweep's main loop), the body is included
+ * once more with LC_TARGET (the target attribute) and one-line macros for
+ * what differs (the scan, the quantization); a SIMD body that is different
+ * code (encode's, the float bounds') is an ordinary function with the
+ * LC_AVX512 attribute beside the scalar one (in the template when it
+ * exists per precision; a one-line LC_GATHER macro loads the coordinates).
+ * So every variant is real code a debugger steps through and a formatter
+ * formats; no function body sits in a backslash-continued macro. The
+ * choice between kernels is an `int kernel` argument (LC_KERNEL_*, chosen
+ * once by lc_kernel_choose) that a small dispatch function tests; public
+ * locd_* functions are written out by name as one-line wrappers, so they
+ * can be found with grep. */
 #ifndef LOCD_OCTREE_H
 #define LOCD_OCTREE_H
 

@@ -463,13 +463,103 @@ static lc_scan_fn pick_scan(int kernel)
     return scan_scalar;
 }
 
+/* One sweep call's state, which the functions of sweep_impl.h share. */
+typedef struct lc_sweep_ctx {
+    const locd_grid *g;
+    const uint64_t *qbox, *entries;
+    lc_sweep_out *o;
+    lc_scan_fn scan; /* the generic loops' scan (scalar or AVX2) */
+    lc_seg segs[LC_MAX_SEGS];
+    uint32_t nseg;
+    size_t ncand;  /* records in use (the segments' and the open cell's) */
+    size_t npairs; /* pairs in o->pairs */
+    uint64_t candidates, exact;
+    lc_scan sc; /* the entry being tested, and its cell */
+    lc_slabs sl; /* the slab order of the last cell loaded with one */
+    size_t slab[LC_SLABS + 1];
+    int64_t ext;
+} lc_sweep_ctx;
+
+static void sweep_ctx_init(lc_sweep_ctx *cx, const locd_grid *g, const void *boxes, int f64, const uint64_t *qbox,
+                           const uint64_t *entries, lc_sweep_out *o)
+{
+    cx->g = g;
+    cx->qbox = qbox;
+    cx->entries = entries;
+    cx->o = o;
+    cx->scan = pick_scan(o->kernel);
+    cx->nseg = 0;
+    cx->ncand = 0;
+    cx->npairs = o->count;
+    cx->candidates = cx->exact = 0;
+    cx->sc.boxes = boxes;
+    cx->sc.f64 = f64;
+}
+
+/* The end of the cell that starts at entry p: the next entry with another key. */
+LC_INLINE size_t cell_end(const uint64_t *e, size_t p, size_t end, uint32_t ib)
+{
+    size_t q = p + 1;
+    while (q < end && (e[q] >> ib) == (e[p] >> ib))
+        q++;
+    return q;
+}
+
+/* Pops the segments of cells that do not contain cell (pm, level): the
+ * stack then holds its populated ancestors. */
+LC_INLINE void pop_to_ancestors(lc_sweep_ctx *cx, uint64_t pm, uint32_t level)
+{
+    const uint32_t depth = cx->g->depth;
+    while (cx->nseg) {
+        const lc_seg *sg = &cx->segs[cx->nseg - 1];
+        if (sg->level < level && (pm >> (3u * (depth - sg->level))) == sg->cm)
+            break;
+        cx->ncand = sg->start;
+        cx->nseg--;
+    }
+}
+
+/* Counts `cand` candidates for the entry about to be tested and makes room
+ * for as many pairs (plus the vector stores' slack). */
+LC_INLINE locd_status reserve_pairs(lc_sweep_ctx *cx, size_t cand)
+{
+    const size_t need = cx->npairs + cand + LC_PAIR_SLACK;
+    cx->candidates += cand;
+    if (2 * need > cx->o->pairs.cap)
+        return pairs_reserve(cx->o, 2 * need, cx->npairs);
+    return LOCD_OK;
+}
+
+/* Makes box q (lo xyz, hi xyz) of object idx the entry under test. */
+LC_INLINE void entry_from_box(lc_scan *sc, const int32_t q[6], uint32_t idx)
+{
+    sc->lo[0] = q[0];
+    sc->lo[1] = q[1];
+    sc->lo[2] = q[2];
+    sc->hi[0] = q[3];
+    sc->hi[1] = q[4];
+    sc->hi[2] = q[5];
+    sc->idx = idx;
+}
+
+/* Makes record r the entry under test. */
+LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
+{
+    sc->lo[0] = sc->c.lo[0][r];
+    sc->lo[1] = sc->c.lo[1][r];
+    sc->lo[2] = sc->c.lo[2][r];
+    sc->hi[0] = sc->c.hi[0][r];
+    sc->hi[1] = sc->c.hi[1][r];
+    sc->hi[2] = sc->c.hi[2][r];
+    sc->idx = sc->c.idx[r];
+}
+
 /* The main loop, once per input precision and per kernel family (the
  * include-template of octree.h): through the scan function pointer (scalar,
  * AVX2), and with the AVX-512 scan inlined into a loop compiled for
  * AVX-512. */
 #define LC_TARGET
-#define LC_SCAN_SETUP const lc_scan_fn scan = pick_scan(o->kernel);
-#define LC_SCAN(sc, first, end, pairs, np, exact) scan(sc, first, end, pairs, np, exact)
+#define LC_SCAN(cx, sc, first, end, pairs, np, exact) (cx)->scan(sc, first, end, pairs, np, exact)
 #define LC_T float
 #define LC_SUFFIX f32_generic
 #include "sweep_impl.h"
@@ -478,7 +568,6 @@ static lc_scan_fn pick_scan(int kernel)
 #include "sweep_impl.h"
 #undef LC_TARGET
 #undef LC_SCAN
-#undef LC_SCAN_SETUP
 
 #ifdef LC_HAVE_AVX512_KERNEL
 /* lc_quantize on a box's six coordinates at once, to the sweep's 21 bits:
@@ -495,8 +584,7 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
     _mm256_storeu_si256((__m256i *)q, _mm256_srai_epi32(_mm512_cvttpd_epi32(c), LC_SDROP));
 }
 #define LC_TARGET LC_AVX512
-#define LC_SCAN_SETUP
-#define LC_SCAN(sc, first, end, pairs, np, exact) scan_avx512(sc, first, end, pairs, np, exact)
+#define LC_SCAN(cx, sc, first, end, pairs, np, exact) scan_avx512(sc, first, end, pairs, np, exact)
 #define LC_T float
 #define LC_SUFFIX f32_avx512
 #define LC_QUANTIZE6(g, b, q) quantize6(g, _mm512_cvtps_pd(_mm256_maskz_loadu_ps(0x3f, b)), q)
@@ -510,7 +598,6 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
 #undef LC_QUANTIZE6
 #undef LC_TARGET
 #undef LC_SCAN
-#undef LC_SCAN_SETUP
 #endif
 
 /* The kernel o was made for picks the loop. */
