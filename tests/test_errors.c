@@ -142,6 +142,8 @@ static void depth_limit_is_checked_everywhere(void **state)
     locd_engine_config cfg;
     locd_engine *e = NULL;
     locd_grid g;
+    uint64_t ent[16];
+    size_t written = 0;
     (void)state;
     locd_engine_config_init(&cfg);
     cfg.threads = 1;
@@ -156,6 +158,11 @@ static void depth_limit_is_checked_everywhere(void **state)
     assert_int_equal(locd_grid_fit_f32(b, 2, LOCD_MAX_DEPTH, 2, 0, &g), LOCD_OK);
     assert_true(g.depth <= LOCD_MAX_DEPTH);
     assert_int_equal(locd_grid_fit_f32(b, 2, LOCD_MAX_DEPTH + 1, 2, 0, &g), LOCD_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(locd_last_error(), "LOCD_MAX_DEPTH"));
+    /* a grid that claims more is refused by the steps that take one */
+    assert_int_equal(locd_grid_fit_f32(b, 2, 0, 2, 0, &g), LOCD_OK);
+    g.depth = LOCD_MAX_DEPTH + 1;
+    assert_int_equal(locd_encode_f32(&g, b, 0, 2, ent, 16, &written), LOCD_ERR_INVALID_ARGUMENT);
     assert_non_null(strstr(locd_last_error(), "LOCD_MAX_DEPTH"));
 }
 
