@@ -463,37 +463,47 @@ static lc_scan_fn pick_scan(int kernel)
     return scan_scalar;
 }
 
-/* One sweep call's state, which the functions of sweep_impl.h share. */
+/* What one sweep call reads, and what it counts. The functions of
+ * sweep_impl.h that take it are inlined into the loop and nothing takes
+ * its address, so the compiler keeps it in registers. */
 typedef struct lc_sweep_ctx {
     const locd_grid *g;
+    uint32_t ib, depth; /* g's index bits and depth */
     const uint64_t *qbox, *entries;
     lc_sweep_out *o;
     lc_scan_fn scan; /* the generic loops' scan (scalar or AVX2) */
-    lc_seg segs[LC_MAX_SEGS];
-    uint32_t nseg;
-    size_t ncand;  /* records in use (the segments' and the open cell's) */
-    size_t npairs; /* pairs in o->pairs */
+    size_t npairs;   /* pairs in o->pairs */
     uint64_t candidates, exact;
-    lc_scan sc; /* the entry being tested, and its cell */
-    lc_slabs sl; /* the slab order of the last cell loaded with one */
-    size_t slab[LC_SLABS + 1];
-    int64_t ext;
 } lc_sweep_ctx;
 
-static void sweep_ctx_init(lc_sweep_ctx *cx, const locd_grid *g, const void *boxes, int f64, const uint64_t *qbox,
-                           const uint64_t *entries, lc_sweep_out *o)
+/* The sweep's working state, which the segment functions, the cell loader
+ * and the scan take by address. */
+typedef struct lc_sweep_state {
+    lc_seg segs[LC_MAX_SEGS];
+    uint32_t nseg;
+    size_t ncand; /* records in use (the segments' and the open cell's) */
+    lc_scan sc;   /* the entry being tested, and its cell */
+    lc_slabs sl;  /* the slab order of the last cell loaded with one */
+    size_t slab[LC_SLABS + 1];
+    int64_t ext;
+} lc_sweep_state;
+
+static void sweep_ctx_init(lc_sweep_ctx *cx, lc_sweep_state *ss, const locd_grid *g, const void *boxes, int f64,
+                           const uint64_t *qbox, const uint64_t *entries, lc_sweep_out *o)
 {
     cx->g = g;
+    cx->ib = g->index_bits;
+    cx->depth = g->depth;
     cx->qbox = qbox;
     cx->entries = entries;
     cx->o = o;
     cx->scan = pick_scan(o->kernel);
-    cx->nseg = 0;
-    cx->ncand = 0;
-    cx->npairs = o->count;
+    cx->npairs = o->count; /* the pairs of earlier ranges stay */
     cx->candidates = cx->exact = 0;
-    cx->sc.boxes = boxes;
-    cx->sc.f64 = f64;
+    ss->nseg = 0;
+    ss->ncand = 0;
+    ss->sc.boxes = boxes;
+    ss->sc.f64 = f64;
 }
 
 /* The end of the cell that starts at entry p: the next entry with another key. */
@@ -507,15 +517,14 @@ LC_INLINE size_t cell_end(const uint64_t *e, size_t p, size_t end, uint32_t ib)
 
 /* Pops the segments of cells that do not contain cell (pm, level): the
  * stack then holds its populated ancestors. */
-LC_INLINE void pop_to_ancestors(lc_sweep_ctx *cx, uint64_t pm, uint32_t level)
+LC_INLINE void pop_to_ancestors(lc_sweep_state *ss, uint64_t pm, uint32_t level, uint32_t depth)
 {
-    const uint32_t depth = cx->g->depth;
-    while (cx->nseg) {
-        const lc_seg *sg = &cx->segs[cx->nseg - 1];
+    while (ss->nseg) {
+        const lc_seg *sg = &ss->segs[ss->nseg - 1];
         if (sg->level < level && (pm >> (3u * (depth - sg->level))) == sg->cm)
             break;
-        cx->ncand = sg->start;
-        cx->nseg--;
+        ss->ncand = sg->start;
+        ss->nseg--;
     }
 }
 

@@ -122,9 +122,10 @@ static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, co
 /* Rebuilds the segment stack a serial sweep would hold at `begin` (a
  * cell's first entry): the populated ancestors of that cell, each with its
  * own entries loaded. */
-static LC_TARGET locd_status LC_FN(rebuild_stack_)(lc_sweep_ctx *cx, const LC_T *boxes, size_t begin)
+static LC_TARGET locd_status LC_FN(rebuild_stack_)(const lc_sweep_ctx *cx, lc_sweep_state *ss, const LC_T *boxes,
+                                                    size_t begin)
 {
-    const uint32_t ib = cx->g->index_bits, depth = cx->g->depth;
+    const uint32_t ib = cx->ib, depth = cx->depth;
     const uint64_t imask = (1ull << ib) - 1, key0 = cx->entries[begin] >> ib, pm0 = key0 >> LC_LEVEL_BITS;
     const uint32_t L0 = (uint32_t)(key0 & ((1u << LC_LEVEL_BITS) - 1));
     int32_t q0[8], cell0[3];
@@ -140,42 +141,46 @@ static LC_TARGET locd_status LC_FN(rebuild_stack_)(lc_sweep_ctx *cx, const LC_T 
         const int32_t cl[3] = {cell0[0] >> (L0 - l), cell0[1] >> (L0 - l), cell0[2] >> (L0 - l)};
         if (a >= b)
             continue;
-        if ((st = push_filtered(cx->g, cx->o, cx->segs, &cx->nseg, &cx->ncand, pml, l, cl, b - a)) != LOCD_OK)
+        if ((st = push_filtered(cx->g, cx->o, ss->segs, &ss->nseg, &ss->ncand, pml, l, cl, b - a)) != LOCD_OK)
             return st;
-        slabs_of(&cx->sl, cl[0], LC_SBITS - l);
-        if (LC_FN(load_cell_)(cx->g, boxes, cx->qbox, cx->entries, a, b, cx->o, cx->ncand, &cx->sl, cx->slab, &cx->ext,
+        slabs_of(&ss->sl, cl[0], LC_SBITS - l);
+        if (LC_FN(load_cell_)(cx->g, boxes, cx->qbox, cx->entries, a, b, cx->o, ss->ncand, &ss->sl, ss->slab, &ss->ext,
                               &st) < 0)
             return st;
-        cx->ncand += b - a;
+        ss->ncand += b - a;
     }
     return LOCD_OK;
 }
 
-/* Tests the entry in cx->sc against candidate rows [first, end) (room for
- * the pairs is reserved: reserve_pairs). */
-LC_TARGET LC_INLINE void LC_FN(scan_)(lc_sweep_ctx *cx, size_t first, size_t end)
+/* Tests the entry in ss->sc against candidate rows [first, end) (room for
+ * the pairs is reserved: reserve_pairs). The count of exact tests goes
+ * through a local: a scan called through a pointer then takes only its
+ * address, and *cx stays in registers. */
+LC_TARGET LC_INLINE void LC_FN(scan_)(lc_sweep_ctx *cx, lc_sweep_state *ss, size_t first, size_t end)
 {
-    cx->npairs = LC_SCAN(cx, &cx->sc, first, end, (uint32_t *)cx->o->pairs.data, cx->npairs, &cx->exact);
+    uint64_t exact = cx->exact;
+    cx->npairs = LC_SCAN(cx, &ss->sc, first, end, (uint32_t *)cx->o->pairs.data, cx->npairs, &exact);
+    cx->exact = exact;
 }
 
 /* A lone entry (box me, object idx) with no descendants after it: a
  * segment of its own would serve nobody else, so it meets the enclosing
  * segment's records directly (those that miss its cell fail the canonical
  * test, and the order is the filtered one's). */
-LC_TARGET LC_INLINE locd_status LC_FN(sweep_lone_)(lc_sweep_ctx *cx, uint64_t pm, uint32_t level, const int32_t me[8],
-                                                   uint32_t idx)
+LC_TARGET LC_INLINE locd_status LC_FN(sweep_lone_)(lc_sweep_ctx *cx, lc_sweep_state *ss, uint64_t pm, uint32_t level,
+                                                   const int32_t me[8], uint32_t idx)
 {
     size_t first;
-    locd_status st = open_parent(cx->g, cx->o, cx->segs, &cx->nseg, &cx->ncand, pm, level, cx->sc.cell);
+    locd_status st = open_parent(cx->g, cx->o, ss->segs, &ss->nseg, &ss->ncand, pm, level, ss->sc.cell);
     if (st)
         return st;
-    first = cx->nseg ? cx->segs[cx->nseg - 1].start : cx->ncand;
-    if (cx->ncand > first) {
-        if ((st = reserve_pairs(cx, cx->ncand - first)) != LOCD_OK)
+    first = ss->nseg ? ss->segs[ss->nseg - 1].start : ss->ncand;
+    if (ss->ncand > first) {
+        if ((st = reserve_pairs(cx, ss->ncand - first)) != LOCD_OK)
             return st;
-        cols_of(cx->o, &cx->sc.c);
-        entry_from_box(&cx->sc, me, idx);
-        LC_FN(scan_)(cx, first, cx->ncand);
+        cols_of(cx->o, &ss->sc.c);
+        entry_from_box(&ss->sc, me, idx);
+        LC_FN(scan_)(cx, ss, first, ss->ncand);
     }
     return LOCD_OK;
 }
@@ -185,24 +190,25 @@ LC_TARGET LC_INLINE locd_status LC_FN(sweep_lone_)(lc_sweep_ctx *cx, uint64_t pm
  * <= ext ending at its low x could start: rows of earlier slabs start
  * before that point, so they miss it. Without slab order (slabbed 0) every
  * earlier row of the cell is a candidate. */
-LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, size_t first, size_t own, size_t m, int slabbed)
+LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, lc_sweep_state *ss, size_t first, size_t own,
+                                                  size_t m, int slabbed)
 {
     size_t t;
     locd_status st;
     for (t = 0; t < m; t++) {
         const size_t r = own + t;
         size_t win;
-        entry_from_row(&cx->sc, r);
-        win = slabbed ? cx->slab[slab_of(&cx->sl, (int64_t)cx->sc.lo[0] - cx->ext)] : own;
+        entry_from_row(&ss->sc, r);
+        win = slabbed ? ss->slab[slab_of(&ss->sl, (int64_t)ss->sc.lo[0] - ss->ext)] : own;
         if ((st = reserve_pairs(cx, (own - first) + (r - win))) != LOCD_OK)
             return st;
         if (win == own) { /* one contiguous run of candidates */
             if (r > first)
-                LC_FN(scan_)(cx, first, r);
+                LC_FN(scan_)(cx, ss, first, r);
         } else {
             if (own > first)
-                LC_FN(scan_)(cx, first, own);
-            LC_FN(scan_)(cx, win, r);
+                LC_FN(scan_)(cx, ss, first, own);
+            LC_FN(scan_)(cx, ss, win, r);
         }
     }
     return LOCD_OK;
@@ -210,48 +216,49 @@ LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, size_t first
 
 /* Opens the segment of the cell of entries [p, q) (box me: the first
  * entry's) and loads the cell's own records after it, then tests them. */
-LC_TARGET LC_INLINE locd_status LC_FN(sweep_dense_)(lc_sweep_ctx *cx, const LC_T *boxes, size_t p, size_t q,
-                                                    uint64_t pm, uint32_t level, const int32_t me[8])
+LC_TARGET LC_INLINE locd_status LC_FN(sweep_dense_)(lc_sweep_ctx *cx, lc_sweep_state *ss, const LC_T *boxes, size_t p,
+                                                    size_t q, uint64_t pm, uint32_t level, const int32_t me[8])
 {
     const size_t m = q - p;
     size_t first, own;
     int slabbed = 0;
-    locd_status st = open_segment(cx->g, cx->o, cx->segs, &cx->nseg, &cx->ncand, pm, level, cx->sc.cell, m);
+    locd_status st = open_segment(cx->g, cx->o, ss->segs, &ss->nseg, &ss->ncand, pm, level, ss->sc.cell, m);
     if (st)
         return st;
-    first = cx->segs[cx->nseg - 1].start;
-    own = cx->ncand;
-    cols_of(cx->o, &cx->sc.c);
+    first = ss->segs[ss->nseg - 1].start;
+    own = ss->ncand;
+    cols_of(cx->o, &ss->sc.c);
     if (m == 1) { /* the common lone entry: its box is already loaded */
-        cand_put(&cx->sc.c, own, me, (uint32_t)(cx->entries[p] & ((1ull << cx->g->index_bits) - 1)));
+        cand_put(&ss->sc.c, own, me, (uint32_t)(cx->entries[p] & ((1ull << cx->ib) - 1)));
     } else {
-        slabs_of(&cx->sl, cx->sc.cell[0], cx->sc.s);
-        slabbed = LC_FN(load_cell_)(cx->g, boxes, cx->qbox, cx->entries, p, q, cx->o, own, &cx->sl, cx->slab,
-                                    &cx->ext, &st);
+        slabs_of(&ss->sl, ss->sc.cell[0], ss->sc.s);
+        slabbed = LC_FN(load_cell_)(cx->g, boxes, cx->qbox, cx->entries, p, q, cx->o, own, &ss->sl, ss->slab,
+                                    &ss->ext, &st);
         if (slabbed < 0)
             return st;
     }
-    if ((st = LC_FN(scan_cell_)(cx, first, own, m, slabbed)) != LOCD_OK)
+    if ((st = LC_FN(scan_cell_)(cx, ss, first, own, m, slabbed)) != LOCD_OK)
         return st;
-    cx->ncand = own + m;
+    ss->ncand = own + m;
     return LOCD_OK;
 }
 
 /* One cell: entries [p, q) of the sorted array, which share its key. */
-LC_TARGET LC_INLINE locd_status LC_FN(sweep_cell_)(lc_sweep_ctx *cx, const LC_T *boxes, size_t p, size_t q, size_t end)
+LC_TARGET LC_INLINE locd_status LC_FN(sweep_cell_)(lc_sweep_ctx *cx, lc_sweep_state *ss, const LC_T *boxes, size_t p,
+                                                   size_t q, size_t end)
 {
-    const uint32_t ib = cx->g->index_bits, depth = cx->g->depth;
+    const uint32_t ib = cx->ib, depth = cx->depth;
     const uint64_t key = cx->entries[p] >> ib, pm = key >> LC_LEVEL_BITS;
     const uint32_t level = (uint32_t)(key & ((1u << LC_LEVEL_BITS) - 1));
     const uint32_t idx = (uint32_t)(cx->entries[p] & ((1ull << ib) - 1));
     int32_t me[8];
     LC_FN(qbox_of_)(cx->g, boxes, cx->qbox, idx, me);
-    cx->sc.s = LC_SBITS - level;
-    lc_cell_of(me, pm >> (3u * (depth - level)), cx->sc.s, cx->sc.cell);
-    pop_to_ancestors(cx, pm, level);
+    ss->sc.s = LC_SBITS - level;
+    lc_cell_of(me, pm >> (3u * (depth - level)), ss->sc.s, ss->sc.cell);
+    pop_to_ancestors(ss, pm, level, depth);
     if (q - p == 1 && !(q < end && lc_descends(cx->entries[q] >> ib, pm, level, depth)))
-        return LC_FN(sweep_lone_)(cx, pm, level, me, idx);
-    return LC_FN(sweep_dense_)(cx, boxes, p, q, pm, level, me);
+        return LC_FN(sweep_lone_)(cx, ss, pm, level, me, idx);
+    return LC_FN(sweep_dense_)(cx, ss, boxes, p, q, pm, level, me);
 }
 
 static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox,
@@ -260,6 +267,7 @@ static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T 
 {
     const uint32_t ib = g->index_bits;
     lc_sweep_ctx cx;
+    lc_sweep_state ss;
     size_t p, pf;
     locd_status st;
 
@@ -269,8 +277,8 @@ static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T 
         return LOCD_OK;
     if ((st = cand_reserve(o, 0, 1024)) != LOCD_OK)
         return st;
-    sweep_ctx_init(&cx, g, boxes, sizeof(LC_T) == sizeof(double), qbox, entries, o);
-    if (begin > 0 && (st = LC_FN(rebuild_stack_)(&cx, boxes, begin)) != LOCD_OK)
+    sweep_ctx_init(&cx, &ss, g, boxes, sizeof(LC_T) == sizeof(double), qbox, entries, o);
+    if (begin > 0 && (st = LC_FN(rebuild_stack_)(&cx, &ss, boxes, begin)) != LOCD_OK)
         return st;
     /* One cell at a time: its entries are contiguous in the sorted array. */
     for (p = pf = begin; p < end;) {
@@ -279,7 +287,7 @@ static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T 
            flight: a dense cell reads all its boxes at once. */
         for (; pf < q + LC_PREFETCH && pf < end; pf++)
             LC_FN(prefetch_)(g, boxes, qbox, entries, pf, end);
-        if ((st = LC_FN(sweep_cell_)(&cx, boxes, p, q, end)) != LOCD_OK)
+        if ((st = LC_FN(sweep_cell_)(&cx, &ss, boxes, p, q, end)) != LOCD_OK)
             return st;
         p = q;
     }
