@@ -200,6 +200,38 @@ static void each_handle_kind_is_refused_as_another(void **state)
     locd_job_release(job);
 }
 
+/* LOCD_MAX_DEPTH is accepted, one more is refused, by the engine and by
+ * the grid fit alike, and the message names the limit. */
+static void depth_limit_is_checked_everywhere(void **state)
+{
+    float b[12] = {0, 0, 0, 1, 1, 1, 0.5f, 0.5f, 0.5f, 2, 2, 2};
+    locd_engine_config cfg;
+    locd_engine *e = NULL;
+    locd_grid g;
+    uint64_t ent[16];
+    size_t written = 0;
+    (void)state;
+    locd_engine_config_init(&cfg);
+    cfg.threads = 1;
+    cfg.max_depth = LOCD_MAX_DEPTH;
+    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
+    locd_engine_destroy(e);
+    e = NULL;
+    cfg.max_depth = LOCD_MAX_DEPTH + 1;
+    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_INVALID_ARGUMENT);
+    assert_null(e);
+    assert_non_null(strstr(locd_last_error(), "LOCD_MAX_DEPTH"));
+    assert_int_equal(locd_grid_fit_f32(b, 2, LOCD_MAX_DEPTH, 2, 0, &g), LOCD_OK);
+    assert_true(g.depth <= LOCD_MAX_DEPTH);
+    assert_int_equal(locd_grid_fit_f32(b, 2, LOCD_MAX_DEPTH + 1, 2, 0, &g), LOCD_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(locd_last_error(), "LOCD_MAX_DEPTH"));
+    /* a grid that claims more is refused by the steps that take one */
+    assert_int_equal(locd_grid_fit_f32(b, 2, 0, 2, 0, &g), LOCD_OK);
+    g.depth = LOCD_MAX_DEPTH + 1;
+    assert_int_equal(locd_encode_f32(&g, b, 0, 2, ent, 16, &written), LOCD_ERR_INVALID_ARGUMENT);
+    assert_non_null(strstr(locd_last_error(), "LOCD_MAX_DEPTH"));
+}
+
 static void too_many_objects(void **state)
 {
     fixture *f = *state;
@@ -268,6 +300,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(zero_and_one_box_give_no_pairs, setup, teardown),
         cmocka_unit_test_setup_teardown(null_pointers_and_bad_handles, setup, teardown),
         cmocka_unit_test_setup_teardown(each_handle_kind_is_refused_as_another, setup, teardown),
+        cmocka_unit_test(depth_limit_is_checked_everywhere),
         cmocka_unit_test_setup_teardown(too_many_objects, setup, teardown),
         cmocka_unit_test_setup_teardown(into_buffer_too_small_keeps_pairs_available, setup, teardown),
         cmocka_unit_test(statuses_have_strings_and_version_matches),

@@ -81,8 +81,8 @@ static int parse_value_option(const char *o, const char *v, pairs_opts *p)
         if (cli_parse_size(v, &p->repeat) || p->repeat < 1)
             cli_die("pairs: bad --repeat");
     } else if (!strcmp(o, "--depth")) {
-        if (cli_parse_size(v, &k) || k > 21)
-            cli_die("pairs: bad --depth (0..21)");
+        if (cli_parse_size(v, &k) || k > LOCD_MAX_DEPTH)
+            cli_die("pairs: bad --depth (0..LOCD_MAX_DEPTH, 21)");
         p->cfg.max_depth = (uint32_t)k;
     } else if (!strcmp(o, "--bias")) {
         if (cli_parse_size(v, &k) || k > 8)

@@ -137,11 +137,18 @@ typedef void (*locd_log_fn)(int32_t severity, const char *message, void *user);
 #define LOCD_LEVEL_WORKERS 2   /* worker processes, POSIX shared memory + semaphores */
 #define LOCD_LEVEL_SERVICE 3   /* separate service process, asynchronous jobs */
 
+/* The largest max_depth, and the deepest a grid may say it is: the sweep
+ * compares cells on 21-bit coordinates, exact for levels up to 21 (see
+ * docs/encoding.md). The 64-bit entry also has to hold 3 bits per level,
+ * the 5-bit level and the index bits, so a fitted grid is shallower still
+ * (at most 19 levels, and fewer as objects grow). */
+#define LOCD_MAX_DEPTH 21
+
 typedef struct locd_engine_config {
     uint32_t size;               /* sizeof(locd_engine_config) */
     int32_t level;               /* LOCD_LEVEL_*; default LOCD_LEVEL_INPROCESS */
     uint32_t threads;            /* threads (level 1) or worker processes (level 2); 0 = one per core */
-    uint32_t max_depth;          /* octree depth limit; 0 = automatic (as deep as the key allows) */
+    uint32_t max_depth;          /* octree depth limit, 0..LOCD_MAX_DEPTH; 0 = automatic (as deep as the key allows) */
     int32_t cell_bias;           /* a box goes to the deepest level whose cell edge is >= 2^bias times its
                                     largest extent; default LOCD_DEFAULT_CELL_BIAS (2; see docs/encoding.md); 0..8 */
     uint32_t flags;              /* LOCD_CONFIG_* */
@@ -307,7 +314,7 @@ LOCD_API void locd_job_release(locd_job *job);
  */
 typedef struct locd_grid {
     uint32_t size;        /* sizeof(locd_grid) */
-    uint32_t depth;       /* deepest octree level used (<= 21) */
+    uint32_t depth;       /* deepest octree level used (<= LOCD_MAX_DEPTH) */
     int32_t cell_bias;    /* see locd_engine_config.cell_bias */
     uint32_t index_bits;  /* low bits of an entry holding the object index */
     uint32_t flags;       /* LOCD_CONFIG_CUBES or 0 */
@@ -321,7 +328,8 @@ typedef struct locd_grid {
  * need them all). */
 #define LOCD_GRID_MIN_SIZE 64u
 
-/* Validates the boxes and fits the root cube. max_depth 0 = automatic;
+/* Validates the boxes and fits the root cube. max_depth 0 = automatic,
+ * at most LOCD_MAX_DEPTH;
  * cell_bias as in the config; flags LOCD_CONFIG_CUBES or 0. On a bad box
  * returns LOCD_ERR_NONFINITE / LOCD_ERR_INVERTED_BOX with its index.
  * *grid is output only; its size is read only to bound the write: the call

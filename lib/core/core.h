@@ -97,8 +97,12 @@ void lc_struct_out(void *dst, const void *src);
 
 /* ---- SIMD kernels (kernel.c) ---- */
 enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512 };
-/* The best kernel family this CPU has, capped by LOCD_KERNEL / LOCD_SCALAR. */
-int lc_kernel(void);
+/* The best kernel family this CPU has, capped by LOCD_KERNEL / LOCD_SCALAR.
+ * It reads the environment and the CPU, so it is called once where a choice
+ * can live: when an engine's level state is created; the stages take the
+ * choice as an argument. The public building blocks have no engine and
+ * choose per call. */
+int lc_kernel_choose(void);
 #if defined(__GNUC__) && defined(__x86_64__) && (__GNUC__ >= 8 || defined(__clang__))
 #define LC_HAVE_AVX512_KERNEL 1
 #define LC_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx512cd,popcnt,bmi,bmi2")))

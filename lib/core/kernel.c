@@ -2,12 +2,14 @@
  * portable path and x86-64 vector paths compiled with target attributes, so
  * one binary runs everywhere and uses what the CPU has. LOCD_KERNEL=
  * scalar|avx2|avx512 in the environment caps the choice (LOCD_SCALAR=1 is
- * the old spelling of scalar): the tests run every kernel and compare. */
+ * the old spelling of scalar): the tests run every kernel and compare. An
+ * engine chooses once, when it is created; a change of the variable applies
+ * to engines created after it. */
 #include "core/core.h"
 
 #include <stdlib.h>
 
-int lc_kernel(void)
+int lc_kernel_choose(void)
 {
     const char *cap = getenv("LOCD_KERNEL"), *scalar = getenv("LOCD_SCALAR");
     int k = LC_KERNEL_SCALAR;

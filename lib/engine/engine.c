@@ -1,6 +1,7 @@
 /* The engine handle: configuration, validation, and dispatch to the
  * integration level chosen at creation. */
 #include "engine/engine.h"
+#include "octree/octree.h"
 
 void locd_engine_config_init(locd_engine_config *config)
 {
@@ -58,8 +59,8 @@ static locd_status read_config(const locd_engine_config *config, locd_engine_con
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "level %d is not 1, 2 or 3", (int)cfg->level);
     if (cfg->cell_bias < 0 || cfg->cell_bias > 8)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "cell_bias %d is outside 0..8", (int)cfg->cell_bias);
-    if (cfg->max_depth > 21)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "max_depth %u exceeds 21", cfg->max_depth);
+    if ((st = lc_depth_check(cfg->max_depth, "max_depth")) != LOCD_OK)
+        return st;
     if (cfg->threads > LC_MAX_THREADS)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "threads %u exceeds %d", cfg->threads, LC_MAX_THREADS);
     if ((cfg->allocator.alloc == NULL) != (cfg->allocator.free == NULL))

@@ -15,6 +15,7 @@ typedef struct lc_inproc {
     lc_buf qbox;     /* 2 uint64 per object: packed sweep boxes (lc_pack_qbox), reused by the sweep */
     lc_sweep_out sw[LC_MAX_THREADS];
     double per_object; /* entries per object seen last time */
+    int kernel;        /* LC_KERNEL_*, chosen when the engine is created */
 } lc_inproc;
 
 typedef struct lc_job_ctx {
@@ -42,9 +43,9 @@ static void task_bounds(void *arg, uint32_t t, uint32_t k)
     size_t b = lc_chunk_begin(c->n, t, k), e = lc_chunk_begin(c->n, t + 1, k);
     lc_bounds_init(&c->bounds[t]);
     if (c->f64)
-        lc_bounds_f64(c->boxes, b, e, &c->bounds[t]);
+        lc_bounds_f64(c->boxes, b, e, &c->bounds[t], c->ip->kernel);
     else
-        lc_bounds_f32(c->boxes, b, e, &c->bounds[t]);
+        lc_bounds_f32(c->boxes, b, e, &c->bounds[t], c->ip->kernel);
 }
 
 static void task_encode_sort(void *arg, uint32_t t, uint32_t k)
@@ -56,9 +57,11 @@ static void task_encode_sort(void *arg, uint32_t t, uint32_t k)
     uint64_t *res;
     double t0 = lc_now_ms(), t1;
     if (c->f64)
-        w = lc_encode_f64(&c->grid, c->boxes, b, e - b, ent, c->plan.cap[t], &c->need[t], c->ip->qbox.data);
+        w = lc_encode_f64(&c->grid, c->boxes, b, e - b, ent, c->plan.cap[t], &c->need[t], c->ip->qbox.data,
+                          c->ip->kernel);
     else
-        w = lc_encode_f32(&c->grid, c->boxes, b, e - b, ent, c->plan.cap[t], &c->need[t], c->ip->qbox.data);
+        w = lc_encode_f32(&c->grid, c->boxes, b, e - b, ent, c->plan.cap[t], &c->need[t], c->ip->qbox.data,
+                          c->ip->kernel);
     if (w == (size_t)-1) {
         c->overflow[t] = 1;
         return;
@@ -116,8 +119,9 @@ static locd_status inproc_open(locd_engine *e)
     memset(ip, 0, sizeof *ip);
     if (e->threads > LC_MAX_THREADS)
         e->threads = LC_MAX_THREADS;
+    ip->kernel = lc_kernel_choose();
     for (t = 0; t < LC_MAX_THREADS; t++)
-        lc_sweep_out_init(&ip->sw[t], &e->alloc);
+        lc_sweep_out_init(&ip->sw[t], &e->alloc, ip->kernel);
     ip->per_object = lc_entries_per_object_guess(e->cfg.cell_bias);
     st = lc_pool_create(&e->alloc, e->threads, &ip->pool);
     if (st) {
@@ -153,15 +157,15 @@ static double lap(lc_job_ctx *c)
 }
 
 /* Fewer than two objects have no pair; one box is still validated. */
-static locd_status find_tiny(const void *boxes, size_t n, int f64, locd_pairs *out, locd_stats *stats)
+static locd_status find_tiny(const void *boxes, size_t n, int f64, int kernel, locd_pairs *out, locd_stats *stats)
 {
     if (n == 1) {
         lc_bounds b1;
         lc_bounds_init(&b1);
         if (f64)
-            lc_bounds_f64(boxes, 0, 1, &b1);
+            lc_bounds_f64(boxes, 0, 1, &b1, kernel);
         else
-            lc_bounds_f32(boxes, 0, 1, &b1);
+            lc_bounds_f32(boxes, 0, 1, &b1, kernel);
         if (b1.bad >= 0)
             return lc_error_box(b1.bad_status, 0, "box 0");
     }
@@ -356,7 +360,7 @@ static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int 
 
     stats->objects = n;
     if (n < 2)
-        return find_tiny(boxes, n, f64, out, stats);
+        return find_tiny(boxes, n, f64, ((const lc_inproc *)e->backend)->kernel, out, stats);
     if (!(c = new_job(e, boxes, n, f64)))
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the call state");
     stats->threads = c->plan.k;

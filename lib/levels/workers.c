@@ -63,6 +63,7 @@ typedef struct lc_workers {
     lc_buf merged;    /* uint64 entries */
     locd_pairs pairs; /* the sweep's output before it is handed over */
     double per_object;
+    int kernel; /* LC_KERNEL_* for the host's stages, chosen when the engine is created */
 } lc_workers;
 
 /* ---- shared memory segments ---- */
@@ -369,6 +370,7 @@ static locd_status workers_open(locd_engine *e)
     memset(w, 0, sizeof *w);
     w->k = e->threads;
     w->per_object = lc_entries_per_object_guess(e->cfg.cell_bias);
+    w->kernel = lc_kernel_choose();
     lc_pairs_init_embedded(&w->pairs, &e->alloc);
     if ((st = find_worker(e, w->exe, sizeof w->exe)) != LOCD_OK || (st = start_workers(w)) != LOCD_OK) {
         lc_free(&e->alloc, w, sizeof *w);
@@ -566,8 +568,8 @@ static locd_status sweep_and_give(lc_workers *w, const lc_call *c, const uint64_
     double t0 = lc_now_ms();
     locd_status st;
     locd_stats_init(&sw);
-    st = c->f64 ? locd_sweep_f64(&c->grid, c->boxes, c->n, sorted, total, &w->pairs, &sw)
-                : locd_sweep_f32(&c->grid, c->boxes, c->n, sorted, total, &w->pairs, &sw);
+    st = c->f64 ? lc_block_sweep_f64(&c->grid, c->boxes, c->n, sorted, total, &w->pairs, &sw, w->kernel)
+                : lc_block_sweep_f32(&c->grid, c->boxes, c->n, sorted, total, &w->pairs, &sw, w->kernel);
     if (st)
         return st;
     stats->pairs = sw.pairs;
@@ -594,9 +596,9 @@ static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int
     c.boxes = boxes;
     c.n = n;
     c.f64 = f64;
-    /* The same validation and root cube as level 1 (public building block). */
-    st = f64 ? locd_grid_fit_f64(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &c.grid)
-             : locd_grid_fit_f32(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &c.grid);
+    /* The same validation and root cube as level 1 (the grid-fit building block). */
+    st = f64 ? lc_block_grid_fit_f64(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &c.grid, w->kernel)
+             : lc_block_grid_fit_f32(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &c.grid, w->kernel);
     if (st)
         return st;
     if (n < 2) {

@@ -3,25 +3,12 @@
  * which was its bottleneck). */
 #include "octree/octree.h"
 
-static size_t lower_bound(const uint64_t *a, size_t n, uint64_t v)
+size_t lc_lower_bound(const uint64_t *a, size_t n, uint64_t v)
 {
     size_t lo = 0, hi = n;
     while (lo < hi) {
         size_t mid = lo + (hi - lo) / 2;
         if (a[mid] < v)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
-}
-
-static size_t upper_bound(const uint64_t *a, size_t n, uint64_t v)
-{
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (a[mid] <= v)
             lo = mid + 1;
         else
             hi = mid;
@@ -45,15 +32,15 @@ void lc_merge_split(const uint64_t *const *runs, const size_t *counts, size_t k,
     while (lo < hi) {
         uint64_t mid = lo + (hi - lo) / 2;
         size_t c = 0;
-        for (r = 0; r < k; r++)
-            c += upper_bound(runs[r], counts[r], mid);
+        for (r = 0; r < k; r++) /* values <= mid; mid < hi, so mid + 1 does not wrap */
+            c += lc_lower_bound(runs[r], counts[r], mid + 1);
         if (c >= rank + 1)
             hi = mid;
         else
             lo = mid + 1;
     }
     for (r = 0; r < k; r++)
-        pos[r] = lower_bound(runs[r], counts[r], lo);
+        pos[r] = lc_lower_bound(runs[r], counts[r], lo);
 }
 
 static void merge2(const uint64_t *a, const uint64_t *ae, const uint64_t *b, const uint64_t *be, uint64_t *out)
@@ -74,7 +61,7 @@ static void merge2(const uint64_t *a, const uint64_t *ae, const uint64_t *b, con
 /* k-way merge with a binary heap of run heads. */
 static void merge_heap(const uint64_t *const *runs, const size_t *begin, const size_t *end, size_t k, uint64_t *out)
 {
-    size_t heap[64], cur[64], hn = 0, r;
+    size_t heap[LC_MAX_THREADS], cur[LC_MAX_THREADS], hn = 0, r;
     for (r = 0; r < k; r++) {
         cur[r] = begin[r];
         if (cur[r] < end[r]) {

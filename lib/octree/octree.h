@@ -1,9 +1,34 @@
 /* lib/octree: the paper's four steps (bounds and grid, encode, sort,
- * merge, sweep) and the O(n^2) reference. Private; not installed. */
+ * merge, sweep) and the O(n^2) reference. Private; not installed.
+ *
+ * How variants are written: one style for every precision (float, double)
+ * and SIMD kernel variant in this folder, the include-template. A body that
+ * exists in several variants lives once in a NAME_impl.h file, written as
+ * ordinary C with LC_T for the box coordinate type and LC_FN(name) for each
+ * function name, and the .c file includes it once per variant after
+ * defining LC_T and LC_SUFFIX (f32 or f64, and a kernel name where there is
+ * more than one; the template #undefs both at its end). Where a SIMD
+ * kernel runs the same body (the sweep's main loop), the body is included
+ * once more with LC_TARGET (the target attribute) and one-line macros for
+ * what differs (the scan, the quantization); a SIMD body that is different
+ * code (encode's, the float bounds') is an ordinary function with the
+ * LC_AVX512 attribute beside the scalar one (in the template when it
+ * exists per precision; a one-line LC_GATHER macro loads the coordinates).
+ * So every variant is real code a debugger steps through and a formatter
+ * formats; no function body sits in a backslash-continued macro. The
+ * choice between kernels is an `int kernel` argument (LC_KERNEL_*, chosen
+ * once by lc_kernel_choose) that a small dispatch function tests; public
+ * locd_* functions are written out by name as one-line wrappers, so they
+ * can be found with grep. */
 #ifndef LOCD_OCTREE_H
 #define LOCD_OCTREE_H
 
 #include "core/core.h"
+
+/* The name of a template function for the variant being included. */
+#define LC_CAT2(a, b) a##b
+#define LC_CAT(a, b) LC_CAT2(a, b)
+#define LC_FN(name) LC_CAT(name, LC_SUFFIX)
 
 /* ---- grid (grid.c) ---- */
 typedef struct lc_bounds {
@@ -12,12 +37,17 @@ typedef struct lc_bounds {
     locd_status bad_status;
 } lc_bounds;
 void lc_bounds_init(lc_bounds *b);
-void lc_bounds_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out);
-void lc_bounds_f64(const double *boxes, size_t begin, size_t end, lc_bounds *out);
+/* Grows out to hold boxes [begin, end), stopping at the first bad one;
+ * kernel is an LC_KERNEL_* value (lc_kernel_choose). */
+void lc_bounds_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out, int kernel);
+void lc_bounds_f64(const double *boxes, size_t begin, size_t end, lc_bounds *out, int kernel);
 /* Combines b into acc (a later chunk's bad index never hides an earlier one). */
 void lc_bounds_merge(lc_bounds *acc, const lc_bounds *b);
 locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth, int32_t cell_bias, uint32_t flags,
                                 locd_grid *grid);
+/* The one check of the depth limit, for a config's max_depth, a fit's and
+ * a grid's depth (`what` names it in the error). */
+locd_status lc_depth_check(uint32_t depth, const char *what);
 locd_status lc_grid_check(const locd_grid *g);
 /* The automatic depth (max_depth 0): may lower g->depth (see grid.c). */
 void lc_grid_tune_depth_f32(locd_grid *g, const float *boxes, size_t n);
@@ -38,7 +68,7 @@ LC_INLINE int32_t lc_quantize(const locd_grid *g, int axis, double x)
 
 /* The sweep's coordinates: the quantized ones without their low LC_SDROP
  * bits (21 bits a coordinate). Still monotone, and a cell of any level up
- * to the depth (at most 19, see lc_grid_check) has the same integer
+ * to LC_SBITS = LOCD_MAX_DEPTH (lc_depth_check) has the same integer
  * coordinates at 21 bits as at 31, so the entries, the cells and the
  * canonical test are unchanged (docs/encoding.md); ends that become equal
  * go to the exact test. A box then packs into 16 bytes, three 21-bit fields
@@ -46,6 +76,8 @@ LC_INLINE int32_t lc_quantize(const locd_grid *g, int axis, double x)
 #define LC_SBITS 21
 #define LC_SDROP (LC_QBITS - LC_SBITS)
 #define LC_SMASK ((1ull << LC_SBITS) - 1)
+/* The depth limit rests on the sweep's bits: a compile error if not. */
+typedef char lc_sweep_bits_cover_max_depth[LC_SBITS >= LOCD_MAX_DEPTH ? 1 : -1];
 LC_INLINE void lc_pack_qbox(const int32_t lo[3], const int32_t hi[3], uint64_t *w)
 {
     w[0] = (uint64_t)(lo[0] >> LC_SDROP) | (uint64_t)(lo[1] >> LC_SDROP) << LC_SBITS |
@@ -72,11 +104,13 @@ LC_INLINE uint32_t lc_level_for(uint32_t w, int32_t bias, uint32_t depth)
 /* qbox, when not NULL, receives each object's packed sweep box (lc_pack_qbox)
  * at 2 * index. */
 size_t lc_encode_f32(const locd_grid *g, const float *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed, uint64_t *qbox);
+                     size_t capacity, size_t *needed, uint64_t *qbox, int kernel);
 size_t lc_encode_f64(const locd_grid *g, const double *boxes, size_t first, size_t count, uint64_t *out,
-                     size_t capacity, size_t *needed, uint64_t *qbox);
+                     size_t capacity, size_t *needed, uint64_t *qbox, int kernel);
 /* Multiway merge of runs restricted to [begin[r], end[r]) into out. */
 void lc_merge_ranges(const uint64_t *const *runs, const size_t *begin, const size_t *end, size_t k, uint64_t *out);
+/* The first position in sorted a[0, n) whose value is >= v (n if none). */
+size_t lc_lower_bound(const uint64_t *a, size_t n, uint64_t v);
 /* Splits k runs so that exactly `rank` elements lie before the split; pos[r] receives the split in run r. */
 void lc_merge_split(const uint64_t *const *runs, const size_t *counts, size_t k, size_t rank, size_t *pos);
 
@@ -88,12 +122,14 @@ typedef struct lc_sweep_out {
     size_t count; /* pairs */
     int32_t *cand;   /* candidate records, 7 columns of cand_cap: lo xyz, hi xyz, index */
     size_t cand_cap;
-    void (*filter)(void); /* the segment filter kernel for this CPU (sweep.c casts it back) */
+    int kernel;           /* LC_KERNEL_*, fixed at init */
+    void (*filter)(void); /* the segment filter for that kernel (sweep.c casts it back) */
     lc_buf group;         /* uint64 per entry of the largest slab-ordered cell so far: slab and object */
     uint64_t candidates;
     uint64_t exact_tests;
 } lc_sweep_out;
-void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a);
+/* kernel: the LC_KERNEL_* every sweep into o uses (lc_kernel_choose). */
+void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a, int kernel);
 void lc_sweep_out_fini(lc_sweep_out *o);
 /* Has the next sweeps write their pairs to `values` (cap uint32, two per
  * pair) until it is full, then to a buffer of their own, releasing o's own
@@ -111,6 +147,18 @@ locd_status lc_sweep_range_f32(const locd_grid *g, const float *boxes, const uin
                                size_t count, size_t begin, size_t end, lc_sweep_out *o);
 locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const uint64_t *qbox, const uint64_t *entries,
                                size_t count, size_t begin, size_t end, lc_sweep_out *o);
+
+/* ---- the building blocks with a kernel chosen by the caller (blocks.c) ---- */
+/* locd_grid_fit_* and locd_sweep_* (locd.h) with their checks, for code
+ * that holds a kernel choice (level 2's host side). */
+locd_status lc_block_grid_fit_f32(const float *boxes, size_t n, uint32_t max_depth, int32_t cell_bias, uint32_t flags,
+                                  locd_grid *grid, int kernel);
+locd_status lc_block_grid_fit_f64(const double *boxes, size_t n, uint32_t max_depth, int32_t cell_bias,
+                                  uint32_t flags, locd_grid *grid, int kernel);
+locd_status lc_block_sweep_f32(const locd_grid *grid, const float *boxes, size_t n, const uint64_t *entries,
+                               size_t count, locd_pairs *out, locd_stats *stats, int kernel);
+locd_status lc_block_sweep_f64(const locd_grid *grid, const double *boxes, size_t n, const uint64_t *entries,
+                               size_t count, locd_pairs *out, locd_stats *stats, int kernel);
 
 /* ---- 3-D Morton (Z-order) interleaving of 21-bit coordinates ---- */
 static __inline__ uint64_t lc_morton_split3(uint32_t a)

@@ -180,20 +180,7 @@ static size_t cell_start_from(const uint64_t *e, size_t count, size_t p, uint32_
     return p;
 }
 
-static size_t lower_bound64(const uint64_t *a, size_t n, uint64_t v)
-{
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (a[mid] < v)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
-}
-
-/* Copies the records of [from, to) that overlap the box [lo, hi] to w... */
+/* Copies record `from` to row `to` (all seven columns). */
 LC_INLINE void copy_row(const lc_cols *c, size_t from, size_t to)
 {
     c->lo[0][to] = c->lo[0][from];
@@ -253,8 +240,6 @@ __attribute__((target("avx2"))) static size_t filter_avx2(const lc_cols *c, size
     return w;
 }
 #endif
-
-static lc_filter_fn pick_filter(void);
 
 /* Pushes the segment of cell `cell` (integer coordinates) at `level`: the
  * records of the current top segment that overlap the cell. */
@@ -458,44 +443,140 @@ LC_AVX512 LC_INLINE size_t scan_avx512(const lc_scan *sc, size_t first, size_t e
 }
 #endif
 
-static lc_filter_fn pick_filter(void)
+static lc_filter_fn pick_filter(int kernel)
 {
 #ifdef LC_HAVE_AVX2_KERNEL
-    if (lc_kernel() >= LC_KERNEL_AVX2)
+    if (kernel >= LC_KERNEL_AVX2)
         return filter_avx2;
 #endif
+    (void)kernel;
     return filter_scalar;
 }
 
-static lc_scan_fn pick_scan(void)
+static lc_scan_fn pick_scan(int kernel)
 {
 #ifdef LC_HAVE_AVX2_KERNEL
-    if (lc_kernel() >= LC_KERNEL_AVX2)
+    if (kernel >= LC_KERNEL_AVX2)
         return scan_avx2;
 #endif
+    (void)kernel;
     return scan_scalar;
 }
 
-/* The main loop, once per input precision and per kernel family: through
- * the scan function pointer (scalar, AVX2), and with the AVX-512 scan
- * inlined into a loop compiled for AVX-512. */
+/* What one sweep call reads, and what it counts. The functions of
+ * sweep_impl.h that take it are inlined into the loop and nothing takes
+ * its address, so the compiler keeps it in registers. */
+typedef struct lc_sweep_ctx {
+    const locd_grid *g;
+    uint32_t ib, depth; /* g's index bits and depth */
+    const uint64_t *qbox, *entries;
+    lc_sweep_out *o;
+    lc_scan_fn scan; /* the generic loops' scan (scalar or AVX2) */
+    size_t npairs;   /* pairs in o->pairs */
+    uint64_t candidates, exact;
+} lc_sweep_ctx;
+
+/* The sweep's working state, which the segment functions, the cell loader
+ * and the scan take by address. */
+typedef struct lc_sweep_state {
+    lc_seg segs[LC_MAX_SEGS];
+    uint32_t nseg;
+    size_t ncand; /* records in use (the segments' and the open cell's) */
+    lc_scan sc;   /* the entry being tested, and its cell */
+    lc_slabs sl;  /* the slab order of the last cell loaded with one */
+    size_t slab[LC_SLABS + 1];
+    int64_t ext;
+} lc_sweep_state;
+
+static void sweep_ctx_init(lc_sweep_ctx *cx, lc_sweep_state *ss, const locd_grid *g, const void *boxes, int f64,
+                           const uint64_t *qbox, const uint64_t *entries, lc_sweep_out *o)
+{
+    cx->g = g;
+    cx->ib = g->index_bits;
+    cx->depth = g->depth;
+    cx->qbox = qbox;
+    cx->entries = entries;
+    cx->o = o;
+    cx->scan = pick_scan(o->kernel);
+    cx->npairs = o->count; /* the pairs of earlier ranges stay */
+    cx->candidates = cx->exact = 0;
+    ss->nseg = 0;
+    ss->ncand = 0;
+    ss->sc.boxes = boxes;
+    ss->sc.f64 = f64;
+}
+
+/* The end of the cell that starts at entry p: the next entry with another key. */
+LC_INLINE size_t cell_end(const uint64_t *e, size_t p, size_t end, uint32_t ib)
+{
+    size_t q = p + 1;
+    while (q < end && (e[q] >> ib) == (e[p] >> ib))
+        q++;
+    return q;
+}
+
+/* Pops the segments of cells that do not contain cell (pm, level): the
+ * stack then holds its populated ancestors. */
+LC_INLINE void pop_to_ancestors(lc_sweep_state *ss, uint64_t pm, uint32_t level, uint32_t depth)
+{
+    while (ss->nseg) {
+        const lc_seg *sg = &ss->segs[ss->nseg - 1];
+        if (sg->level < level && (pm >> (3u * (depth - sg->level))) == sg->cm)
+            break;
+        ss->ncand = sg->start;
+        ss->nseg--;
+    }
+}
+
+/* Counts `cand` candidates for the entry about to be tested and makes room
+ * for as many pairs (plus the vector stores' slack). */
+LC_INLINE locd_status reserve_pairs(lc_sweep_ctx *cx, size_t cand)
+{
+    const size_t need = cx->npairs + cand + LC_PAIR_SLACK;
+    cx->candidates += cand;
+    if (2 * need > cx->o->pairs.cap)
+        return pairs_reserve(cx->o, 2 * need, cx->npairs);
+    return LOCD_OK;
+}
+
+/* Makes box q (lo xyz, hi xyz) of object idx the entry under test. */
+LC_INLINE void entry_from_box(lc_scan *sc, const int32_t q[6], uint32_t idx)
+{
+    sc->lo[0] = q[0];
+    sc->lo[1] = q[1];
+    sc->lo[2] = q[2];
+    sc->hi[0] = q[3];
+    sc->hi[1] = q[4];
+    sc->hi[2] = q[5];
+    sc->idx = idx;
+}
+
+/* Makes record r the entry under test. */
+LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
+{
+    sc->lo[0] = sc->c.lo[0][r];
+    sc->lo[1] = sc->c.lo[1][r];
+    sc->lo[2] = sc->c.lo[2][r];
+    sc->hi[0] = sc->c.hi[0][r];
+    sc->hi[1] = sc->c.hi[1][r];
+    sc->hi[2] = sc->c.hi[2][r];
+    sc->idx = sc->c.idx[r];
+}
+
+/* The main loop, once per input precision and per kernel family (the
+ * include-template of octree.h): through the scan function pointer (scalar,
+ * AVX2), and with the AVX-512 scan inlined into a loop compiled for
+ * AVX-512. */
+#define LC_TARGET
+#define LC_SCAN(cx, sc, first, end, pairs, np, exact) (cx)->scan(sc, first, end, pairs, np, exact)
 #define LC_T float
 #define LC_SUFFIX f32_generic
-#define LC_TARGET
-#define LC_SCAN_SETUP const lc_scan_fn scan = pick_scan();
-#define LC_SCAN(sc, first, end, pairs, np, exact) scan(sc, first, end, pairs, np, exact)
 #include "sweep_impl.h"
-#undef LC_T
-#undef LC_SUFFIX
-
 #define LC_T double
 #define LC_SUFFIX f64_generic
 #include "sweep_impl.h"
-#undef LC_T
-#undef LC_SUFFIX
 #undef LC_TARGET
 #undef LC_SCAN
-#undef LC_SCAN_SETUP
 
 #ifdef LC_HAVE_AVX512_KERNEL
 /* lc_quantize on a box's six coordinates at once, to the sweep's 21 bits:
@@ -512,55 +593,49 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
     _mm256_storeu_si256((__m256i *)q, _mm256_srai_epi32(_mm512_cvttpd_epi32(c), LC_SDROP));
 }
 #define LC_TARGET LC_AVX512
-#define LC_SCAN_SETUP
-#define LC_SCAN(sc, first, end, pairs, np, exact) scan_avx512(sc, first, end, pairs, np, exact)
+#define LC_SCAN(cx, sc, first, end, pairs, np, exact) scan_avx512(sc, first, end, pairs, np, exact)
 #define LC_T float
 #define LC_SUFFIX f32_avx512
 #define LC_QUANTIZE6(g, b, q) quantize6(g, _mm512_cvtps_pd(_mm256_maskz_loadu_ps(0x3f, b)), q)
 #include "sweep_impl.h"
-#undef LC_T
-#undef LC_SUFFIX
 #undef LC_QUANTIZE6
 
 #define LC_T double
 #define LC_SUFFIX f64_avx512
 #define LC_QUANTIZE6(g, b, q) quantize6(g, _mm512_maskz_loadu_pd(0x3f, b), q)
 #include "sweep_impl.h"
-#undef LC_T
-#undef LC_SUFFIX
+#undef LC_QUANTIZE6
 #undef LC_TARGET
 #undef LC_SCAN
-#undef LC_SCAN_SETUP
-#undef LC_QUANTIZE6
 #endif
 
+/* The kernel o was made for picks the loop. */
+locd_status lc_sweep_range_f32(const locd_grid *g, const float *boxes, const uint64_t *qbox, const uint64_t *entries,
+                               size_t count, size_t begin, size_t end, lc_sweep_out *o)
+{
 #ifdef LC_HAVE_AVX512_KERNEL
-#define LC_SWEEP_DISPATCH(SUFFIX, T)                                                                         \
-    locd_status lc_sweep_range_##SUFFIX(const locd_grid *g, const T *boxes, const uint64_t *qbox,             \
-                                        const uint64_t *entries, size_t count, size_t begin, size_t end,     \
-                                        lc_sweep_out *o)                                                     \
-    {                                                                                                        \
-        if (lc_kernel() == LC_KERNEL_AVX512)                                                               \
-            return lc_sweep_range_##SUFFIX##_avx512(g, boxes, qbox, entries, count, begin, end, o);          \
-        return lc_sweep_range_##SUFFIX##_generic(g, boxes, qbox, entries, count, begin, end, o);             \
-    }
-#else
-#define LC_SWEEP_DISPATCH(SUFFIX, T)                                                                         \
-    locd_status lc_sweep_range_##SUFFIX(const locd_grid *g, const T *boxes, const uint64_t *qbox,             \
-                                        const uint64_t *entries, size_t count, size_t begin, size_t end,     \
-                                        lc_sweep_out *o)                                                     \
-    {                                                                                                        \
-        return lc_sweep_range_##SUFFIX##_generic(g, boxes, qbox, entries, count, begin, end, o);             \
-    }
+    if (o->kernel == LC_KERNEL_AVX512)
+        return sweep_range_f32_avx512(g, boxes, qbox, entries, count, begin, end, o);
 #endif
-LC_SWEEP_DISPATCH(f32, float)
-LC_SWEEP_DISPATCH(f64, double)
+    return sweep_range_f32_generic(g, boxes, qbox, entries, count, begin, end, o);
+}
 
-void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a)
+locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const uint64_t *qbox, const uint64_t *entries,
+                               size_t count, size_t begin, size_t end, lc_sweep_out *o)
+{
+#ifdef LC_HAVE_AVX512_KERNEL
+    if (o->kernel == LC_KERNEL_AVX512)
+        return sweep_range_f64_avx512(g, boxes, qbox, entries, count, begin, end, o);
+#endif
+    return sweep_range_f64_generic(g, boxes, qbox, entries, count, begin, end, o);
+}
+
+void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a, int kernel)
 {
     memset(o, 0, sizeof *o);
     o->alloc = a;
-    o->filter = (void (*)(void))pick_filter();
+    o->kernel = kernel;
+    o->filter = (void (*)(void))pick_filter(kernel);
 }
 
 void lc_sweep_out_fini(lc_sweep_out *o)

@@ -1,11 +1,11 @@
 /* Step 4, the sweep's main loop for one input precision and kernel family.
- * Included by sweep.c with LC_T (float or double), LC_SUFFIX, LC_TARGET (a
- * function attribute, or nothing), LC_SCAN (the scan of one entry's
- * candidates) and LC_SCAN_SETUP (what LC_SCAN needs declared) defined. */
-
-#define LC_CAT2(a, b) a##b
-#define LC_CAT(a, b) LC_CAT2(a, b)
-#define LC_FN(name) LC_CAT(name, LC_SUFFIX)
+ * Included by sweep.c (the include-template of octree.h) with LC_T (float
+ * or double), LC_SUFFIX, LC_TARGET (a function attribute, or nothing),
+ * LC_SCAN (the scan of one entry's candidates, given the sweep's context)
+ * defined, and optionally LC_QUANTIZE6 (a vector quantization of one box).
+ * The main loop, sweep_range_, walks the cells; sweep_cell_ handles one,
+ * as a lone entry (sweep_lone_) or a segment of its own (sweep_dense_,
+ * scan_cell_). */
 
 /* The object's box in sweep coordinates (LC_SBITS bits): from encode's
  * packed array, or quantized again with the very same operations
@@ -119,21 +119,156 @@ static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, co
     return 1;
 }
 
-static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox,
-                                                    const uint64_t *entries, size_t count, size_t begin, size_t end,
-                                                    lc_sweep_out *o)
+/* Rebuilds the segment stack a serial sweep would hold at `begin` (a
+ * cell's first entry): the populated ancestors of that cell, each with its
+ * own entries loaded. */
+static LC_TARGET locd_status LC_FN(rebuild_stack_)(const lc_sweep_ctx *cx, lc_sweep_state *ss, const LC_T *boxes,
+                                                    size_t begin)
 {
-    const uint32_t ib = g->index_bits, depth = g->depth;
-    const uint64_t imask = (1ull << ib) - 1;
-    LC_SCAN_SETUP
-    lc_seg segs[LC_MAX_SEGS];
-    uint32_t nseg = 0;
-    size_t ncand = 0, p, pf, npairs = o->count;
-    uint64_t candidates = 0, exact = 0;
-    int64_t ext;
-    size_t slab[LC_SLABS + 1];
-    lc_slabs sl;
-    lc_scan sc;
+    const uint32_t ib = cx->ib, depth = cx->depth;
+    const uint64_t imask = (1ull << ib) - 1, key0 = cx->entries[begin] >> ib, pm0 = key0 >> LC_LEVEL_BITS;
+    const uint32_t L0 = (uint32_t)(key0 & ((1u << LC_LEVEL_BITS) - 1));
+    int32_t q0[8], cell0[3];
+    uint32_t l;
+    locd_status st;
+    LC_FN(qbox_of_)(cx->g, boxes, cx->qbox, (uint32_t)(cx->entries[begin] & imask), q0);
+    lc_cell_of(q0, pm0 >> (3u * (depth - L0)), LC_SBITS - L0, cell0);
+    for (l = 0; l < L0; l++) {
+        const uint32_t shift = 3u * (depth - l);
+        const uint64_t pml = (pm0 >> shift) << shift, keyl = (pml << LC_LEVEL_BITS) | l;
+        const size_t a = lc_lower_bound(cx->entries, begin, keyl << ib);
+        const size_t b = lc_lower_bound(cx->entries, begin, (keyl << ib) + imask + 1);
+        const int32_t cl[3] = {cell0[0] >> (L0 - l), cell0[1] >> (L0 - l), cell0[2] >> (L0 - l)};
+        if (a >= b)
+            continue;
+        if ((st = push_filtered(cx->g, cx->o, ss->segs, &ss->nseg, &ss->ncand, pml, l, cl, b - a)) != LOCD_OK)
+            return st;
+        slabs_of(&ss->sl, cl[0], LC_SBITS - l);
+        if (LC_FN(load_cell_)(cx->g, boxes, cx->qbox, cx->entries, a, b, cx->o, ss->ncand, &ss->sl, ss->slab, &ss->ext,
+                              &st) < 0)
+            return st;
+        ss->ncand += b - a;
+    }
+    return LOCD_OK;
+}
+
+/* Tests the entry in ss->sc against candidate rows [first, end) (room for
+ * the pairs is reserved: reserve_pairs). The count of exact tests goes
+ * through a local: a scan called through a pointer then takes only its
+ * address, and *cx stays in registers. */
+LC_TARGET LC_INLINE void LC_FN(scan_)(lc_sweep_ctx *cx, lc_sweep_state *ss, size_t first, size_t end)
+{
+    uint64_t exact = cx->exact;
+    cx->npairs = LC_SCAN(cx, &ss->sc, first, end, (uint32_t *)cx->o->pairs.data, cx->npairs, &exact);
+    cx->exact = exact;
+}
+
+/* A lone entry (box me, object idx) with no descendants after it: a
+ * segment of its own would serve nobody else, so it meets the enclosing
+ * segment's records directly (those that miss its cell fail the canonical
+ * test, and the order is the filtered one's). */
+LC_TARGET LC_INLINE locd_status LC_FN(sweep_lone_)(lc_sweep_ctx *cx, lc_sweep_state *ss, uint64_t pm, uint32_t level,
+                                                   const int32_t me[8], uint32_t idx)
+{
+    size_t first;
+    locd_status st = open_parent(cx->g, cx->o, ss->segs, &ss->nseg, &ss->ncand, pm, level, ss->sc.cell);
+    if (st)
+        return st;
+    first = ss->nseg ? ss->segs[ss->nseg - 1].start : ss->ncand;
+    if (ss->ncand > first) {
+        if ((st = reserve_pairs(cx, ss->ncand - first)) != LOCD_OK)
+            return st;
+        cols_of(cx->o, &ss->sc.c);
+        entry_from_box(&ss->sc, me, idx);
+        LC_FN(scan_)(cx, ss, first, ss->ncand);
+    }
+    return LOCD_OK;
+}
+
+/* Entry own+t meets the ancestors' records that overlap the cell ([first,
+ * own)) and the cell's earlier rows from the slab where a box of x extent
+ * <= ext ending at its low x could start: rows of earlier slabs start
+ * before that point, so they miss it. Without slab order (slabbed 0) every
+ * earlier row of the cell is a candidate. */
+LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, lc_sweep_state *ss, size_t first, size_t own,
+                                                  size_t m, int slabbed)
+{
+    size_t t;
+    locd_status st;
+    for (t = 0; t < m; t++) {
+        const size_t r = own + t;
+        size_t win;
+        entry_from_row(&ss->sc, r);
+        win = slabbed ? ss->slab[slab_of(&ss->sl, (int64_t)ss->sc.lo[0] - ss->ext)] : own;
+        if ((st = reserve_pairs(cx, (own - first) + (r - win))) != LOCD_OK)
+            return st;
+        if (win == own) { /* one contiguous run of candidates */
+            if (r > first)
+                LC_FN(scan_)(cx, ss, first, r);
+        } else {
+            if (own > first)
+                LC_FN(scan_)(cx, ss, first, own);
+            LC_FN(scan_)(cx, ss, win, r);
+        }
+    }
+    return LOCD_OK;
+}
+
+/* Opens the segment of the cell of entries [p, q) (box me: the first
+ * entry's) and loads the cell's own records after it, then tests them. */
+LC_TARGET LC_INLINE locd_status LC_FN(sweep_dense_)(lc_sweep_ctx *cx, lc_sweep_state *ss, const LC_T *boxes, size_t p,
+                                                    size_t q, uint64_t pm, uint32_t level, const int32_t me[8])
+{
+    const size_t m = q - p;
+    size_t first, own;
+    int slabbed = 0;
+    locd_status st = open_segment(cx->g, cx->o, ss->segs, &ss->nseg, &ss->ncand, pm, level, ss->sc.cell, m);
+    if (st)
+        return st;
+    first = ss->segs[ss->nseg - 1].start;
+    own = ss->ncand;
+    cols_of(cx->o, &ss->sc.c);
+    if (m == 1) { /* the common lone entry: its box is already loaded */
+        cand_put(&ss->sc.c, own, me, (uint32_t)(cx->entries[p] & ((1ull << cx->ib) - 1)));
+    } else {
+        slabs_of(&ss->sl, ss->sc.cell[0], ss->sc.s);
+        slabbed = LC_FN(load_cell_)(cx->g, boxes, cx->qbox, cx->entries, p, q, cx->o, own, &ss->sl, ss->slab,
+                                    &ss->ext, &st);
+        if (slabbed < 0)
+            return st;
+    }
+    if ((st = LC_FN(scan_cell_)(cx, ss, first, own, m, slabbed)) != LOCD_OK)
+        return st;
+    ss->ncand = own + m;
+    return LOCD_OK;
+}
+
+/* One cell: entries [p, q) of the sorted array, which share its key. */
+LC_TARGET LC_INLINE locd_status LC_FN(sweep_cell_)(lc_sweep_ctx *cx, lc_sweep_state *ss, const LC_T *boxes, size_t p,
+                                                   size_t q, size_t end)
+{
+    const uint32_t ib = cx->ib, depth = cx->depth;
+    const uint64_t key = cx->entries[p] >> ib, pm = key >> LC_LEVEL_BITS;
+    const uint32_t level = (uint32_t)(key & ((1u << LC_LEVEL_BITS) - 1));
+    const uint32_t idx = (uint32_t)(cx->entries[p] & ((1ull << ib) - 1));
+    int32_t me[8];
+    LC_FN(qbox_of_)(cx->g, boxes, cx->qbox, idx, me);
+    ss->sc.s = LC_SBITS - level;
+    lc_cell_of(me, pm >> (3u * (depth - level)), ss->sc.s, ss->sc.cell);
+    pop_to_ancestors(ss, pm, level, depth);
+    if (q - p == 1 && !(q < end && lc_descends(cx->entries[q] >> ib, pm, level, depth)))
+        return LC_FN(sweep_lone_)(cx, ss, pm, level, me, idx);
+    return LC_FN(sweep_dense_)(cx, ss, boxes, p, q, pm, level, me);
+}
+
+static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox,
+                                                 const uint64_t *entries, size_t count, size_t begin, size_t end,
+                                                 lc_sweep_out *o)
+{
+    const uint32_t ib = g->index_bits;
+    lc_sweep_ctx cx;
+    lc_sweep_state ss;
+    size_t p, pf;
     locd_status st;
 
     begin = cell_start_from(entries, count, begin, ib);
@@ -142,138 +277,25 @@ static LC_TARGET locd_status LC_FN(lc_sweep_range_)(const locd_grid *g, const LC
         return LOCD_OK;
     if ((st = cand_reserve(o, 0, 1024)) != LOCD_OK)
         return st;
-    sc.boxes = boxes;
-    sc.f64 = sizeof(LC_T) == sizeof(double);
-
-    /* Rebuild the segment stack a serial sweep would hold at `begin` (a
-       cell's first entry): the populated ancestors of that cell. */
-    if (begin > 0) {
-        const uint64_t key0 = entries[begin] >> ib, pm0 = key0 >> LC_LEVEL_BITS;
-        const uint32_t L0 = (uint32_t)(key0 & ((1u << LC_LEVEL_BITS) - 1));
-        int32_t q0[8], cell0[3];
-        uint32_t l;
-        LC_FN(qbox_of_)(g, boxes, qbox, (uint32_t)(entries[begin] & imask), q0);
-        lc_cell_of(q0, pm0 >> (3u * (depth - L0)), LC_SBITS - L0, cell0);
-        for (l = 0; l < L0; l++) {
-            const uint32_t shift = 3u * (depth - l);
-            const uint64_t pml = (pm0 >> shift) << shift, keyl = (pml << LC_LEVEL_BITS) | l;
-            const size_t a = lower_bound64(entries, begin, keyl << ib);
-            const size_t b = lower_bound64(entries, begin, (keyl << ib) + imask + 1);
-            const int32_t cl[3] = {cell0[0] >> (L0 - l), cell0[1] >> (L0 - l), cell0[2] >> (L0 - l)};
-            if (a >= b)
-                continue;
-            if ((st = push_filtered(g, o, segs, &nseg, &ncand, pml, l, cl, b - a)) != LOCD_OK)
-                return st;
-            slabs_of(&sl, cl[0], LC_SBITS - l);
-            if (LC_FN(load_cell_)(g, boxes, qbox, entries, a, b, o, ncand, &sl, slab, &ext, &st) < 0)
-                return st;
-            ncand += b - a;
-        }
-    }
-
+    sweep_ctx_init(&cx, &ss, g, boxes, sizeof(LC_T) == sizeof(double), qbox, entries, o);
+    if (begin > 0 && (st = LC_FN(rebuild_stack_)(&cx, &ss, boxes, begin)) != LOCD_OK)
+        return st;
     /* One cell at a time: its entries are contiguous in the sorted array. */
     for (p = pf = begin; p < end;) {
-        const uint64_t key = entries[p] >> ib, pm = key >> LC_LEVEL_BITS;
-        const uint32_t L = (uint32_t)(key & ((1u << LC_LEVEL_BITS) - 1));
-        size_t q = p + 1, m, own, win, first, t;
-        int slabbed;
-        int32_t me[8];
-
-        while (q < end && (entries[q] >> ib) == key)
-            q++;
-        m = q - p;
+        const size_t q = cell_end(entries, p, end, ib);
         /* Keep the loads of the next LC_PREFETCH entries past this cell in
            flight: a dense cell reads all its boxes at once. */
         for (; pf < q + LC_PREFETCH && pf < end; pf++)
             LC_FN(prefetch_)(g, boxes, qbox, entries, pf, end);
-        LC_FN(qbox_of_)(g, boxes, qbox, (uint32_t)(entries[p] & imask), me);
-        sc.s = LC_SBITS - L;
-        lc_cell_of(me, pm >> (3u * (depth - L)), sc.s, sc.cell);
-
-        while (nseg) {
-            const lc_seg *sg = &segs[nseg - 1];
-            if (sg->level < L && (pm >> (3u * (depth - sg->level))) == sg->cm)
-                break;
-            ncand = sg->start;
-            nseg--;
-        }
-        if (m == 1 && !(q < end && lc_descends(entries[q] >> ib, pm, L, depth))) {
-            /* A lone entry with no descendants after it: a segment of its
-               own would serve nobody else, so it meets the enclosing
-               segment's records directly (those that miss its cell fail the
-               canonical test, and the order is the filtered one's). */
-            if ((st = open_parent(g, o, segs, &nseg, &ncand, pm, L, sc.cell)) != LOCD_OK)
-                return st;
-            first = nseg ? segs[nseg - 1].start : ncand;
-            if (ncand > first) {
-                const size_t need = npairs + (ncand - first) + LC_PAIR_SLACK;
-                if (2 * need > o->pairs.cap && (st = pairs_reserve(o, 2 * need, npairs)) != LOCD_OK)
-                    return st;
-                cols_of(o, &sc.c);
-                sc.lo[0] = me[0];
-                sc.lo[1] = me[1];
-                sc.lo[2] = me[2];
-                sc.hi[0] = me[3];
-                sc.hi[1] = me[4];
-                sc.hi[2] = me[5];
-                sc.idx = (uint32_t)(entries[p] & imask);
-                candidates += ncand - first;
-                npairs = LC_SCAN(&sc, first, ncand, (uint32_t *)o->pairs.data, npairs, &exact);
-            }
-            p = q;
-            continue;
-        }
-        if ((st = open_segment(g, o, segs, &nseg, &ncand, pm, L, sc.cell, m)) != LOCD_OK)
+        if ((st = LC_FN(sweep_cell_)(&cx, &ss, boxes, p, q, end)) != LOCD_OK)
             return st;
-        first = segs[nseg - 1].start;
-        own = ncand;
-        cols_of(o, &sc.c);
-        if (m == 1) { /* the common lone entry: its box is already loaded */
-            cand_put(&sc.c, own, me, (uint32_t)(entries[p] & imask));
-            slabbed = 0;
-        } else {
-            slabs_of(&sl, sc.cell[0], sc.s);
-            if ((slabbed = LC_FN(load_cell_)(g, boxes, qbox, entries, p, q, o, own, &sl, slab, &ext, &st)) < 0)
-                return st;
-        }
-
-        /* Entry own+t meets the ancestors' records that overlap the cell
-           ([first, own)) and the cell's earlier rows from the slab where a
-           box of x extent <= ext ending at its low x could start: rows of
-           earlier slabs start before that point, so they miss it. */
-        for (t = 0; t < m; t++) {
-            const size_t r = own + t;
-            size_t need;
-            sc.lo[0] = sc.c.lo[0][r];
-            sc.lo[1] = sc.c.lo[1][r];
-            sc.lo[2] = sc.c.lo[2][r];
-            sc.hi[0] = sc.c.hi[0][r];
-            sc.hi[1] = sc.c.hi[1][r];
-            sc.hi[2] = sc.c.hi[2][r];
-            sc.idx = sc.c.idx[r];
-            win = slabbed ? slab[slab_of(&sl, (int64_t)sc.lo[0] - ext)] : own;
-            need = npairs + (own - first) + (r - win) + LC_PAIR_SLACK;
-            if (2 * need > o->pairs.cap && (st = pairs_reserve(o, 2 * need, npairs)) != LOCD_OK)
-                return st;
-            candidates += (own - first) + (r - win);
-            if (win == own) { /* one contiguous run of candidates */
-                if (r > first)
-                    npairs = LC_SCAN(&sc, first, r, (uint32_t *)o->pairs.data, npairs, &exact);
-            } else {
-                if (own > first)
-                    npairs = LC_SCAN(&sc, first, own, (uint32_t *)o->pairs.data, npairs, &exact);
-                npairs = LC_SCAN(&sc, win, r, (uint32_t *)o->pairs.data, npairs, &exact);
-            }
-        }
-        ncand = own + m;
         p = q;
     }
-    o->count = npairs;
-    o->candidates += candidates;
-    o->exact_tests += exact;
+    o->count = cx.npairs;
+    o->candidates += cx.candidates;
+    o->exact_tests += cx.exact;
     return LOCD_OK;
 }
 
-#undef LC_FN
-#undef LC_CAT
-#undef LC_CAT2
+#undef LC_T
+#undef LC_SUFFIX

@@ -1,0 +1,72 @@
+/* The grid's per-precision bodies: the scalar bounds loop and the automatic
+ * depth. Included by grid.c once per precision with LC_T and LC_SUFFIX
+ * defined (the include-template of octree.h). */
+
+/* Grows out to hold boxes [begin, end); stops at the first bad box. */
+static void LC_FN(bounds_scalar_)(const LC_T *boxes, size_t begin, size_t end, lc_bounds *out)
+{
+    size_t i;
+    double lo0 = out->lo[0], lo1 = out->lo[1], lo2 = out->lo[2];
+    double hi0 = out->hi[0], hi1 = out->hi[1], hi2 = out->hi[2];
+    for (i = begin; i < end; i++) {
+        const LC_T *b = boxes + 6 * i;
+        if (LC_UNLIKELY(!(isfinite(b[0]) && isfinite(b[1]) && isfinite(b[2]) && isfinite(b[3]) &&
+                          isfinite(b[4]) && isfinite(b[5])))) {
+            out->bad = (int64_t)i;
+            out->bad_status = LOCD_ERR_NONFINITE;
+            break;
+        }
+        if (LC_UNLIKELY(b[0] > b[3] || b[1] > b[4] || b[2] > b[5])) {
+            out->bad = (int64_t)i;
+            out->bad_status = LOCD_ERR_INVERTED_BOX;
+            break;
+        }
+        lo0 = b[0] < lo0 ? b[0] : lo0;
+        lo1 = b[1] < lo1 ? b[1] : lo1;
+        lo2 = b[2] < lo2 ? b[2] : lo2;
+        hi0 = b[3] > hi0 ? b[3] : hi0;
+        hi1 = b[4] > hi1 ? b[4] : hi1;
+        hi2 = b[5] > hi2 ? b[5] : hi2;
+    }
+    out->lo[0] = lo0;
+    out->lo[1] = lo1;
+    out->lo[2] = lo2;
+    out->hi[0] = hi0;
+    out->hi[1] = hi1;
+    out->hi[2] = hi2;
+}
+
+void LC_FN(lc_grid_tune_depth_)(locd_grid *g, const LC_T *boxes, size_t n)
+{
+    int32_t q[LC_TUNE_SAMPLE][3];
+    uint32_t lvl[LC_TUNE_SAMPLE], lo = 1, hi = g->depth;
+    uint64_t code[LC_TUNE_SAMPLE], tmp[LC_TUNE_SAMPLE];
+    const size_t s = LC_TUNE_SAMPLE, stride = n / LC_TUNE_SAMPLE;
+    size_t k;
+    if (n < LC_TUNE_MIN_N)
+        return;
+    for (k = 0; k < s; k++) {
+        const LC_T *b = boxes + 6 * (k * stride);
+        uint32_t ext = 0;
+        int a;
+        for (a = 0; a < 3; a++) {
+            const int32_t l = lc_quantize(g, a, (double)b[a]), h = lc_quantize(g, a, (double)b[a + 3]);
+            q[k][a] = l;
+            if ((uint32_t)(h - l) > ext)
+                ext = (uint32_t)(h - l);
+        }
+        lvl[k] = lc_level_for(ext, g->cell_bias, g->depth);
+    }
+    /* the estimate only grows as the depth shrinks: bisect */
+    while (lo < hi) {
+        const uint32_t mid = lo + (hi - lo) / 2;
+        if (tune_neighbours((const int32_t(*)[3])q, lvl, s, n, mid, code, tmp) <= LC_TUNE_NEIGHBOURS)
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    g->depth = lo;
+}
+
+#undef LC_T
+#undef LC_SUFFIX
