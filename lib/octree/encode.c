@@ -6,6 +6,8 @@
  * uniform cubes, 2.7 for bias 1). */
 #include "octree/octree.h"
 
+#include <assert.h>
+
 #ifdef LC_HAVE_AVX512_KERNEL
 #include <immintrin.h>
 

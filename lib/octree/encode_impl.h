@@ -39,7 +39,10 @@ static size_t LC_FN(encode_scalar_)(const locd_grid *g, const LC_T *boxes, size_
             c0[a] = (uint32_t)lo[a] >> sh;
             c1[a] = (uint32_t)hi[a] >> sh;
         }
-        /* Bias >= 0 keeps c1 - c0 <= 1, but stay safe if a grid says otherwise. */
+        /* The level leaves each box at most 2^-bias of its cell and lc_grid_check
+           keeps bias >= 0, so a box spans at most two cells per axis: the
+           next-cell codes below are all the cells it needs. */
+        assert(c1[0] - c0[0] <= 1 && c1[1] - c0[1] <= 1 && c1[2] - c0[2] <= 1);
         mx[0] = lc_morton_split3(c0[0]);
         mx[1] = lc_morton_next3(mx[0]);
         my[0] = lc_morton_split3(c0[1]) << 1;
