@@ -24,7 +24,7 @@
 #include <stdint.h>
 
 #define LC_SHM_MAGIC LC_MAGIC_SHM /* valued in core.h, distinct from every handle's */
-#define LC_SHM_VERSION 1u
+#define LC_SHM_VERSION 2u
 #define LC_SHM_NAME_MAX 64
 
 #define LC_SHM_CMD_RUN 1
@@ -56,7 +56,7 @@ typedef struct lc_shm_ctl {
     locd_grid grid;
     uint64_t n;
     int32_t f64;
-    int32_t reserved;
+    int32_t kernel; /* LC_KERNEL_* the engine chose at creation: its workers use it too */
     lc_shm_slot slot[LC_MAX_THREADS];
 } lc_shm_ctl;
 

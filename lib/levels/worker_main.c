@@ -6,7 +6,11 @@
  * encode + sort its share of the boxes into its region of the data segment,
  * post `done`. It checks every second that its parent still lives; an
  * orphan removes the segment names it knows (in case the parent died before
- * removing them) and exits, so a crashed host leaves nothing behind. */
+ * removing them) and exits, so a crashed host leaves nothing behind.
+ *
+ * It is linked from the library's core and octree objects rather than
+ * against liblocd.so, so that it runs the internal steps with the SIMD
+ * kernel its engine chose at creation (lc_shm_ctl.kernel). */
 
 #include "levels/levels.h"
 
@@ -54,6 +58,7 @@ typedef struct worker {
     size_t data_size;
     uint64_t *scratch;
     size_t scratch_cap;
+    int kernel; /* the engine's choice, capped by this CPU: read once at start */
 } worker;
 
 static int32_t run_share(worker *w)
@@ -82,8 +87,8 @@ static int32_t run_share(worker *w)
         return LOCD_ERR_PROTOCOL;
     entries = (uint64_t *)((char *)w->data + s->offset);
     t0 = now_ms();
-    st = c->f64 ? locd_encode_f64(&grid, w->data, s->first, s->count, entries, s->capacity, &written)
-                : locd_encode_f32(&grid, w->data, s->first, s->count, entries, s->capacity, &written);
+    st = c->f64 ? lc_block_encode_f64(&grid, w->data, s->first, s->count, entries, s->capacity, &written, w->kernel)
+                : lc_block_encode_f32(&grid, w->data, s->first, s->count, entries, s->capacity, &written, w->kernel);
     s->written = written;
     if (st)
         return st;
@@ -128,6 +133,9 @@ int main(int argc, char **argv)
         return 5;
     }
     w.slot = &w.ctl->slot[idx];
+    w.kernel = lc_kernel_choose();
+    if (w.ctl->kernel >= LC_KERNEL_SCALAR && w.ctl->kernel < w.kernel)
+        w.kernel = w.ctl->kernel;
     w.slot->pid = (int32_t)getpid();
     sem_post(&w.slot->done); /* ready */
     for (;;) {

@@ -333,6 +333,7 @@ static locd_status start_workers(lc_workers *w)
     w->ctl->magic = LC_SHM_MAGIC;
     w->ctl->version = LC_SHM_VERSION;
     w->ctl->workers = w->k;
+    w->ctl->kernel = w->kernel;
     snprintf(w->ctl->ctl_name, sizeof w->ctl->ctl_name, "%s", w->ctl_name);
     for (i = 0; i < w->k; i++)
         if (sem_init(&w->ctl->slot[i].go, 1, 0) != 0 || sem_init(&w->ctl->slot[i].done, 1, 0) != 0) {

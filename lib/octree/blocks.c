@@ -64,13 +64,13 @@ locd_status locd_grid_fit_f64(const double *boxes, size_t n, uint32_t max_depth,
 locd_status locd_encode_f32(const locd_grid *grid, const float *boxes, size_t first, size_t count, uint64_t *entries,
                             size_t capacity, size_t *written)
 {
-    return encode_block_f32(grid, boxes, first, count, entries, capacity, written, lc_kernel_choose());
+    return lc_block_encode_f32(grid, boxes, first, count, entries, capacity, written, lc_kernel_choose());
 }
 
 locd_status locd_encode_f64(const locd_grid *grid, const double *boxes, size_t first, size_t count,
                             uint64_t *entries, size_t capacity, size_t *written)
 {
-    return encode_block_f64(grid, boxes, first, count, entries, capacity, written, lc_kernel_choose());
+    return lc_block_encode_f64(grid, boxes, first, count, entries, capacity, written, lc_kernel_choose());
 }
 
 locd_status locd_sort_entries(const locd_grid *grid, uint64_t *entries, uint64_t *scratch, size_t count)

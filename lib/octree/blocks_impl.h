@@ -26,8 +26,8 @@ locd_status LC_FN(lc_block_grid_fit_)(const LC_T *boxes, size_t n, uint32_t max_
     return st;
 }
 
-static locd_status LC_FN(encode_block_)(const locd_grid *grid, const LC_T *boxes, size_t first, size_t count,
-                                         uint64_t *entries, size_t capacity, size_t *written, int kernel)
+locd_status LC_FN(lc_block_encode_)(const locd_grid *grid, const LC_T *boxes, size_t first, size_t count,
+                                    uint64_t *entries, size_t capacity, size_t *written, int kernel)
 {
     size_t need = 0, w;
     locd_status st = lc_grid_check(grid);

@@ -149,12 +149,17 @@ locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const ui
                                size_t count, size_t begin, size_t end, lc_sweep_out *o);
 
 /* ---- the building blocks with a kernel chosen by the caller (blocks.c) ---- */
-/* locd_grid_fit_* and locd_sweep_* (locd.h) with their checks, for code
- * that holds a kernel choice (level 2's host side). */
+/* locd_grid_fit_*, locd_encode_* and locd_sweep_* (locd.h) with their
+ * checks, for code that holds a kernel choice (level 2's host side and its
+ * worker processes). */
 locd_status lc_block_grid_fit_f32(const float *boxes, size_t n, uint32_t max_depth, int32_t cell_bias, uint32_t flags,
                                   locd_grid *grid, int kernel);
 locd_status lc_block_grid_fit_f64(const double *boxes, size_t n, uint32_t max_depth, int32_t cell_bias,
                                   uint32_t flags, locd_grid *grid, int kernel);
+locd_status lc_block_encode_f32(const locd_grid *grid, const float *boxes, size_t first, size_t count,
+                                uint64_t *entries, size_t capacity, size_t *written, int kernel);
+locd_status lc_block_encode_f64(const locd_grid *grid, const double *boxes, size_t first, size_t count,
+                                uint64_t *entries, size_t capacity, size_t *written, int kernel);
 locd_status lc_block_sweep_f32(const locd_grid *grid, const float *boxes, size_t n, const uint64_t *entries,
                                size_t count, locd_pairs *out, locd_stats *stats, int kernel);
 locd_status lc_block_sweep_f64(const locd_grid *grid, const double *boxes, size_t n, const uint64_t *entries,
