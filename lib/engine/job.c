@@ -179,11 +179,8 @@ locd_status locd_job_take(locd_job *job, locd_pairs *out)
     if (st == LOCD_OK && job->taken)
         st = LOCD_ERR_INVALID_ARGUMENT;
     else if (st == LOCD_OK)
-        st = lc_pairs_reserve(out, job->result.count);
-    if (st == LOCD_OK) {
-        if (job->result.count)
-            memcpy(out->data, job->result.data, job->result.count * 2 * sizeof(uint32_t));
-        out->count = job->result.count;
+        st = lc_pairs_give(&job->result, out);
+    if (st == LOCD_OK) { /* the job keeps out's old buffer, if any: free it now */
         job->taken = 1;
         lc_pairs_fini_embedded(&job->result);
         lc_pairs_init_embedded(&job->result, &job->alloc);

@@ -16,15 +16,10 @@ static locd_status service_find(locd_engine *e, const void *boxes, size_t n, int
         return st;
     st = locd_job_wait(j, -1);
     if (!st) {
-        /* The job is finished: nobody else touches its buffer. Copied, not
-           swapped: out may use another allocator than the engine's. */
-        st = lc_pairs_reserve(out, j->result.count);
-        if (!st) {
-            if (j->result.count)
-                memcpy(out->data, j->result.data, j->result.count * 2 * sizeof(uint32_t));
-            out->count = j->result.count;
+        /* The job is finished: nobody else touches its buffer. */
+        st = lc_pairs_give(&j->result, out);
+        if (!st)
             *stats = j->stats;
-        }
     }
     if (st) {
         char msg[256];
