@@ -1,42 +1,11 @@
 /* The filter pipeline's public functions in a build without libccd and FCL
  * (meson -Dnarrow=disabled, or the libraries missing): they exist so that
  * the ABI does not depend on build options, and say why they cannot work.
- * Option and statistics initializers still work. */
+ * Option and statistics initializers (options.c) still work. */
 #include "core/core.h"
 
 #define NO_NARROW() \
     lc_error(LOCD_ERR_UNSUPPORTED, "this locd was built without the narrow phase (libccd and FCL; meson -Dnarrow)")
-
-void locd_pipeline_options_init(locd_pipeline_options *o)
-{
-    if (!o)
-        return;
-    memset(o, 0, sizeof *o);
-    o->size = sizeof *o;
-    o->stages = LOCD_STAGE_SHAPE;
-    o->contact_method = LOCD_CONTACT_EPA;
-    o->swept_threshold = 0.25;
-}
-
-locd_status locd_pipeline_options_route(locd_pipeline_options *o, int32_t a, int32_t b, int32_t route)
-{
-    if (!o)
-        return lc_error(LOCD_ERR_NULL_POINTER, "options is NULL");
-    if (a < 1 || a > LOCD_SHAPE_MESH || b < 1 || b > LOCD_SHAPE_MESH || route < LOCD_ROUTE_AUTO ||
-        route > LOCD_ROUTE_FCL)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown shape kind or route");
-    o->route[a * LOCD_SHAPE_KINDS + b] = (uint8_t)route;
-    o->route[b * LOCD_SHAPE_KINDS + a] = (uint8_t)route;
-    return LOCD_OK;
-}
-
-void locd_pipeline_stats_init(locd_pipeline_stats *s)
-{
-    if (!s)
-        return;
-    memset(s, 0, sizeof *s);
-    s->size = sizeof *s;
-}
 
 static locd_status no_shape(locd_shape **out)
 {

@@ -160,36 +160,33 @@ locd_status locd_world_add(locd_world *w, locd_shape *shape, const double *pose,
     return LOCD_OK;
 }
 
-locd_status locd_world_set_pose(locd_world *w, uint32_t index, const double *pose)
+/* One row of poses or velocities, checked before it is written. The
+ * caller has checked the handle. */
+static locd_status set_row(locd_world *w, uint32_t index, const double *row, size_t width, double *dst,
+                           locd_status (*check)(const double *row, int64_t index), const char *what)
 {
     locd_status st;
-    if ((st = lc_world_check(w)) != LOCD_OK)
-        return st;
-    if (!pose)
-        return lc_error(LOCD_ERR_NULL_POINTER, "pose is NULL");
+    if (!row)
+        return lc_error(LOCD_ERR_NULL_POINTER, "%s is NULL", what);
     if (index >= w->n)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "object %u of %zu", index, w->n);
-    if ((st = check_pose(pose, index)) != LOCD_OK)
+    if ((st = check(row, index)) != LOCD_OK)
         return st;
-    memcpy(w->poses + 7 * (size_t)index, pose, 7 * sizeof(double));
+    memcpy(dst + width * (size_t)index, row, width * sizeof(double));
     lc_clear_error();
     return LOCD_OK;
 }
 
+locd_status locd_world_set_pose(locd_world *w, uint32_t index, const double *pose)
+{
+    locd_status st = lc_world_check(w);
+    return st ? st : set_row(w, index, pose, 7, w->poses, check_pose, "pose");
+}
+
 locd_status locd_world_set_velocity(locd_world *w, uint32_t index, const double *velocity)
 {
-    locd_status st;
-    if ((st = lc_world_check(w)) != LOCD_OK)
-        return st;
-    if (!velocity)
-        return lc_error(LOCD_ERR_NULL_POINTER, "velocity is NULL");
-    if (index >= w->n)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "object %u of %zu", index, w->n);
-    if ((st = check_velocity(velocity, index)) != LOCD_OK)
-        return st;
-    memcpy(w->vel + 6 * (size_t)index, velocity, 6 * sizeof(double));
-    lc_clear_error();
-    return LOCD_OK;
+    locd_status st = lc_world_check(w);
+    return st ? st : set_row(w, index, velocity, 6, w->vel, check_velocity, "velocity");
 }
 
 /* Bulk setters validate every row first: nothing is half-written. The
