@@ -49,15 +49,19 @@ int lc_mul_size(size_t a, size_t b, size_t *out)
     return 1;
 }
 
+size_t lc_grow_cap(size_t cap, size_t need)
+{
+    size_t grown = cap + cap / 2;
+    return grown < need ? need : grown;
+}
+
 locd_status lc_buf_reserve(const locd_allocator *a, lc_buf *b, size_t elem, size_t count)
 {
     size_t bytes, cap;
     void *p;
     if (count <= b->cap)
         return LOCD_OK;
-    cap = b->cap + b->cap / 2;
-    if (cap < count)
-        cap = count;
+    cap = lc_grow_cap(b->cap, count);
     if (cap < 16)
         cap = 16;
     if (!lc_mul_size(cap, elem, &bytes))

@@ -80,6 +80,9 @@ typedef struct lc_buf {
     void *data;
     size_t cap; /* in elements */
 } lc_buf;
+/* The capacity a growing buffer of `cap` moves to when it needs `need`:
+ * half as much again (amortized O(1) appends), or `need` if more. */
+size_t lc_grow_cap(size_t cap, size_t need);
 locd_status lc_buf_reserve(const locd_allocator *a, lc_buf *b, size_t elem, size_t count);
 void lc_buf_release(const locd_allocator *a, lc_buf *b, size_t elem);
 

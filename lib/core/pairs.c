@@ -75,9 +75,7 @@ locd_status lc_pairs_reserve(locd_pairs *p, size_t pairs)
     uint32_t *d;
     if (pairs <= p->cap)
         return LOCD_OK;
-    cap = p->cap + p->cap / 2;
-    if (cap < pairs)
-        cap = pairs;
+    cap = lc_grow_cap(p->cap, pairs);
     if (!lc_mul_size(cap, 2 * sizeof(uint32_t), &bytes))
         return lc_error(LOCD_ERR_NO_MEMORY, "%zu pairs overflow size_t", cap);
     d = lc_alloc(&p->alloc, bytes);
