@@ -9,15 +9,20 @@
 #include <string.h>
 #include <time.h>
 
+static void die_v(const char *fmt, va_list ap)
+{
+    fputs("locd: ", stderr);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    exit(2);
+}
+
 void cli_die(const char *fmt, ...)
 {
     va_list ap;
-    fputs("locd: ", stderr);
     va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
+    die_v(fmt, ap);
     va_end(ap);
-    fputc('\n', stderr);
-    exit(2);
 }
 
 static int ends_with(const char *s, const char *suffix)
@@ -310,5 +315,17 @@ int cli_parse_size(const char *s, size_t *out)
     if (*end || v < 0 || v > 1e12 || v != floor(v))
         return -1;
     *out = (size_t)v;
+    return 0;
+}
+
+size_t cli_size_option(const char *s, size_t lo, size_t hi, const char *fmt, ...)
+{
+    size_t v;
+    va_list ap;
+    if (!cli_parse_size(s, &v) && v >= lo && v <= hi)
+        return v;
+    va_start(ap, fmt);
+    die_v(fmt, ap);
+    va_end(ap);
     return 0;
 }
