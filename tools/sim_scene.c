@@ -137,11 +137,127 @@ static int read_point_list(const json_value *arr, double **out, size_t *count)
     return 0;
 }
 
+/* What a shape builder reads (the object and, for a rock, the variant) and
+ * fills (the shape; err on a bad description). */
+typedef struct shape_req {
+    const json_value *o;
+    int variant;
+    sim_shape *sh;
+    char *err;
+    size_t errlen;
+} shape_req;
+
+/* A builder returns -1 (err set) for a bad description, else 0 with the
+ * library's answer in *st. */
+typedef int (*shape_builder)(const shape_req *q, locd_status *st);
+
+static int build_sphere(const shape_req *q, locd_status *st)
+{
+    q->sh->kind = LOCD_SHAPE_SPHERE;
+    *st = locd_shape_sphere(q->sh->radius, &q->sh->handle);
+    return 0;
+}
+
+static int build_box(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    sh->kind = LOCD_SHAPE_BOX;
+    *st = locd_shape_box(sh->half[0], sh->half[1], sh->half[2], &sh->handle);
+    return 0;
+}
+
+/* A capsule's half length defaults to its radius. */
+static int build_capsule(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    sh->kind = LOCD_SHAPE_CAPSULE;
+    if (!json_get(q->o, "half_length"))
+        sh->half[2] = sh->radius;
+    *st = locd_shape_capsule(sh->radius, sh->half[2], &sh->handle);
+    return 0;
+}
+
+static int build_convex(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    sh->kind = LOCD_SHAPE_CONVEX;
+    if (read_point_list(json_get(q->o, "points"), &sh->points, &sh->npoints) != 0)
+        return bad(q->err, q->errlen, "convex: \"points\" is a non-empty list of [x, y, z]");
+    *st = locd_shape_convex(sh->points, sh->npoints, &sh->handle);
+    return 0;
+}
+
+/* A convex rock; each variant of a generator gets its own random points. */
+static int build_rock(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    double count = 14, seed = 1;
+    if (json_get_number(q->o, "points", &count) < 0 || json_get_number(q->o, "seed", &seed) < 0 || count < 4 ||
+        count > 1000)
+        return bad(q->err, q->errlen, "rock: points is 4..1000, seed a number");
+    sh->kind = LOCD_SHAPE_CONVEX;
+    sh->npoints = (size_t)count;
+    sh->points = rock_points(sh->radius, sh->npoints, (uint64_t)seed * 7919u + (uint64_t)q->variant);
+    if (!sh->points)
+        return bad(q->err, q->errlen, "out of memory");
+    *st = locd_shape_convex(sh->points, sh->npoints, &sh->handle);
+    return 0;
+}
+
+/* Triangles come as triples of numbers; one that is no vertex index becomes
+ * UINT32_MAX, which the library rejects. */
+static int build_mesh(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    size_t i;
+    double *tmp = NULL;
+    sh->kind = LOCD_SHAPE_MESH;
+    if (read_point_list(json_get(q->o, "vertices"), &sh->points, &sh->npoints) != 0 ||
+        read_point_list(json_get(q->o, "triangles"), &tmp, &sh->ntris) != 0)
+        return bad(q->err, q->errlen, "mesh: \"vertices\" and \"triangles\" are lists of triples");
+    sh->tris = malloc(3 * sh->ntris * sizeof(uint32_t));
+    for (i = 0; sh->tris && i < 3 * sh->ntris; i++)
+        sh->tris[i] = tmp[i] >= 0 && tmp[i] < 4294967295.0 ? (uint32_t)tmp[i] : UINT32_MAX;
+    free(tmp);
+    if (!sh->tris)
+        return bad(q->err, q->errlen, "out of memory");
+    *st = locd_shape_mesh(sh->points, sh->npoints, sh->tris, sh->ntris, &sh->handle);
+    return 0;
+}
+
+static int build_terrain(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    if (terrain_mesh(q->o, sh, q->err, q->errlen) != 0)
+        return -1;
+    *st = locd_shape_mesh(sh->points, sh->npoints, sh->tris, sh->ntris, &sh->handle);
+    return 0;
+}
+
+static const struct {
+    const char *kind;
+    shape_builder build;
+} shape_builders[] = {
+    {"sphere", build_sphere}, {"box", build_box},   {"capsule", build_capsule}, {"convex", build_convex},
+    {"rock", build_rock},     {"mesh", build_mesh}, {"terrain", build_terrain},
+};
+
+static shape_builder find_builder(const char *kind)
+{
+    size_t i;
+    for (i = 0; i < sizeof shape_builders / sizeof shape_builders[0]; i++)
+        if (!strcmp(kind, shape_builders[i].kind))
+            return shape_builders[i].build;
+    return NULL;
+}
+
 /* Builds the shape described by o's "shape" member (variant picks a rock). */
 static int make_shape(const json_value *o, int variant, sim_shape *sh, char *err, size_t errlen)
 {
     const char *kind = NULL;
     locd_status st = LOCD_OK;
+    shape_req q;
+    shape_builder build;
     memset(sh, 0, sizeof *sh);
     if (json_get_string(o, "shape", &kind) != 1)
         return bad(err, errlen, "missing \"shape\" (sphere, box, capsule, convex, rock, mesh, terrain)");
@@ -150,55 +266,15 @@ static int make_shape(const json_value *o, int variant, sim_shape *sh, char *err
     if (json_get_number(o, "radius", &sh->radius) < 0 || json_get_vec(o, "half", sh->half, 3) < 0 ||
         json_get_number(o, "half_length", &sh->half[2]) < 0)
         return bad(err, errlen, "%s: radius, half [x, y, z] and half_length are numbers", kind);
-    if (!strcmp(kind, "sphere")) {
-        sh->kind = LOCD_SHAPE_SPHERE;
-        st = locd_shape_sphere(sh->radius, &sh->handle);
-    } else if (!strcmp(kind, "box")) {
-        sh->kind = LOCD_SHAPE_BOX;
-        st = locd_shape_box(sh->half[0], sh->half[1], sh->half[2], &sh->handle);
-    } else if (!strcmp(kind, "capsule")) {
-        sh->kind = LOCD_SHAPE_CAPSULE;
-        if (!json_get(o, "half_length"))
-            sh->half[2] = sh->radius;
-        st = locd_shape_capsule(sh->radius, sh->half[2], &sh->handle);
-    } else if (!strcmp(kind, "convex")) {
-        sh->kind = LOCD_SHAPE_CONVEX;
-        if (read_point_list(json_get(o, "points"), &sh->points, &sh->npoints) != 0)
-            return bad(err, errlen, "convex: \"points\" is a non-empty list of [x, y, z]");
-        st = locd_shape_convex(sh->points, sh->npoints, &sh->handle);
-    } else if (!strcmp(kind, "rock")) {
-        double count = 14, seed = 1;
-        if (json_get_number(o, "points", &count) < 0 || json_get_number(o, "seed", &seed) < 0 || count < 4 ||
-            count > 1000)
-            return bad(err, errlen, "rock: points is 4..1000, seed a number");
-        sh->kind = LOCD_SHAPE_CONVEX;
-        sh->npoints = (size_t)count;
-        sh->points = rock_points(sh->radius, sh->npoints, (uint64_t)seed * 7919u + (uint64_t)variant);
-        if (!sh->points)
-            return bad(err, errlen, "out of memory");
-        st = locd_shape_convex(sh->points, sh->npoints, &sh->handle);
-    } else if (!strcmp(kind, "mesh")) {
-        const json_value *tris = json_get(o, "triangles");
-        size_t i;
-        double *tmp = NULL;
-        sh->kind = LOCD_SHAPE_MESH;
-        if (read_point_list(json_get(o, "vertices"), &sh->points, &sh->npoints) != 0 ||
-            read_point_list(tris, &tmp, &sh->ntris) != 0)
-            return bad(err, errlen, "mesh: \"vertices\" and \"triangles\" are lists of triples");
-        sh->tris = malloc(3 * sh->ntris * sizeof(uint32_t));
-        for (i = 0; sh->tris && i < 3 * sh->ntris; i++)
-            sh->tris[i] = tmp[i] >= 0 && tmp[i] < 4294967295.0 ? (uint32_t)tmp[i] : UINT32_MAX;
-        free(tmp);
-        if (!sh->tris)
-            return bad(err, errlen, "out of memory");
-        st = locd_shape_mesh(sh->points, sh->npoints, sh->tris, sh->ntris, &sh->handle);
-    } else if (!strcmp(kind, "terrain")) {
-        if (terrain_mesh(o, sh, err, errlen) != 0)
-            return -1;
-        st = locd_shape_mesh(sh->points, sh->npoints, sh->tris, sh->ntris, &sh->handle);
-    } else {
+    if (!(build = find_builder(kind)))
         return bad(err, errlen, "unknown shape \"%s\"", kind);
-    }
+    q.o = o;
+    q.variant = variant;
+    q.sh = sh;
+    q.err = err;
+    q.errlen = errlen;
+    if (build(&q, &st) != 0)
+        return -1;
     if (st != LOCD_OK)
         return bad(err, errlen, "%s: %s", kind, locd_last_error());
     return 0;
