@@ -360,51 +360,49 @@ static void default_verdict(FILE *f, const acc_row *rows, size_t nrows, const ch
     fprintf(f, "\n");
 }
 
-static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, const acc_rounding *rnd, size_t nrnd,
-                         double seconds)
+/* The report's sections 1-4: one knob each. */
+static const struct {
+    const char *knob, *title, *setting, *what, *why;
+} sections[] = {
+    {"max_depth", "1. Octree depth limit (`max_depth`)", "max_depth",
+     "A shallower octree puts small boxes into bigger cells: fewer levels to walk, but more boxes share a cell, "
+     "so candidates grow roughly as (objects per cell)^2.",
+     "**Default: 0 (automatic)**: at most as deep as the 64-bit key allows beside the object index (13 levels "
+     "at 1M objects, 14 at 100k), and from 16,384 objects on, the shallowest depth at which a fixed sample of "
+     "1,024 boxes, each at the level its size picks under that depth, estimates at most 16 other boxes in a "
+     "box's own cell. Each box still stops at the level its own size picks, so a limit only matters for boxes "
+     "smaller than its cells: a small box that stops higher crosses fewer cells and shares its cell with a few "
+     "neighbours, which the slab-ordered sweep handles well, instead of opening a cell of its own; too shallow, "
+     "and a cell's candidates grow as the square of its population, which the sample guards against. On the "
+     "mixed scene the automatic depth is 6 at 1M objects and 5 at 100k; on the others it stays at the key's "
+     "limit, since their boxes stop above it anyway."},
+    {"cell_bias", "2. Level-choice bias (`cell_bias`)", "cell_bias",
+     "A box goes to the deepest level whose cell edge is at least 2^bias times its largest extent. Bias 0 gives "
+     "the smallest cells (up to 8 cells per box, fewest candidates per cell); each step up halves the entries per "
+     "object towards 1 but doubles the cell edge, so a cell's path meets more boxes.",
+     "**Default: 2** (`LOCD_DEFAULT_CELL_BIAS`): a box touches at most two cells per axis, about 1.7 entries per "
+     "cube on the uniform scene against 2.7 at bias 1, for about 3 times the candidates; the candidate test runs "
+     "8 at a time, so fewer entries to encode, sort and sweep win on the uniform, clustered and mixed scenes. "
+     "Bias 1 is better where nearly every candidate needs the exact test (the touching lattice); bias 3 is close "
+     "on some scenes and much worse on others (hundreds of candidates per object)."},
+    {"shape", "3. Bounding cubes (the paper) versus boxes", "cells from",
+     "The paper encodes each object's bounding cube; locd encodes the box itself by default. Cubes change only "
+     "which cells are chosen (the exact test is always on the boxes), so the difference is pure extra work: more "
+     "entries and more false candidates for elongated boxes.",
+     "**Default: boxes**: never more cells than the cube, and the same answer."},
+    {"precision", "4. float32 versus float64 input", "input",
+     "The same scene through the float32 and the float64 entry points (float64: the float32 values widened, so "
+     "the pairs are identical). The octree work is the same (the quantized keys are computed in double either "
+     "way); float64 costs more memory traffic in validation and in the exact tests.",
+     "**Default: float32** (half the input memory); use float64 when the coordinates need it (section 5)."},
+};
+
+/* Title, how and where the report was made, the scenes and the plot. */
+static void write_intro(FILE *f, const acc_opts *o, double seconds)
 {
-    FILE *f = fopen(o->out, "w");
-    char cpu[256], date[64], nb[32];
+    char cpu[256], date[64];
     time_t now = time(NULL);
-    size_t i;
     int s;
-    static const struct {
-        const char *knob, *title, *setting, *what, *why;
-    } sections[] = {
-        {"max_depth", "1. Octree depth limit (`max_depth`)", "max_depth",
-         "A shallower octree puts small boxes into bigger cells: fewer levels to walk, but more boxes share a cell, "
-         "so candidates grow roughly as (objects per cell)^2.",
-         "**Default: 0 (automatic)**: at most as deep as the 64-bit key allows beside the object index (13 levels "
-         "at 1M objects, 14 at 100k), and from 16,384 objects on, the shallowest depth at which a fixed sample of "
-         "1,024 boxes, each at the level its size picks under that depth, estimates at most 16 other boxes in a "
-         "box's own cell. Each box still stops at the level its own size picks, so a limit only matters for boxes "
-         "smaller than its cells: a small box that stops higher crosses fewer cells and shares its cell with a few "
-         "neighbours, which the slab-ordered sweep handles well, instead of opening a cell of its own; too shallow, "
-         "and a cell's candidates grow as the square of its population, which the sample guards against. On the "
-         "mixed scene the automatic depth is 6 at 1M objects and 5 at 100k; on the others it stays at the key's "
-         "limit, since their boxes stop above it anyway."},
-        {"cell_bias", "2. Level-choice bias (`cell_bias`)", "cell_bias",
-         "A box goes to the deepest level whose cell edge is at least 2^bias times its largest extent. Bias 0 gives "
-         "the smallest cells (up to 8 cells per box, fewest candidates per cell); each step up halves the entries per "
-         "object towards 1 but doubles the cell edge, so a cell's path meets more boxes.",
-         "**Default: 2** (`LOCD_DEFAULT_CELL_BIAS`): a box touches at most two cells per axis, about 1.7 entries per "
-         "cube on the uniform scene against 2.7 at bias 1, for about 3 times the candidates; the candidate test runs "
-         "8 at a time, so fewer entries to encode, sort and sweep win on the uniform, clustered and mixed scenes. "
-         "Bias 1 is better where nearly every candidate needs the exact test (the touching lattice); bias 3 is close "
-         "on some scenes and much worse on others (hundreds of candidates per object)."},
-        {"shape", "3. Bounding cubes (the paper) versus boxes", "cells from",
-         "The paper encodes each object's bounding cube; locd encodes the box itself by default. Cubes change only "
-         "which cells are chosen (the exact test is always on the boxes), so the difference is pure extra work: more "
-         "entries and more false candidates for elongated boxes.",
-         "**Default: boxes**: never more cells than the cube, and the same answer."},
-        {"precision", "4. float32 versus float64 input", "input",
-         "The same scene through the float32 and the float64 entry points (float64: the float32 values widened, so "
-         "the pairs are identical). The octree work is the same (the quantized keys are computed in double either "
-         "way); float64 costs more memory traffic in validation and in the exact tests.",
-         "**Default: float32** (half the input memory); use float64 when the coordinates need it (section 5)."},
-    };
-    if (!f)
-        cli_die("accuracy: cannot write %s", o->out);
     cli_cpu_model(cpu, sizeof cpu);
     strftime(date, sizeof date, "%Y-%m-%d", gmtime(&now));
     fprintf(f, "# What accuracy costs in time: the broad phase\n\n");
@@ -424,6 +422,10 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
                "later stages can append rows in the same format.\n\n",
             o->csv);
     fprintf(f, "![accuracy versus time](img/accuracy.png)\n\n");
+}
+
+static void write_guarantees(FILE *f)
+{
     fprintf(f, "## What is guaranteed whatever the knobs\n\n"
                "- **Exactness.** Every knob below changes only the work. The result is exactly the set of overlapping "
                "pairs (closed intervals, touching counts), for every depth limit, bias, cubes or boxes, float32 or "
@@ -437,6 +439,10 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
                "worker processes, service), and for float32 or float64 input of the same values; the hard-case tests "
                "compare the raw output bytes across 1, 2, 3 and 8 threads, across levels and across precisions. The order is the sweep's (each pair once, i < j); `LOCD_FIND_SORTED` gives "
                "(i, j) order. Different knobs give the same set in a different order.\n\n");
+}
+
+static void write_columns(FILE *f)
+{
     fprintf(f, "## Columns\n\n"
                "- **entries / object**: (cell, object) entries after encoding, per object (cells per object).\n"
                "- **candidates / object**: object pairs met on a shared root-to-leaf cell path and tested, per object.\n"
@@ -452,34 +458,50 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
                "- **memory**: the "
                "peak bytes the engine and the pairs buffer own (through the allocator hook), not counting the caller's "
                "input.\n\n");
+}
 
-    for (s = 0; s < 4; s++) {
-        fprintf(f, "## %s\n\n%s\n\n", sections[s].title, sections[s].what);
-        table_head(f, sections[s].setting);
-        for (i = 0; i < nrows; i++)
-            if (!strcmp(rows[i].knob, sections[s].knob))
-                table_row(f, &rows[i]);
-        fprintf(f, "\n%s ", sections[s].why);
-        default_verdict(f, rows, nrows, sections[s].knob);
-        if (!strcmp(sections[s].knob, "precision")) {
-            fprintf(f, "\n| scene | objects | input MiB float32 | float64 | engine MiB float32 | float64 | CPU ms "
-                       "float32 | float64 | float64 / float32 time |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-            for (i = 0; i < nrows; i++) {
-                size_t j;
-                if (strcmp(rows[i].knob, "precision") || rows[i].f64)
-                    continue;
-                for (j = 0; j < nrows; j++)
-                    if (!strcmp(rows[j].knob, "precision") && rows[j].f64 && rows[j].n == rows[i].n &&
-                        !strcmp(rows[j].scene, rows[i].scene))
-                        fprintf(f, "| %s | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.2f |\n", rows[i].scene,
-                                human(rows[i].n, nb, sizeof nb), rows[i].input_mib, rows[j].input_mib,
-                                rows[i].peak_mib, rows[j].peak_mib, rows[i].cpu_ms, rows[j].cpu_ms,
-                                rows[j].cpu_ms / rows[i].cpu_ms);
-            }
-        }
-        fprintf(f, "\n");
+/* Section 4's second table: float32 and float64 side by side. */
+static void write_precision_table(FILE *f, const acc_row *rows, size_t nrows)
+{
+    char nb[32];
+    size_t i;
+    fprintf(f, "\n| scene | objects | input MiB float32 | float64 | engine MiB float32 | float64 | CPU ms "
+               "float32 | float64 | float64 / float32 time |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    for (i = 0; i < nrows; i++) {
+        size_t j;
+        if (strcmp(rows[i].knob, "precision") || rows[i].f64)
+            continue;
+        for (j = 0; j < nrows; j++)
+            if (!strcmp(rows[j].knob, "precision") && rows[j].f64 && rows[j].n == rows[i].n &&
+                !strcmp(rows[j].scene, rows[i].scene))
+                fprintf(f, "| %s | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.2f |\n", rows[i].scene,
+                        human(rows[i].n, nb, sizeof nb), rows[i].input_mib, rows[j].input_mib,
+                        rows[i].peak_mib, rows[j].peak_mib, rows[i].cpu_ms, rows[j].cpu_ms,
+                        rows[j].cpu_ms / rows[i].cpu_ms);
     }
+}
 
+/* One knob's section: what it does, its table, why the default, the verdict. */
+static void write_knob_section(FILE *f, int s, const acc_row *rows, size_t nrows)
+{
+    size_t i;
+    fprintf(f, "## %s\n\n%s\n\n", sections[s].title, sections[s].what);
+    table_head(f, sections[s].setting);
+    for (i = 0; i < nrows; i++)
+        if (!strcmp(rows[i].knob, sections[s].knob))
+            table_row(f, &rows[i]);
+    fprintf(f, "\n%s ", sections[s].why);
+    default_verdict(f, rows, nrows, sections[s].knob);
+    if (!strcmp(sections[s].knob, "precision"))
+        write_precision_table(f, rows, nrows);
+    fprintf(f, "\n");
+}
+
+/* Section 5: the far scene's pairs in float64 and rounded to float32. */
+static void write_rounding(FILE *f, const acc_rounding *rnd, size_t nrnd)
+{
+    char nb[32];
+    size_t i;
     fprintf(f, "## 5. Where float32 would change the answer (far scene)\n\n"
                "The far scene is the uniform scene 1000 times larger and 1e5 from the origin, where float32 spacing is "
                "1/128. Here it is generated in float64 (the same random numbers as `locd gen far`), and the exact pairs "
@@ -493,6 +515,10 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
                 rnd[i].pairs64 ? 100.0 * (double)(rnd[i].only64 + rnd[i].only32) / (double)rnd[i].pairs64 : 0.0);
     fprintf(f, "\nlocd never converts float64 input to float32: `locd_engine_find_pairs_f64` answers for the float64 "
                "values (tests/test_hard_cases.c, `float64_not_representable_in_float32`).\n\n");
+}
+
+static void write_defaults(FILE *f)
+{
     fprintf(f, "## Defaults, in one place\n\n"
                "| knob | default | why |\n|---|---|---|\n"
                "| `max_depth` | 0 (automatic: as deep as the key allows) | a limit never removes work; it moves small "
@@ -502,6 +528,22 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
                "| `LOCD_CONFIG_CUBES` | off (boxes) | cubes only add cells and false candidates (section 3) |\n"
                "| input precision | float32 | half the input memory, same work; float64 when the values need it "
                "(sections 4 and 5) |\n");
+}
+
+static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, const acc_rounding *rnd, size_t nrnd,
+                         double seconds)
+{
+    FILE *f = fopen(o->out, "w");
+    int s;
+    if (!f)
+        cli_die("accuracy: cannot write %s", o->out);
+    write_intro(f, o, seconds);
+    write_guarantees(f);
+    write_columns(f);
+    for (s = 0; s < (int)(sizeof sections / sizeof sections[0]); s++)
+        write_knob_section(f, s, rows, nrows);
+    write_rounding(f, rnd, nrnd);
+    write_defaults(f);
     fclose(f);
 }
 
