@@ -44,6 +44,19 @@ static void usage(FILE *f)
                "  exact, + mesh exact, + swept, and reports pairs and time of each (docs/accuracy-pipeline.md).\n");
 }
 
+/* --continuous's value as a LOCD_SWEPT_* mode; anything else exits. */
+static int parse_continuous(const char *v)
+{
+    if (!strcmp(v, "on"))
+        return LOCD_SWEPT_ON;
+    if (!strcmp(v, "off"))
+        return LOCD_SWEPT_OFF;
+    if (!strcmp(v, "auto"))
+        return LOCD_SWEPT_AUTO;
+    cli_die("simulate: --continuous is on, off or auto");
+    return 0;
+}
+
 static int parse_args(int argc, char **argv, sim_args *a)
 {
     int i;
@@ -80,12 +93,7 @@ static int parse_args(int argc, char **argv, sim_args *a)
         } else if (!strcmp(o, "--dump")) {
             a->dump = argv[++i];
         } else if (!strcmp(o, "--continuous")) {
-            v = argv[++i];
-            a->continuous = !strcmp(v, "on") ? LOCD_SWEPT_ON : !strcmp(v, "off") ? LOCD_SWEPT_OFF
-                            : !strcmp(v, "auto")                           ? LOCD_SWEPT_AUTO
-                                                                           : -2;
-            if (a->continuous == -2)
-                cli_die("simulate: --continuous is on, off or auto");
+            a->continuous = parse_continuous(argv[++i]);
         } else if (o[0] == '-') {
             cli_die("simulate: unknown option %s (see --help)", o);
         } else if (!a->scene) {

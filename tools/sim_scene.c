@@ -204,8 +204,8 @@ static int build_rock(const shape_req *q, locd_status *st)
     return 0;
 }
 
-/* Triangles come as triples of numbers; one that is no vertex index becomes
- * UINT32_MAX, which the library rejects. */
+/* Triangles come as triples of numbers; a negative or too large one becomes
+ * UINT32_MAX, which the library rejects as out of range. */
 static int build_mesh(const shape_req *q, locd_status *st)
 {
     sim_shape *sh = q->sh;
