@@ -162,7 +162,9 @@ static void put_box(float *b, double x, double y, double z, double sx, double sy
     b[5] = (float)(z + sz);
 }
 
-/* Equal cubes of edge w at uniform places in [off, off + scale)^3, edge scale w. */
+/* Equal cubes of edge scale w, their low corners uniform in
+ * [off, off + scale (1 - w))^3. "uniform" is off 0, scale 1: multiplying by
+ * 1 and adding 0 are exact, so its boxes are the plain formula's. */
 static void gen_uniform(float *b, size_t n, double w, double off, double scale, cli_rng *r)
 {
     size_t i;
