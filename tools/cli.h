@@ -39,6 +39,9 @@ double cli_median(double *v, size_t n);
 double cli_now_ms(void);
 void cli_die(const char *fmt, ...);
 int cli_parse_size(const char *s, size_t *out); /* accepts 1e6, 1000000, 1M, 10k */
+/* A size option's value s (as cli_parse_size reads it) when it lies in
+ * lo..hi; otherwise exits with the message fmt, like cli_die. */
+size_t cli_size_option(const char *s, size_t lo, size_t hi, const char *fmt, ...);
 
 /* Subcommands. argv[0] is the subcommand name. */
 int cmd_gen(int argc, char **argv);

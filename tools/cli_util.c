@@ -9,15 +9,20 @@
 #include <string.h>
 #include <time.h>
 
+static void die_v(const char *fmt, va_list ap)
+{
+    fputs("locd: ", stderr);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    exit(2);
+}
+
 void cli_die(const char *fmt, ...)
 {
     va_list ap;
-    fputs("locd: ", stderr);
     va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
+    die_v(fmt, ap);
     va_end(ap);
-    fputc('\n', stderr);
-    exit(2);
 }
 
 static int ends_with(const char *s, const char *suffix)
@@ -157,10 +162,74 @@ static void put_box(float *b, double x, double y, double z, double sx, double sy
     b[5] = (float)(z + sz);
 }
 
+/* Equal cubes of edge scale w, their low corners uniform in
+ * [off, off + scale (1 - w))^3. "uniform" is off 0, scale 1: multiplying by
+ * 1 and adding 0 are exact, so its boxes are the plain formula's. */
+static void gen_uniform(float *b, size_t n, double w, double off, double scale, cli_rng *r)
+{
+    size_t i;
+    for (i = 0; i < n; i++)
+        put_box(b + 6 * i, off + scale * cli_rng_uniform(r) * (1 - w), off + scale * cli_rng_uniform(r) * (1 - w),
+                off + scale * cli_rng_uniform(r) * (1 - w), scale * w, scale * w, scale * w);
+}
+
+/* Half the cubes in 64 Gaussian hot spots, half spread evenly. */
+static void gen_clustered(float *b, size_t n, double w, cli_rng *r)
+{
+    double cx[64], cy[64], cz[64];
+    size_t i;
+    int c;
+    for (c = 0; c < 64; c++) {
+        cx[c] = 0.1 + 0.8 * cli_rng_uniform(r);
+        cy[c] = 0.1 + 0.8 * cli_rng_uniform(r);
+        cz[c] = 0.1 + 0.8 * cli_rng_uniform(r);
+    }
+    for (i = 0; i < n; i++) {
+        double x, y, z, e = 0.5 * w;
+        if (cli_rng_next(r) & 1) {
+            c = (int)(cli_rng_next(r) % 64);
+            x = cx[c] + 0.03 * cli_rng_normal(r);
+            y = cy[c] + 0.03 * cli_rng_normal(r);
+            z = cz[c] + 0.03 * cli_rng_normal(r);
+        } else {
+            x = cli_rng_uniform(r);
+            y = cli_rng_uniform(r);
+            z = cli_rng_uniform(r);
+        }
+        put_box(b + 6 * i, x, y, z, e, e, e);
+    }
+}
+
+/* Edges log-uniform over three orders of magnitude, random aspect. */
+static void gen_mixed(float *b, size_t n, double w, cli_rng *r)
+{
+    size_t i;
+    for (i = 0; i < n; i++) {
+        double s = 0.3 * w * pow(10.0, 3.0 * cli_rng_uniform(r) - 2.0);
+        double sx = s * (0.5 + cli_rng_uniform(r)), sy = s * (0.5 + cli_rng_uniform(r)),
+               sz = s * (0.5 + cli_rng_uniform(r));
+        put_box(b + 6 * i, cli_rng_uniform(r), cli_rng_uniform(r), cli_rng_uniform(r), sx, sy, sz);
+    }
+}
+
+/* Unit cubes on an integer grid, touching faces, edges, corners. */
+static void gen_lattice(float *b, size_t n)
+{
+    size_t m = 1, i, x, y, z;
+    while ((m + 1) * (m + 1) * (m + 1) <= n)
+        m++;
+    for (i = 0; i < n; i++) {
+        size_t j = i % (m * m * m);
+        x = j % m;
+        y = (j / m) % m;
+        z = j / (m * m);
+        put_box(b + 6 * i, (double)x, (double)y, (double)z, 1.0, 1.0, 1.0);
+    }
+}
+
 float *cli_generate(const char *kind, size_t n, uint64_t seed)
 {
     cli_rng r;
-    size_t i;
     float *b;
     /* Edge of n equal cubes in the unit cube giving about one overlapping
        pair per cube: n^2/2 * (2w)^3 = n  =>  w = (4n)^(-1/3). */
@@ -172,60 +241,18 @@ float *cli_generate(const char *kind, size_t n, uint64_t seed)
     if (!b)
         return NULL;
     cli_rng_seed(&r, seed);
-    if (!strcmp(kind, "uniform")) {
-        for (i = 0; i < n; i++)
-            put_box(b + 6 * i, cli_rng_uniform(&r) * (1 - w), cli_rng_uniform(&r) * (1 - w),
-                    cli_rng_uniform(&r) * (1 - w), w, w, w);
-    } else if (!strcmp(kind, "far")) {
+    if (!strcmp(kind, "uniform"))
+        gen_uniform(b, n, w, 0.0, 1.0, &r);
+    else if (!strcmp(kind, "far"))
         /* The uniform scene, 1000 times larger, 1e5 from the origin: float32
            spacing there is 1/128, the cubes about 1000 w. */
-        double off = 1e5, scale = 1000.0;
-        for (i = 0; i < n; i++)
-            put_box(b + 6 * i, off + scale * cli_rng_uniform(&r) * (1 - w), off + scale * cli_rng_uniform(&r) * (1 - w),
-                    off + scale * cli_rng_uniform(&r) * (1 - w), scale * w, scale * w, scale * w);
-    } else if (!strcmp(kind, "clustered")) {
-        /* Half the cubes in 64 Gaussian hot spots, half spread evenly. */
-        double cx[64], cy[64], cz[64];
-        int c;
-        for (c = 0; c < 64; c++) {
-            cx[c] = 0.1 + 0.8 * cli_rng_uniform(&r);
-            cy[c] = 0.1 + 0.8 * cli_rng_uniform(&r);
-            cz[c] = 0.1 + 0.8 * cli_rng_uniform(&r);
-        }
-        for (i = 0; i < n; i++) {
-            double x, y, z, e = 0.5 * w;
-            if (cli_rng_next(&r) & 1) {
-                c = (int)(cli_rng_next(&r) % 64);
-                x = cx[c] + 0.03 * cli_rng_normal(&r);
-                y = cy[c] + 0.03 * cli_rng_normal(&r);
-                z = cz[c] + 0.03 * cli_rng_normal(&r);
-            } else {
-                x = cli_rng_uniform(&r);
-                y = cli_rng_uniform(&r);
-                z = cli_rng_uniform(&r);
-            }
-            put_box(b + 6 * i, x, y, z, e, e, e);
-        }
-    } else if (!strcmp(kind, "mixed")) {
-        /* Edges log-uniform over three orders of magnitude, random aspect. */
-        for (i = 0; i < n; i++) {
-            double s = 0.3 * w * pow(10.0, 3.0 * cli_rng_uniform(&r) - 2.0);
-            double sx = s * (0.5 + cli_rng_uniform(&r)), sy = s * (0.5 + cli_rng_uniform(&r)),
-                   sz = s * (0.5 + cli_rng_uniform(&r));
-            put_box(b + 6 * i, cli_rng_uniform(&r), cli_rng_uniform(&r), cli_rng_uniform(&r), sx, sy, sz);
-        }
-    } else { /* lattice: unit cubes on an integer grid, touching faces, edges, corners */
-        size_t m = 1, x, y, z;
-        while ((m + 1) * (m + 1) * (m + 1) <= n)
-            m++;
-        for (i = 0; i < n; i++) {
-            size_t j = i % (m * m * m);
-            x = j % m;
-            y = (j / m) % m;
-            z = j / (m * m);
-            put_box(b + 6 * i, (double)x, (double)y, (double)z, 1.0, 1.0, 1.0);
-        }
-    }
+        gen_uniform(b, n, w, 1e5, 1000.0, &r);
+    else if (!strcmp(kind, "clustered"))
+        gen_clustered(b, n, w, &r);
+    else if (!strcmp(kind, "mixed"))
+        gen_mixed(b, n, w, &r);
+    else
+        gen_lattice(b, n);
     return b;
 }
 
@@ -290,5 +317,17 @@ int cli_parse_size(const char *s, size_t *out)
     if (*end || v < 0 || v > 1e12 || v != floor(v))
         return -1;
     *out = (size_t)v;
+    return 0;
+}
+
+size_t cli_size_option(const char *s, size_t lo, size_t hi, const char *fmt, ...)
+{
+    size_t v;
+    va_list ap;
+    if (!cli_parse_size(s, &v) && v >= lo && v <= hi)
+        return v;
+    va_start(ap, fmt);
+    die_v(fmt, ap);
+    va_end(ap);
     return 0;
 }

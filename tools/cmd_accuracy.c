@@ -84,29 +84,77 @@ static double cpu_ms(void)
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
-static void measure(const void *boxes, size_t n, int f64, uint32_t threads, uint32_t depth, int32_t bias,
-                    uint32_t flags, size_t repeat, acc_row *row)
+/* An engine and a pairs buffer whose every byte goes through mem's counters. */
+static void counted_engine(acc_mem *mem, uint32_t threads, uint32_t depth, int32_t bias, uint32_t flags,
+                           locd_engine **e, locd_pairs **p)
 {
-    acc_mem mem = {0, 0};
     locd_allocator al;
     locd_engine_config cfg;
-    locd_engine *e;
-    locd_pairs *p;
-    locd_stats st;
-    double best[ST_COUNT] = {0};
-    size_t r;
-    int k;
     al.alloc = acc_alloc;
     al.free = acc_free;
-    al.user = &mem;
+    al.user = mem;
     locd_engine_config_init(&cfg);
     cfg.threads = threads;
     cfg.max_depth = depth;
     cfg.cell_bias = bias;
     cfg.flags = flags;
     cfg.allocator = al;
-    if (locd_engine_create(&cfg, &e) != LOCD_OK || locd_pairs_create(&al, &p) != LOCD_OK)
+    if (locd_engine_create(&cfg, e) != LOCD_OK || locd_pairs_create(&al, p) != LOCD_OK)
         cli_die("accuracy: %s", locd_last_error());
+}
+
+/* One call: its CPU time; the engine's statistics in *st. */
+static double timed_call(locd_engine *e, locd_pairs *p, const void *boxes, size_t n, int f64, locd_stats *st)
+{
+    double c0 = cpu_ms(), c1;
+    locd_status s = f64 ? locd_engine_find_pairs_f64(e, boxes, n, 0, p) : locd_engine_find_pairs_f32(e, boxes, n, 0, p);
+    c1 = cpu_ms();
+    if (s != LOCD_OK)
+        cli_die("accuracy: %s", locd_last_error());
+    locd_stats_init(st);
+    locd_engine_stats(e, st);
+    return c1 - c0;
+}
+
+/* Each stage's least time over the calls (first: the first timed call): a
+ * neighbour's burst that hit one call's sort does not count against that
+ * stage. */
+static void keep_least(double *best, const locd_stats *st, int first)
+{
+    const double ms[ST_TOTAL] = {st->ms_bounds, st->ms_encode, st->ms_sort, st->ms_merge, st->ms_sweep};
+    int k;
+    for (k = 0; k < ST_TOTAL; k++)
+        best[k] = first || ms[k] < best[k] ? ms[k] : best[k];
+    best[ST_TOTAL] = st->ms_total < best[ST_TOTAL] ? st->ms_total : best[ST_TOTAL];
+}
+
+/* The row's work counts from the last call, its least times and the memory. */
+static void fill_row(acc_row *row, const locd_stats *st, const double *best, const acc_mem *mem, size_t n, int f64)
+{
+    int k;
+    row->f64 = f64;
+    row->threads = st->threads;
+    row->depth = st->depth;
+    row->entries = (double)st->entries;
+    row->candidates = (double)st->candidates;
+    row->exact_tests = (double)st->exact_tests;
+    row->pairs = (double)st->pairs;
+    for (k = 0; k < ST_COUNT; k++)
+        row->ms[k] = best[k];
+    row->peak_mib = (double)mem->peak / (1024.0 * 1024.0);
+    row->input_mib = (double)n * 6 * (f64 ? 8 : 4) / (1024.0 * 1024.0);
+}
+
+static void measure(const void *boxes, size_t n, int f64, uint32_t threads, uint32_t depth, int32_t bias,
+                    uint32_t flags, size_t repeat, acc_row *row)
+{
+    acc_mem mem = {0, 0};
+    locd_engine *e;
+    locd_pairs *p;
+    locd_stats st;
+    double best[ST_COUNT] = {0};
+    size_t r;
+    counted_engine(&mem, threads, depth, bias, flags, &e, &p);
     best[ST_TOTAL] = HUGE_VAL;
     row->cpu_ms = HUGE_VAL;
     /* Warm-up: buffers reach their steady-state size, so the repeats time
@@ -114,38 +162,14 @@ static void measure(const void *boxes, size_t n, int f64, uint32_t threads, uint
        stand for the setting: on a shared machine the slower calls measure
        the neighbours. */
     for (r = 0; r <= repeat; r++) {
-        double c0 = cpu_ms(), c1;
-        locd_status s = f64 ? locd_engine_find_pairs_f64(e, boxes, n, 0, p)
-                            : locd_engine_find_pairs_f32(e, boxes, n, 0, p);
-        c1 = cpu_ms();
-        if (s != LOCD_OK)
-            cli_die("accuracy: %s", locd_last_error());
-        locd_stats_init(&st);
-        locd_engine_stats(e, &st);
+        double c = timed_call(e, p, boxes, n, f64, &st);
         if (r == 0)
             continue;
-        if (c1 - c0 < row->cpu_ms)
-            row->cpu_ms = c1 - c0;
-        /* Each stage's least time over the calls: a neighbour's burst that
-           hit one call's sort does not count against that stage. */
-        best[ST_BOUNDS] = r == 1 || st.ms_bounds < best[ST_BOUNDS] ? st.ms_bounds : best[ST_BOUNDS];
-        best[ST_ENCODE] = r == 1 || st.ms_encode < best[ST_ENCODE] ? st.ms_encode : best[ST_ENCODE];
-        best[ST_SORT] = r == 1 || st.ms_sort < best[ST_SORT] ? st.ms_sort : best[ST_SORT];
-        best[ST_MERGE] = r == 1 || st.ms_merge < best[ST_MERGE] ? st.ms_merge : best[ST_MERGE];
-        best[ST_SWEEP] = r == 1 || st.ms_sweep < best[ST_SWEEP] ? st.ms_sweep : best[ST_SWEEP];
-        best[ST_TOTAL] = st.ms_total < best[ST_TOTAL] ? st.ms_total : best[ST_TOTAL];
+        if (c < row->cpu_ms)
+            row->cpu_ms = c;
+        keep_least(best, &st, r == 1);
     }
-    row->f64 = f64;
-    row->threads = st.threads;
-    row->depth = st.depth;
-    row->entries = (double)st.entries;
-    row->candidates = (double)st.candidates;
-    row->exact_tests = (double)st.exact_tests;
-    row->pairs = (double)st.pairs;
-    for (k = 0; k < ST_COUNT; k++)
-        row->ms[k] = best[k];
-    row->peak_mib = (double)mem.peak / (1024.0 * 1024.0);
-    row->input_mib = (double)n * 6 * (f64 ? 8 : 4) / (1024.0 * 1024.0);
+    fill_row(row, &st, best, &mem, n, f64);
     locd_pairs_destroy(p);
     locd_engine_destroy(e);
 }
@@ -336,51 +360,49 @@ static void default_verdict(FILE *f, const acc_row *rows, size_t nrows, const ch
     fprintf(f, "\n");
 }
 
-static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, const acc_rounding *rnd, size_t nrnd,
-                         double seconds)
+/* The report's sections 1-4: one knob each. */
+static const struct {
+    const char *knob, *title, *setting, *what, *why;
+} sections[] = {
+    {"max_depth", "1. Octree depth limit (`max_depth`)", "max_depth",
+     "A shallower octree puts small boxes into bigger cells: fewer levels to walk, but more boxes share a cell, "
+     "so candidates grow roughly as (objects per cell)^2.",
+     "**Default: 0 (automatic)**: at most as deep as the 64-bit key allows beside the object index (13 levels "
+     "at 1M objects, 14 at 100k), and from 16,384 objects on, the shallowest depth at which a fixed sample of "
+     "1,024 boxes, each at the level its size picks under that depth, estimates at most 16 other boxes in a "
+     "box's own cell. Each box still stops at the level its own size picks, so a limit only matters for boxes "
+     "smaller than its cells: a small box that stops higher crosses fewer cells and shares its cell with a few "
+     "neighbours, which the slab-ordered sweep handles well, instead of opening a cell of its own; too shallow, "
+     "and a cell's candidates grow as the square of its population, which the sample guards against. On the "
+     "mixed scene the automatic depth is 6 at 1M objects and 5 at 100k; on the others it stays at the key's "
+     "limit, since their boxes stop above it anyway."},
+    {"cell_bias", "2. Level-choice bias (`cell_bias`)", "cell_bias",
+     "A box goes to the deepest level whose cell edge is at least 2^bias times its largest extent. Bias 0 gives "
+     "the smallest cells (up to 8 cells per box, fewest candidates per cell); each step up halves the entries per "
+     "object towards 1 but doubles the cell edge, so a cell's path meets more boxes.",
+     "**Default: 2** (`LOCD_DEFAULT_CELL_BIAS`): a box touches at most two cells per axis, about 1.7 entries per "
+     "cube on the uniform scene against 2.7 at bias 1, for about 3 times the candidates; the candidate test runs "
+     "8 at a time, so fewer entries to encode, sort and sweep win on the uniform, clustered and mixed scenes. "
+     "Bias 1 is better where nearly every candidate needs the exact test (the touching lattice); bias 3 is close "
+     "on some scenes and much worse on others (hundreds of candidates per object)."},
+    {"shape", "3. Bounding cubes (the paper) versus boxes", "cells from",
+     "The paper encodes each object's bounding cube; locd encodes the box itself by default. Cubes change only "
+     "which cells are chosen (the exact test is always on the boxes), so the difference is pure extra work: more "
+     "entries and more false candidates for elongated boxes.",
+     "**Default: boxes**: never more cells than the cube, and the same answer."},
+    {"precision", "4. float32 versus float64 input", "input",
+     "The same scene through the float32 and the float64 entry points (float64: the float32 values widened, so "
+     "the pairs are identical). The octree work is the same (the quantized keys are computed in double either "
+     "way); float64 costs more memory traffic in validation and in the exact tests.",
+     "**Default: float32** (half the input memory); use float64 when the coordinates need it (section 5)."},
+};
+
+/* Title, how and where the report was made, the scenes and the plot. */
+static void write_intro(FILE *f, const acc_opts *o, double seconds)
 {
-    FILE *f = fopen(o->out, "w");
-    char cpu[256], date[64], nb[32];
+    char cpu[256], date[64];
     time_t now = time(NULL);
-    size_t i;
     int s;
-    static const struct {
-        const char *knob, *title, *setting, *what, *why;
-    } sections[] = {
-        {"max_depth", "1. Octree depth limit (`max_depth`)", "max_depth",
-         "A shallower octree puts small boxes into bigger cells: fewer levels to walk, but more boxes share a cell, "
-         "so candidates grow roughly as (objects per cell)^2.",
-         "**Default: 0 (automatic)**: at most as deep as the 64-bit key allows beside the object index (13 levels "
-         "at 1M objects, 14 at 100k), and from 16,384 objects on, the shallowest depth at which a fixed sample of "
-         "1,024 boxes, each at the level its size picks under that depth, estimates at most 16 other boxes in a "
-         "box's own cell. Each box still stops at the level its own size picks, so a limit only matters for boxes "
-         "smaller than its cells: a small box that stops higher crosses fewer cells and shares its cell with a few "
-         "neighbours, which the slab-ordered sweep handles well, instead of opening a cell of its own; too shallow, "
-         "and a cell's candidates grow as the square of its population, which the sample guards against. On the "
-         "mixed scene the automatic depth is 6 at 1M objects and 5 at 100k; on the others it stays at the key's "
-         "limit, since their boxes stop above it anyway."},
-        {"cell_bias", "2. Level-choice bias (`cell_bias`)", "cell_bias",
-         "A box goes to the deepest level whose cell edge is at least 2^bias times its largest extent. Bias 0 gives "
-         "the smallest cells (up to 8 cells per box, fewest candidates per cell); each step up halves the entries per "
-         "object towards 1 but doubles the cell edge, so a cell's path meets more boxes.",
-         "**Default: 2** (`LOCD_DEFAULT_CELL_BIAS`): a box touches at most two cells per axis, about 1.7 entries per "
-         "cube on the uniform scene against 2.7 at bias 1, for about 3 times the candidates; the candidate test runs "
-         "8 at a time, so fewer entries to encode, sort and sweep win on the uniform, clustered and mixed scenes. "
-         "Bias 1 is better where nearly every candidate needs the exact test (the touching lattice); bias 3 is close "
-         "on some scenes and much worse on others (hundreds of candidates per object)."},
-        {"shape", "3. Bounding cubes (the paper) versus boxes", "cells from",
-         "The paper encodes each object's bounding cube; locd encodes the box itself by default. Cubes change only "
-         "which cells are chosen (the exact test is always on the boxes), so the difference is pure extra work: more "
-         "entries and more false candidates for elongated boxes.",
-         "**Default: boxes**: never more cells than the cube, and the same answer."},
-        {"precision", "4. float32 versus float64 input", "input",
-         "The same scene through the float32 and the float64 entry points (float64: the float32 values widened, so "
-         "the pairs are identical). The octree work is the same (the quantized keys are computed in double either "
-         "way); float64 costs more memory traffic in validation and in the exact tests.",
-         "**Default: float32** (half the input memory); use float64 when the coordinates need it (section 5)."},
-    };
-    if (!f)
-        cli_die("accuracy: cannot write %s", o->out);
     cli_cpu_model(cpu, sizeof cpu);
     strftime(date, sizeof date, "%Y-%m-%d", gmtime(&now));
     fprintf(f, "# What accuracy costs in time: the broad phase\n\n");
@@ -400,6 +422,10 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
                "later stages can append rows in the same format.\n\n",
             o->csv);
     fprintf(f, "![accuracy versus time](img/accuracy.png)\n\n");
+}
+
+static void write_guarantees(FILE *f)
+{
     fprintf(f, "## What is guaranteed whatever the knobs\n\n"
                "- **Exactness.** Every knob below changes only the work. The result is exactly the set of overlapping "
                "pairs (closed intervals, touching counts), for every depth limit, bias, cubes or boxes, float32 or "
@@ -413,6 +439,10 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
                "worker processes, service), and for float32 or float64 input of the same values; the hard-case tests "
                "compare the raw output bytes across 1, 2, 3 and 8 threads, across levels and across precisions. The order is the sweep's (each pair once, i < j); `LOCD_FIND_SORTED` gives "
                "(i, j) order. Different knobs give the same set in a different order.\n\n");
+}
+
+static void write_columns(FILE *f)
+{
     fprintf(f, "## Columns\n\n"
                "- **entries / object**: (cell, object) entries after encoding, per object (cells per object).\n"
                "- **candidates / object**: object pairs met on a shared root-to-leaf cell path and tested, per object.\n"
@@ -428,34 +458,50 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
                "- **memory**: the "
                "peak bytes the engine and the pairs buffer own (through the allocator hook), not counting the caller's "
                "input.\n\n");
+}
 
-    for (s = 0; s < 4; s++) {
-        fprintf(f, "## %s\n\n%s\n\n", sections[s].title, sections[s].what);
-        table_head(f, sections[s].setting);
-        for (i = 0; i < nrows; i++)
-            if (!strcmp(rows[i].knob, sections[s].knob))
-                table_row(f, &rows[i]);
-        fprintf(f, "\n%s ", sections[s].why);
-        default_verdict(f, rows, nrows, sections[s].knob);
-        if (!strcmp(sections[s].knob, "precision")) {
-            fprintf(f, "\n| scene | objects | input MiB float32 | float64 | engine MiB float32 | float64 | CPU ms "
-                       "float32 | float64 | float64 / float32 time |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-            for (i = 0; i < nrows; i++) {
-                size_t j;
-                if (strcmp(rows[i].knob, "precision") || rows[i].f64)
-                    continue;
-                for (j = 0; j < nrows; j++)
-                    if (!strcmp(rows[j].knob, "precision") && rows[j].f64 && rows[j].n == rows[i].n &&
-                        !strcmp(rows[j].scene, rows[i].scene))
-                        fprintf(f, "| %s | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.2f |\n", rows[i].scene,
-                                human(rows[i].n, nb, sizeof nb), rows[i].input_mib, rows[j].input_mib,
-                                rows[i].peak_mib, rows[j].peak_mib, rows[i].cpu_ms, rows[j].cpu_ms,
-                                rows[j].cpu_ms / rows[i].cpu_ms);
-            }
-        }
-        fprintf(f, "\n");
+/* Section 4's second table: float32 and float64 side by side. */
+static void write_precision_table(FILE *f, const acc_row *rows, size_t nrows)
+{
+    char nb[32];
+    size_t i;
+    fprintf(f, "\n| scene | objects | input MiB float32 | float64 | engine MiB float32 | float64 | CPU ms "
+               "float32 | float64 | float64 / float32 time |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    for (i = 0; i < nrows; i++) {
+        size_t j;
+        if (strcmp(rows[i].knob, "precision") || rows[i].f64)
+            continue;
+        for (j = 0; j < nrows; j++)
+            if (!strcmp(rows[j].knob, "precision") && rows[j].f64 && rows[j].n == rows[i].n &&
+                !strcmp(rows[j].scene, rows[i].scene))
+                fprintf(f, "| %s | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.2f |\n", rows[i].scene,
+                        human(rows[i].n, nb, sizeof nb), rows[i].input_mib, rows[j].input_mib,
+                        rows[i].peak_mib, rows[j].peak_mib, rows[i].cpu_ms, rows[j].cpu_ms,
+                        rows[j].cpu_ms / rows[i].cpu_ms);
     }
+}
 
+/* One knob's section: what it does, its table, why the default, the verdict. */
+static void write_knob_section(FILE *f, int s, const acc_row *rows, size_t nrows)
+{
+    size_t i;
+    fprintf(f, "## %s\n\n%s\n\n", sections[s].title, sections[s].what);
+    table_head(f, sections[s].setting);
+    for (i = 0; i < nrows; i++)
+        if (!strcmp(rows[i].knob, sections[s].knob))
+            table_row(f, &rows[i]);
+    fprintf(f, "\n%s ", sections[s].why);
+    default_verdict(f, rows, nrows, sections[s].knob);
+    if (!strcmp(sections[s].knob, "precision"))
+        write_precision_table(f, rows, nrows);
+    fprintf(f, "\n");
+}
+
+/* Section 5: the far scene's pairs in float64 and rounded to float32. */
+static void write_rounding(FILE *f, const acc_rounding *rnd, size_t nrnd)
+{
+    char nb[32];
+    size_t i;
     fprintf(f, "## 5. Where float32 would change the answer (far scene)\n\n"
                "The far scene is the uniform scene 1000 times larger and 1e5 from the origin, where float32 spacing is "
                "1/128. Here it is generated in float64 (the same random numbers as `locd gen far`), and the exact pairs "
@@ -469,6 +515,10 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
                 rnd[i].pairs64 ? 100.0 * (double)(rnd[i].only64 + rnd[i].only32) / (double)rnd[i].pairs64 : 0.0);
     fprintf(f, "\nlocd never converts float64 input to float32: `locd_engine_find_pairs_f64` answers for the float64 "
                "values (tests/test_hard_cases.c, `float64_not_representable_in_float32`).\n\n");
+}
+
+static void write_defaults(FILE *f)
+{
     fprintf(f, "## Defaults, in one place\n\n"
                "| knob | default | why |\n|---|---|---|\n"
                "| `max_depth` | 0 (automatic: as deep as the key allows) | a limit never removes work; it moves small "
@@ -478,6 +528,22 @@ static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, c
                "| `LOCD_CONFIG_CUBES` | off (boxes) | cubes only add cells and false candidates (section 3) |\n"
                "| input precision | float32 | half the input memory, same work; float64 when the values need it "
                "(sections 4 and 5) |\n");
+}
+
+static void write_report(const acc_opts *o, const acc_row *rows, size_t nrows, const acc_rounding *rnd, size_t nrnd,
+                         double seconds)
+{
+    FILE *f = fopen(o->out, "w");
+    int s;
+    if (!f)
+        cli_die("accuracy: cannot write %s", o->out);
+    write_intro(f, o, seconds);
+    write_guarantees(f);
+    write_columns(f);
+    for (s = 0; s < (int)(sizeof sections / sizeof sections[0]); s++)
+        write_knob_section(f, s, rows, nrows);
+    write_rounding(f, rnd, nrnd);
+    write_defaults(f);
     fclose(f);
 }
 
@@ -514,141 +580,210 @@ static void usage(void)
            "  --quick   sizes 1e4,1e5 and one repeat (a smoke run)\n");
 }
 
-int cmd_accuracy(int argc, char **argv)
+static void default_opts(acc_opts *o)
 {
-    acc_opts o;
-    static const uint32_t depths[] = {4, 6, 8, 10, 12, 0};
-    static const int32_t biases[] = {0, 1, 2, 3};
-    acc_row *rows;
-    acc_rounding rnd[8];
-    size_t nrows = 0, cap, nrnd = 0;
-    int a, si, ki;
-    double t0 = cli_now_ms();
-    FILE *csv;
-    memset(&o, 0, sizeof o);
-    o.sizes[0] = 100000;
-    o.sizes[1] = 1000000;
-    o.nsizes = 2;
-    o.nscenes = parse_list("uniform,clustered,mixed,far", o.scenes, 8);
-    o.repeat = 7;
-    o.threads = 1;
-    o.out = "docs/accuracy.md";
-    o.csv = "docs/accuracy.csv";
+    memset(o, 0, sizeof *o);
+    o->sizes[0] = 100000;
+    o->sizes[1] = 1000000;
+    o->nsizes = 2;
+    o->nscenes = parse_list("uniform,clustered,mixed,far", o->scenes, 8);
+    o->repeat = 7;
+    o->threads = 1;
+    o->out = "docs/accuracy.md";
+    o->csv = "docs/accuracy.csv";
+}
+
+static void parse_sizes_option(const char *v, acc_opts *o)
+{
+    const char *items[8];
+    int k;
+    o->nsizes = parse_list(v, items, 8);
+    for (k = 0; k < o->nsizes; k++)
+        o->sizes[k] = cli_size_option(items[k], 2, SIZE_MAX, "accuracy: bad size '%s'", items[k]);
+}
+
+/* 1 after --help (usage printed), else 0; a bad command line exits. */
+static int parse_accuracy_args(int argc, char **argv, acc_opts *o)
+{
+    int a;
+    default_opts(o);
     for (a = 1; a < argc; a++) {
         if (!strcmp(argv[a], "--help") || !strcmp(argv[a], "-h")) {
             usage();
-            return 0;
+            return 1;
         } else if (!strcmp(argv[a], "--out") && a + 1 < argc) {
-            o.out = argv[++a];
+            o->out = argv[++a];
         } else if (!strcmp(argv[a], "--csv") && a + 1 < argc) {
-            o.csv = argv[++a];
+            o->csv = argv[++a];
         } else if (!strcmp(argv[a], "--sizes") && a + 1 < argc) {
-            const char *items[8];
-            int k;
-            o.nsizes = parse_list(argv[++a], items, 8);
-            for (k = 0; k < o.nsizes; k++)
-                if (cli_parse_size(items[k], &o.sizes[k]) || o.sizes[k] < 2)
-                    cli_die("accuracy: bad size '%s'", items[k]);
+            parse_sizes_option(argv[++a], o);
         } else if (!strcmp(argv[a], "--scenes") && a + 1 < argc) {
-            o.nscenes = parse_list(argv[++a], o.scenes, 8);
+            o->nscenes = parse_list(argv[++a], o->scenes, 8);
         } else if (!strcmp(argv[a], "--repeat") && a + 1 < argc) {
-            if (cli_parse_size(argv[++a], &o.repeat) || !o.repeat)
-                cli_die("accuracy: bad --repeat");
+            o->repeat = cli_size_option(argv[++a], 1, SIZE_MAX, "accuracy: bad --repeat");
         } else if (!strcmp(argv[a], "--threads") && a + 1 < argc) {
-            size_t t;
-            if (cli_parse_size(argv[++a], &t) || !t || t > 64)
-                cli_die("accuracy: bad --threads");
-            o.threads = (uint32_t)t;
+            o->threads = (uint32_t)cli_size_option(argv[++a], 1, 64, "accuracy: bad --threads");
         } else if (!strcmp(argv[a], "--quick")) {
-            o.sizes[0] = 10000;
-            o.sizes[1] = 100000;
-            o.nsizes = 2;
-            o.repeat = 1;
+            o->sizes[0] = 10000;
+            o->sizes[1] = 100000;
+            o->nsizes = 2;
+            o->repeat = 1;
         } else {
             cli_die("accuracy: unknown option '%s' (see locd accuracy --help)", argv[a]);
         }
     }
-    cap = (size_t)o.nsizes * (size_t)o.nscenes * 16;
-    rows = calloc(cap, sizeof *rows);
-    csv = fopen(o.csv, "w");
-    if (!rows || !csv)
-        cli_die("accuracy: cannot write %s", o.csv);
-    fprintf(csv, "stage,scene,n,knob,value,default,precision,threads,depth,entries,candidates,exact_tests,pairs");
-    for (ki = 0; ki < ST_COUNT; ki++)
-        fprintf(csv, ",ms_%s", stage_names[ki]);
-    fprintf(csv, ",cpu_ms,peak_mib,input_mib\n");
+    return 0;
+}
 
+/* Room for every row, and the CSV with its header line. */
+static acc_row *start_rows(const acc_opts *o, FILE **csv)
+{
+    acc_row *rows = calloc((size_t)o->nsizes * (size_t)o->nscenes * 16, sizeof *rows);
+    int k;
+    *csv = fopen(o->csv, "w");
+    if (!rows || !*csv)
+        cli_die("accuracy: cannot write %s", o->csv);
+    fprintf(*csv, "stage,scene,n,knob,value,default,precision,threads,depth,entries,candidates,exact_tests,pairs");
+    for (k = 0; k < ST_COUNT; k++)
+        fprintf(*csv, ",ms_%s", stage_names[k]);
+    fprintf(*csv, ",cpu_ms,peak_mib,input_mib\n");
+    return rows;
+}
+
+/* One standard scene at one size, as every knob's rows measure it. */
+typedef struct acc_scene {
+    const acc_opts *o;
+    const char *name;
+    size_t n;
+    const float *boxes;
+} acc_scene;
+
+static void label_row(acc_row *r, const acc_scene *sc, const char *knob, const char *value, int is_default)
+{
+    r->scene = sc->name;
+    r->n = sc->n;
+    r->knob = knob;
+    r->is_default = is_default;
+    snprintf(r->value, sizeof r->value, "%s", value);
+}
+
+/* Depth limits at the default bias; the automatic one, last, is the default row. */
+static size_t measure_depths(const acc_scene *sc, acc_row *rows)
+{
+    static const uint32_t depths[] = {4, 6, 8, 10, 12, 0};
+    char value[32];
+    size_t k;
+    for (k = 0; k < sizeof depths / sizeof depths[0]; k++) {
+        measure(sc->boxes, sc->n, 0, sc->o->threads, depths[k], LOCD_DEFAULT_CELL_BIAS, 0, sc->o->repeat, &rows[k]);
+        if (depths[k])
+            snprintf(value, sizeof value, "%u", depths[k]);
+        else
+            snprintf(value, sizeof value, "auto");
+        label_row(&rows[k], sc, "max_depth", value, depths[k] == 0);
+    }
+    return k;
+}
+
+/* Level-choice biases; the default's row is the default row measured already. */
+static size_t measure_biases(const acc_scene *sc, const acc_row *base, acc_row *rows)
+{
+    static const int32_t biases[] = {0, 1, 2, 3};
+    char value[32];
+    size_t k;
+    for (k = 0; k < sizeof biases / sizeof biases[0]; k++) {
+        if (biases[k] == LOCD_DEFAULT_CELL_BIAS)
+            rows[k] = *base;
+        else
+            measure(sc->boxes, sc->n, 0, sc->o->threads, 0, biases[k], 0, sc->o->repeat, &rows[k]);
+        snprintf(value, sizeof value, "%d", biases[k]);
+        label_row(&rows[k], sc, "cell_bias", value, biases[k] == LOCD_DEFAULT_CELL_BIAS);
+    }
+    return k;
+}
+
+/* Boxes (the default row) and bounding cubes. */
+static size_t measure_shapes(const acc_scene *sc, const acc_row *base, acc_row *rows)
+{
+    rows[0] = *base;
+    label_row(&rows[0], sc, "shape", "boxes", 1);
+    measure(sc->boxes, sc->n, 0, sc->o->threads, 0, LOCD_DEFAULT_CELL_BIAS, LOCD_CONFIG_CUBES, sc->o->repeat, &rows[1]);
+    label_row(&rows[1], sc, "shape", "cubes", 0);
+    return 2;
+}
+
+/* float32 (the default row) and the same values as float64. */
+static size_t measure_precisions(const acc_scene *sc, const acc_row *base, acc_row *rows)
+{
+    double *d = malloc(sc->n * 6 * sizeof(double));
+    size_t k;
+    rows[0] = *base;
+    label_row(&rows[0], sc, "precision", "float32", 1);
+    if (!d)
+        cli_die("accuracy: out of memory");
+    for (k = 0; k < 6 * sc->n; k++)
+        d[k] = (double)sc->boxes[k];
+    measure(d, sc->n, 1, sc->o->threads, 0, LOCD_DEFAULT_CELL_BIAS, 0, sc->o->repeat, &rows[1]);
+    label_row(&rows[1], sc, "precision", "float64", 0);
+    free(d);
+    return 2;
+}
+
+/* The knobs trade work, never the answer: every row has the default's pairs. */
+static void check_and_write_rows(FILE *csv, const acc_scene *sc, const acc_row *rows, size_t count,
+                                 const acc_row *base)
+{
+    size_t k;
+    for (k = 0; k < count; k++) {
+        if (rows[k].pairs != base->pairs)
+            cli_die("accuracy: %s %zu: %s=%s found %.0f pairs, the default %.0f (a bug: please report it)", sc->name,
+                    sc->n, rows[k].knob, rows[k].value, rows[k].pairs, base->pairs);
+        csv_row(csv, &rows[k]);
+    }
+    fflush(csv);
+}
+
+/* Measures one scene at one size under every knob into rows; returns how many rows. */
+static size_t measure_scene(const acc_opts *o, const char *scene, size_t n, acc_row *rows, FILE *csv)
+{
+    float *b = cli_generate(scene, n, 1);
+    acc_scene sc;
+    acc_row base;
+    size_t m;
+    if (!b)
+        cli_die("accuracy: unknown scene '%s' (kinds: %s)", scene, cli_generator_kinds());
+    fprintf(stderr, "accuracy: %s %zu ...\n", scene, n);
+    sc.o = o;
+    sc.name = scene;
+    sc.n = n;
+    sc.boxes = b;
+    m = measure_depths(&sc, rows);
+    base = rows[m - 1];
+    m += measure_biases(&sc, &base, rows + m);
+    m += measure_shapes(&sc, &base, rows + m);
+    m += measure_precisions(&sc, &base, rows + m);
+    free(b);
+    check_and_write_rows(csv, &sc, rows, m, &base);
+    return m;
+}
+
+int cmd_accuracy(int argc, char **argv)
+{
+    acc_opts o;
+    acc_row *rows;
+    acc_rounding rnd[8];
+    size_t nrows = 0, nrnd = 0;
+    int si, sc;
+    double t0 = cli_now_ms();
+    FILE *csv;
+    if (parse_accuracy_args(argc, argv, &o)) {
+        free_lists();
+        return 0;
+    }
+    rows = start_rows(&o, &csv);
     for (si = 0; si < o.nsizes; si++) {
-        size_t n = o.sizes[si];
-        int sc;
-        for (sc = 0; sc < o.nscenes; sc++) {
-            const char *scene = o.scenes[sc];
-            float *b = cli_generate(scene, n, 1);
-            double *d;
-            acc_row base;
-            size_t k, first = nrows;
-            if (!b)
-                cli_die("accuracy: unknown scene '%s' (kinds: %s)", scene, cli_generator_kinds());
-            fprintf(stderr, "accuracy: %s %zu ...\n", scene, n);
-            /* Depth limits at the default bias; the automatic one is the default row. */
-            for (k = 0; k < sizeof depths / sizeof depths[0]; k++) {
-                acc_row *r = &rows[nrows++];
-                measure(b, n, 0, o.threads, depths[k], LOCD_DEFAULT_CELL_BIAS, 0, o.repeat, r);
-                r->scene = scene;
-                r->n = n;
-                r->knob = "max_depth";
-                r->is_default = depths[k] == 0;
-                if (depths[k])
-                    snprintf(r->value, sizeof r->value, "%u", depths[k]);
-                else
-                    snprintf(r->value, sizeof r->value, "auto");
-            }
-            base = rows[nrows - 1];
-            for (k = 0; k < sizeof biases / sizeof biases[0]; k++) {
-                acc_row *r = &rows[nrows++];
-                if (biases[k] == LOCD_DEFAULT_CELL_BIAS)
-                    *r = base;
-                else
-                    measure(b, n, 0, o.threads, 0, biases[k], 0, o.repeat, r);
-                r->scene = scene;
-                r->n = n;
-                r->knob = "cell_bias";
-                r->is_default = biases[k] == LOCD_DEFAULT_CELL_BIAS;
-                snprintf(r->value, sizeof r->value, "%d", biases[k]);
-            }
-            rows[nrows] = base;
-            rows[nrows].knob = "shape";
-            snprintf(rows[nrows++].value, sizeof base.value, "boxes");
-            measure(b, n, 0, o.threads, 0, LOCD_DEFAULT_CELL_BIAS, LOCD_CONFIG_CUBES, o.repeat, &rows[nrows]);
-            rows[nrows].scene = scene;
-            rows[nrows].n = n;
-            rows[nrows].knob = "shape";
-            snprintf(rows[nrows++].value, sizeof base.value, "cubes");
-            rows[nrows] = base;
-            rows[nrows].knob = "precision";
-            snprintf(rows[nrows++].value, sizeof base.value, "float32");
-            d = malloc(n * 6 * sizeof(double));
-            if (!d)
-                cli_die("accuracy: out of memory");
-            for (k = 0; k < 6 * n; k++)
-                d[k] = (double)b[k];
-            measure(d, n, 1, o.threads, 0, LOCD_DEFAULT_CELL_BIAS, 0, o.repeat, &rows[nrows]);
-            rows[nrows].scene = scene;
-            rows[nrows].n = n;
-            rows[nrows].knob = "precision";
-            snprintf(rows[nrows++].value, sizeof base.value, "float64");
-            free(d);
-            free(b);
-            /* The knobs trade work, never the answer. */
-            for (k = first; k < nrows; k++) {
-                if (rows[k].pairs != base.pairs)
-                    cli_die("accuracy: %s %zu: %s=%s found %.0f pairs, the default %.0f (a bug: please report it)",
-                            scene, n, rows[k].knob, rows[k].value, rows[k].pairs, base.pairs);
-                csv_row(csv, &rows[k]);
-            }
-            fflush(csv);
-        }
-        rounding_effect(n, o.threads, &rnd[nrnd++]);
+        for (sc = 0; sc < o.nscenes; sc++)
+            nrows += measure_scene(&o, o.scenes[sc], o.sizes[si], rows + nrows, csv);
+        rounding_effect(o.sizes[si], o.threads, &rnd[nrnd++]);
     }
     fclose(csv);
     write_report(&o, rows, nrows, rnd, nrnd, (cli_now_ms() - t0) / 1e3);

@@ -30,8 +30,7 @@ int cmd_gen(int argc, char **argv)
         } else if (!kind) {
             kind = argv[i];
         } else if (!have_n) {
-            if (cli_parse_size(argv[i], &n) != 0)
-                cli_die("gen: bad N '%s'", argv[i]);
+            n = cli_size_option(argv[i], 0, SIZE_MAX, "gen: bad N '%s'", argv[i]);
             have_n = 1;
         } else {
             cli_die("gen: unexpected argument '%s' (see locd gen --help)", argv[i]);

@@ -58,15 +58,10 @@ typedef struct pairs_times {
 /* An option that takes the value v; 0 if o is not one of these. */
 static int parse_value_option(const char *o, const char *v, pairs_opts *p)
 {
-    size_t k;
     if (!strcmp(o, "--threads")) {
-        if (cli_parse_size(v, &k) || k > 64)
-            cli_die("pairs: bad --threads");
-        p->cfg.threads = (uint32_t)k;
+        p->cfg.threads = (uint32_t)cli_size_option(v, 0, 64, "pairs: bad --threads");
     } else if (!strcmp(o, "--workers")) {
-        if (cli_parse_size(v, &k) || k > 64)
-            cli_die("pairs: bad --workers");
-        p->cfg.threads = (uint32_t)k;
+        p->cfg.threads = (uint32_t)cli_size_option(v, 0, 64, "pairs: bad --workers");
         p->cfg.level = LOCD_LEVEL_WORKERS;
     } else if (!strcmp(o, "--level")) {
         p->cfg.level = parse_level(v);
@@ -78,16 +73,12 @@ static int parse_value_option(const char *o, const char *v, pairs_opts *p)
     } else if (!strcmp(o, "--out")) {
         p->out_path = v;
     } else if (!strcmp(o, "--repeat")) {
-        if (cli_parse_size(v, &p->repeat) || p->repeat < 1)
-            cli_die("pairs: bad --repeat");
+        p->repeat = cli_size_option(v, 1, SIZE_MAX, "pairs: bad --repeat");
     } else if (!strcmp(o, "--depth")) {
-        if (cli_parse_size(v, &k) || k > LOCD_MAX_DEPTH)
-            cli_die("pairs: bad --depth (0..LOCD_MAX_DEPTH, 21)");
-        p->cfg.max_depth = (uint32_t)k;
+        p->cfg.max_depth =
+            (uint32_t)cli_size_option(v, 0, LOCD_MAX_DEPTH, "pairs: bad --depth (0..LOCD_MAX_DEPTH, 21)");
     } else if (!strcmp(o, "--bias")) {
-        if (cli_parse_size(v, &k) || k > 8)
-            cli_die("pairs: bad --bias (0..8)");
-        p->cfg.cell_bias = (int32_t)k;
+        p->cfg.cell_bias = (int32_t)cli_size_option(v, 0, 8, "pairs: bad --bias (0..8)");
     } else {
         return 0;
     }

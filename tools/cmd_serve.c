@@ -47,7 +47,6 @@ int cmd_serve(int argc, char **argv)
     struct sigaction sa;
     locd_status st;
     int a, verbose = 0;
-    size_t k;
     locd_service_config_init(&cfg);
     for (a = 1; a < argc; a++) {
         const char *o = argv[a];
@@ -60,21 +59,14 @@ int cmd_serve(int argc, char **argv)
         } else if (!strcmp(o, "--secret") && more) {
             cfg.secret = argv[++a];
         } else if (!strcmp(o, "--threads") && more) {
-            if (cli_parse_size(argv[++a], &k) || k < 1 || k > 256)
-                cli_die("serve: bad --threads (1..256)");
-            cfg.threads = (uint32_t)k;
+            cfg.threads = (uint32_t)cli_size_option(argv[++a], 1, 256, "serve: bad --threads (1..256)");
         } else if (!strcmp(o, "--engine-threads") && more) {
-            if (cli_parse_size(argv[++a], &k) || k < 1 || k > 64)
-                cli_die("serve: bad --engine-threads (1..64)");
-            cfg.engine_threads = (uint32_t)k;
+            cfg.engine_threads =
+                (uint32_t)cli_size_option(argv[++a], 1, 64, "serve: bad --engine-threads (1..64)");
         } else if (!strcmp(o, "--max-mb") && more) {
-            if (cli_parse_size(argv[++a], &k) || k < 1 || k > (1u << 20))
-                cli_die("serve: bad --max-mb");
-            cfg.max_message = (uint64_t)k << 20;
+            cfg.max_message = (uint64_t)cli_size_option(argv[++a], 1, 1u << 20, "serve: bad --max-mb") << 20;
         } else if (!strcmp(o, "--max-clients") && more) {
-            if (cli_parse_size(argv[++a], &k) || k < 1 || k > 100000)
-                cli_die("serve: bad --max-clients");
-            cfg.max_clients = (uint32_t)k;
+            cfg.max_clients = (uint32_t)cli_size_option(argv[++a], 1, 100000, "serve: bad --max-clients");
         } else if (!strcmp(o, "--verbose")) {
             verbose = 1;
         } else {

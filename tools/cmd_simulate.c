@@ -44,6 +44,19 @@ static void usage(FILE *f)
                "  exact, + mesh exact, + swept, and reports pairs and time of each (docs/accuracy-pipeline.md).\n");
 }
 
+/* --continuous's value as a LOCD_SWEPT_* mode; anything else exits. */
+static int parse_continuous(const char *v)
+{
+    if (!strcmp(v, "on"))
+        return LOCD_SWEPT_ON;
+    if (!strcmp(v, "off"))
+        return LOCD_SWEPT_OFF;
+    if (!strcmp(v, "auto"))
+        return LOCD_SWEPT_AUTO;
+    cli_die("simulate: --continuous is on, off or auto");
+    return 0;
+}
+
 static int parse_args(int argc, char **argv, sim_args *a)
 {
     int i;
@@ -80,12 +93,7 @@ static int parse_args(int argc, char **argv, sim_args *a)
         } else if (!strcmp(o, "--dump")) {
             a->dump = argv[++i];
         } else if (!strcmp(o, "--continuous")) {
-            v = argv[++i];
-            a->continuous = !strcmp(v, "on") ? LOCD_SWEPT_ON : !strcmp(v, "off") ? LOCD_SWEPT_OFF
-                            : !strcmp(v, "auto")                           ? LOCD_SWEPT_AUTO
-                                                                           : -2;
-            if (a->continuous == -2)
-                cli_die("simulate: --continuous is on, off or auto");
+            a->continuous = parse_continuous(argv[++i]);
         } else if (o[0] == '-') {
             cli_die("simulate: unknown option %s (see --help)", o);
         } else if (!a->scene) {
@@ -439,131 +447,213 @@ static void print_summary(const sim_scene *s, const sim_state *st, const locd_pi
     printf("}}}\n");
 }
 
-int cmd_simulate(int argc, char **argv)
-{
+/* Everything one run holds. */
+typedef struct sim_run {
     sim_args a;
     sim_scene s;
     sim_state st;
-    locd_world *w = NULL;
-    locd_contacts *c = NULL, *lc = NULL;
+    locd_world *w;
+    locd_contacts *c, *lc; /* the step's contacts; the ladder's own */
     locd_pipeline_options o;
-    locd_pipeline_stats ps, total;
+    locd_pipeline_stats total;
     ladder_totals ladder;
-    char err[512], dump_path[4096];
-    FILE *rec = NULL;
-    int steps, step, rc = 1;
-    size_t i;
-    double t_start;
+    FILE *rec; /* the recorded positions, or NULL */
+    char dump_path[4096];
+} sim_run;
 
-    if (parse_args(argc, argv, &a) != 0)
+static void alloc_state(sim_state *st, sim_scene *s)
+{
+    size_t i;
+    st->sc = s;
+    st->frac = malloc(s->n * sizeof(double) + 1);
+    st->vold = malloc(3 * s->n * sizeof(double) + 1);
+    st->hits = calloc(s->n + 1, sizeof(uint32_t));
+    st->min_z = malloc(s->n * sizeof(double) + 1);
+    if (!st->frac || !st->vold || !st->hits || !st->min_z)
+        cli_die("out of memory");
+    for (i = 0; i < s->n; i++) {
+        st->frac[i] = 1.0;
+        st->min_z[i] = s->poses[7 * i + 2];
+    }
+}
+
+static void free_state(sim_state *st)
+{
+    free(st->frac);
+    free(st->vold);
+    free(st->hits);
+    free(st->min_z);
+}
+
+/* The stages and effects the scene declares, --continuous overriding its own. */
+static void init_options(const sim_scene *s, const sim_args *a, locd_pipeline_options *o)
+{
+    locd_pipeline_options_init(o);
+    o->dt = s->dt;
+    o->swept = a->continuous >= 0 ? a->continuous : s->continuous;
+    o->swept_threshold = s->swept_threshold;
+    o->stages = (s->shape_tests ? LOCD_STAGE_SHAPE : 0u) | (s->contacts ? LOCD_STAGE_CONTACT : 0u);
+    o->find_flags = LOCD_FIND_SORTED; /* the response order, and so the run, is deterministic */
+}
+
+/* Opens the positions file of --frames, --gif or --dump (if any) and records
+ * step 0; 0, or -1 after reporting a failure. */
+static int open_recording(sim_run *r)
+{
+    const sim_args *a = &r->a;
+    if (!a->frames && !a->gif && !a->dump)
+        return 0;
+    if (a->dump)
+        snprintf(r->dump_path, sizeof r->dump_path, "%s", a->dump);
+    else if (a->frames) {
+        mkdir(a->frames, 0777);
+        snprintf(r->dump_path, sizeof r->dump_path, "%s/positions.jsonl", a->frames);
+    } else
+        snprintf(r->dump_path, sizeof r->dump_path, "%s.positions.jsonl", a->gif);
+    if (!(r->rec = fopen(r->dump_path, "w"))) {
+        fprintf(stderr, "locd: cannot create %s: %s\n", r->dump_path, strerror(errno));
+        return -1;
+    }
+    write_header(r->rec, &r->s);
+    write_positions(r->rec, &r->s, 0);
+    return 0;
+}
+
+static void apply_gravity(sim_scene *s)
+{
+    size_t i;
+    for (i = 0; i < s->n; i++)
+        if (s->dynamic[i]) {
+            double *v = s->vel + 6 * i;
+            v[0] += s->gravity[0] * s->dt;
+            v[1] += s->gravity[1] * s->dt;
+            v[2] += s->gravity[2] * s->dt;
+        }
+}
+
+/* Gravity, then the pipeline on the step's start: the contacts in r->c, the
+ * statistics in *ps. 0, or -1 after reporting a failure. */
+static int collide_step(sim_run *r, int step, locd_pipeline_stats *ps)
+{
+    apply_gravity(&r->s);
+    if (locd_world_set_velocities(r->w, r->s.vel, r->s.n) != LOCD_OK) {
+        fprintf(stderr, "locd: step %d: %s\n", step, locd_last_error());
+        return -1;
+    }
+    locd_pipeline_stats_init(ps);
+    if (locd_world_collide(r->w, &r->o, r->c, ps) != LOCD_OK) {
+        fprintf(stderr, "locd: step %d: %s\n", step, locd_last_error());
+        return -1;
+    }
+    return 0;
+}
+
+/* The ladder has its own result buffer: r->c still holds the step's contacts. */
+static int ladder_step(sim_run *r)
+{
+    if (!r->lc && locd_contacts_create(&r->lc) != LOCD_OK)
+        return -1;
+    return run_ladder(r->w, &r->s, &r->o, r->lc, &r->ladder, r->a.quiet ? NULL : stdout);
+}
+
+/* The response to the step's contacts and the move; the world gets the new
+ * poses. 0, or -1 after reporting a failure. */
+static int advance(sim_run *r, int step)
+{
+    size_t i;
+    for (i = 0; i < r->s.n; i++)
+        memcpy(r->st.vold + 3 * i, r->s.vel + 6 * i, 3 * sizeof(double));
+    respond(&r->st, r->c);
+    integrate(&r->st);
+    if (locd_world_set_poses(r->w, r->s.poses, r->s.n) != LOCD_OK) {
+        fprintf(stderr, "locd: step %d: %s (the scene blew up)\n", step, locd_last_error());
+        return -1;
+    }
+    return 0;
+}
+
+/* One step and its JSON line (unless --quiet); 0, or -1 after a failure. */
+static int run_step(sim_run *r, int step)
+{
+    locd_pipeline_stats ps;
+    if (collide_step(r, step, &ps) != 0)
+        return -1;
+    if (!r->a.quiet)
+        printf("{\"step\":%d,\"t\":%.6g,\"objects\":%zu,\"pairs\":%zu,\"swept_objects\":%u,", step,
+               step * r->s.dt, r->s.n, locd_contacts_count(r->c), ps.swept_objects);
+    if (r->a.ladder && ladder_step(r) != 0)
+        return -1;
+    if (advance(r, step) != 0)
+        return -1;
+    accumulate(&r->total, &ps);
+    if (!r->a.quiet) {
+        print_stages(stdout, &ps);
+        printf(",\"ms_total\":%.4f}\n", ps.ms_total);
+    }
+    if (r->rec && step % r->a.every == 0)
+        write_positions(r->rec, &r->s, step);
+    return 0;
+}
+
+/* Closes the positions file and renders the frames or GIF from it; 0, or 1
+ * when rendering failed. */
+static int finish_recording(sim_run *r)
+{
+    if (!r->rec)
+        return 0;
+    fclose(r->rec);
+    r->rec = NULL;
+    if ((r->a.frames || r->a.gif) && render(r->dump_path, &r->a) != 0)
+        return 1;
+    return 0;
+}
+
+/* Every step, then the summary line and the rendering; 0, or 1 after a failure. */
+static int run_steps(sim_run *r, int steps)
+{
+    double t_start;
+    int step;
+    locd_pipeline_stats_init(&r->total);
+    t_start = cli_now_ms();
+    for (step = 1; step <= steps; step++)
+        if (run_step(r, step) != 0)
+            return 1;
+    print_summary(&r->s, &r->st, &r->o, steps, &r->total, cli_now_ms() - t_start, r->a.ladder ? &r->ladder : NULL);
+    return finish_recording(r);
+}
+
+static void close_run(sim_run *r)
+{
+    if (r->rec)
+        fclose(r->rec);
+    locd_contacts_destroy(r->c);
+    locd_contacts_destroy(r->lc);
+    locd_world_destroy(r->w);
+    sim_scene_free(&r->s);
+    free_state(&r->st);
+}
+
+int cmd_simulate(int argc, char **argv)
+{
+    sim_run r;
+    char err[512];
+    int steps, rc = 1;
+    memset(&r, 0, sizeof r);
+    if (parse_args(argc, argv, &r.a) != 0)
         return 2;
-    if (sim_scene_load(a.scene, &s, err, sizeof err) != 0) {
+    if (sim_scene_load(r.a.scene, &r.s, err, sizeof err) != 0) {
         fprintf(stderr, "locd: %s\n", err);
         return 2;
     }
-    steps = a.steps >= 0 ? a.steps : s.steps;
-    if (a.dt > 0.0)
-        s.dt = a.dt;
-    memset(&ladder, 0, sizeof ladder);
-    memset(&st, 0, sizeof st);
-    st.sc = &s;
-    st.frac = malloc(s.n * sizeof(double) + 1);
-    st.vold = malloc(3 * s.n * sizeof(double) + 1);
-    st.hits = calloc(s.n + 1, sizeof(uint32_t));
-    st.min_z = malloc(s.n * sizeof(double) + 1);
-    if (!st.frac || !st.vold || !st.hits || !st.min_z)
-        cli_die("out of memory");
-    for (i = 0; i < s.n; i++) {
-        st.frac[i] = 1.0;
-        st.min_z[i] = s.poses[7 * i + 2];
+    steps = r.a.steps >= 0 ? r.a.steps : r.s.steps;
+    if (r.a.dt > 0.0)
+        r.s.dt = r.a.dt;
+    alloc_state(&r.st, &r.s);
+    if (setup_world(&r.s, r.a.threads, &r.w) == 0 && locd_contacts_create(&r.c) == LOCD_OK) {
+        init_options(&r.s, &r.a, &r.o);
+        if (open_recording(&r) == 0)
+            rc = run_steps(&r, steps);
     }
-    if (setup_world(&s, a.threads, &w) != 0 || locd_contacts_create(&c) != LOCD_OK)
-        goto done;
-
-    locd_pipeline_options_init(&o);
-    o.dt = s.dt;
-    o.swept = a.continuous >= 0 ? a.continuous : s.continuous;
-    o.swept_threshold = s.swept_threshold;
-    o.stages = (s.shape_tests ? LOCD_STAGE_SHAPE : 0u) | (s.contacts ? LOCD_STAGE_CONTACT : 0u);
-    o.find_flags = LOCD_FIND_SORTED; /* the response order, and so the run, is deterministic */
-
-    if (a.frames || a.gif || a.dump) {
-        if (a.dump)
-            snprintf(dump_path, sizeof dump_path, "%s", a.dump);
-        else if (a.frames) {
-            mkdir(a.frames, 0777);
-            snprintf(dump_path, sizeof dump_path, "%s/positions.jsonl", a.frames);
-        } else
-            snprintf(dump_path, sizeof dump_path, "%s.positions.jsonl", a.gif);
-        if (!(rec = fopen(dump_path, "w"))) {
-            fprintf(stderr, "locd: cannot create %s: %s\n", dump_path, strerror(errno));
-            goto done;
-        }
-        write_header(rec, &s);
-        write_positions(rec, &s, 0);
-    }
-
-    locd_pipeline_stats_init(&total);
-    t_start = cli_now_ms();
-    for (step = 1; step <= steps; step++) {
-        locd_status rs;
-        for (i = 0; i < s.n; i++)
-            if (s.dynamic[i]) {
-                double *v = s.vel + 6 * i;
-                v[0] += s.gravity[0] * s.dt;
-                v[1] += s.gravity[1] * s.dt;
-                v[2] += s.gravity[2] * s.dt;
-            }
-        if ((rs = locd_world_set_velocities(w, s.vel, s.n)) != LOCD_OK) {
-            fprintf(stderr, "locd: step %d: %s\n", step, locd_last_error());
-            goto done;
-        }
-        locd_pipeline_stats_init(&ps);
-        if ((rs = locd_world_collide(w, &o, c, &ps)) != LOCD_OK) {
-            fprintf(stderr, "locd: step %d: %s\n", step, locd_last_error());
-            goto done;
-        }
-        if (!a.quiet)
-            printf("{\"step\":%d,\"t\":%.6g,\"objects\":%zu,\"pairs\":%zu,\"swept_objects\":%u,", step, step * s.dt,
-                   s.n, locd_contacts_count(c), ps.swept_objects);
-        /* The ladder has its own result buffer: c still holds the step's contacts. */
-        if (a.ladder && ((!lc && locd_contacts_create(&lc) != LOCD_OK) ||
-                         run_ladder(w, &s, &o, lc, &ladder, a.quiet ? NULL : stdout) != 0))
-            goto done;
-        for (i = 0; i < s.n; i++)
-            memcpy(st.vold + 3 * i, s.vel + 6 * i, 3 * sizeof(double));
-        respond(&st, c);
-        integrate(&st);
-        if ((rs = locd_world_set_poses(w, s.poses, s.n)) != LOCD_OK) {
-            fprintf(stderr, "locd: step %d: %s (the scene blew up)\n", step, locd_last_error());
-            goto done;
-        }
-        accumulate(&total, &ps);
-        if (!a.quiet) {
-            print_stages(stdout, &ps);
-            printf(",\"ms_total\":%.4f}\n", ps.ms_total);
-        }
-        if (rec && step % a.every == 0)
-            write_positions(rec, &s, step);
-    }
-    print_summary(&s, &st, &o, steps, &total, cli_now_ms() - t_start, a.ladder ? &ladder : NULL);
-    rc = 0;
-    if (rec) {
-        fclose(rec);
-        rec = NULL;
-        if ((a.frames || a.gif) && render(dump_path, &a) != 0)
-            rc = 1;
-    }
-done:
-    if (rec)
-        fclose(rec);
-    locd_contacts_destroy(c);
-    locd_contacts_destroy(lc);
-    locd_world_destroy(w);
-    sim_scene_free(&s);
-    free(st.frac);
-    free(st.vold);
-    free(st.hits);
-    free(st.min_z);
+    close_run(&r);
     return rc;
 }

@@ -47,11 +47,74 @@ static void skip_ws(parser *ps)
 
 static int parse_value(parser *ps, json_value *v);
 
+/* The 4 hex digits of a \u escape; scene files are ASCII, so a code point
+ * past 127 reads as '?'. 0, or -1 after fail(). */
+static int parse_hex4(parser *ps, char *c)
+{
+    unsigned code = 0;
+    int k;
+    for (k = 0; k < 4; k++) {
+        char h = *ps->p++;
+        code <<= 4;
+        if (h >= '0' && h <= '9')
+            code |= (unsigned)(h - '0');
+        else if (h >= 'a' && h <= 'f')
+            code |= (unsigned)(h - 'a' + 10);
+        else if (h >= 'A' && h <= 'F')
+            code |= (unsigned)(h - 'A' + 10);
+        else {
+            fail(ps, "bad \\u escape");
+            return -1;
+        }
+    }
+    *c = code < 128 ? (char)code : '?';
+    return 0;
+}
+
+/* The character the escape after a backslash stands for; 0, or -1 after fail(). */
+static int parse_escape(parser *ps, char *c)
+{
+    char e = *ps->p++;
+    switch (e) {
+    case '"': *c = '"'; break;
+    case '\\': *c = '\\'; break;
+    case '/': *c = '/'; break;
+    case 'b': *c = '\b'; break;
+    case 'f': *c = '\f'; break;
+    case 'n': *c = '\n'; break;
+    case 'r': *c = '\r'; break;
+    case 't': *c = '\t'; break;
+    case 'u': return parse_hex4(ps, c);
+    default: fail(ps, "bad escape \\%c", e); return -1;
+    }
+    return 0;
+}
+
+/* A string as it grows, with room for the terminating NUL. */
+typedef struct strbuf {
+    char *s;
+    size_t len, cap;
+} strbuf;
+
+static int strbuf_put(parser *ps, strbuf *b, char c)
+{
+    if (b->len + 2 > b->cap) {
+        char *q = realloc(b->s, b->cap *= 2);
+        if (!q) {
+            fail(ps, "out of memory");
+            return -1;
+        }
+        b->s = q;
+    }
+    b->s[b->len++] = c;
+    return 0;
+}
+
+/* The string at the opening quote, unescaped (malloc); NULL after fail(). */
 static char *parse_string_raw(parser *ps)
 {
-    size_t cap = 16, len = 0;
-    char *out = malloc(cap);
-    if (!out) {
+    strbuf b = {NULL, 0, 16};
+    if (!(b.s = malloc(b.cap))) {
         fail(ps, "out of memory");
         return NULL;
     }
@@ -60,69 +123,88 @@ static char *parse_string_raw(parser *ps)
         char c = *ps->p;
         if (c == '\0' || c == '\n') {
             fail(ps, "unterminated string");
-            free(out);
-            return NULL;
+            break;
         }
         ps->p++;
-        if (c == '"')
+        if (c == '"') {
+            b.s[b.len] = '\0';
+            return b.s;
+        }
+        if ((c == '\\' && parse_escape(ps, &c) != 0) || strbuf_put(ps, &b, c) != 0)
             break;
-        if (c == '\\') {
-            char e = *ps->p++;
-            switch (e) {
-            case '"': c = '"'; break;
-            case '\\': c = '\\'; break;
-            case '/': c = '/'; break;
-            case 'b': c = '\b'; break;
-            case 'f': c = '\f'; break;
-            case 'n': c = '\n'; break;
-            case 'r': c = '\r'; break;
-            case 't': c = '\t'; break;
-            case 'u': {
-                unsigned code = 0;
-                int k;
-                for (k = 0; k < 4; k++) {
-                    char h = *ps->p++;
-                    code <<= 4;
-                    if (h >= '0' && h <= '9')
-                        code |= (unsigned)(h - '0');
-                    else if (h >= 'a' && h <= 'f')
-                        code |= (unsigned)(h - 'a' + 10);
-                    else if (h >= 'A' && h <= 'F')
-                        code |= (unsigned)(h - 'A' + 10);
-                    else {
-                        fail(ps, "bad \\u escape");
-                        free(out);
-                        return NULL;
-                    }
-                }
-                c = code < 128 ? (char)code : '?'; /* scene files are ASCII */
-                break;
-            }
-            default:
-                fail(ps, "bad escape \\%c", e);
-                free(out);
-                return NULL;
-            }
-        }
-        if (len + 2 > cap) {
-            char *q = realloc(out, cap *= 2);
-            if (!q) {
-                free(out);
-                fail(ps, "out of memory");
-                return NULL;
-            }
-            out = q;
-        }
-        out[len++] = c;
     }
-    out[len] = '\0';
-    return out;
+    free(b.s);
+    return NULL;
+}
+
+/* An object member's name and the ':' after it; 0, or -1 after fail(). */
+static int parse_member_name(parser *ps, char **key)
+{
+    if (*ps->p != '"') {
+        fail(ps, "expected a member name in quotes");
+        return -1;
+    }
+    if (!(*key = parse_string_raw(ps)))
+        return -1;
+    skip_ws(ps);
+    if (*ps->p != ':') {
+        fail(ps, "expected ':' after \"%s\"", *key);
+        free(*key);
+        *key = NULL;
+        return -1;
+    }
+    ps->p++;
+    return 0;
+}
+
+/* A new zeroed item at the end of v, with its key in an object (v owns it
+ * from here); NULL after fail(), the key freed. */
+static json_value *add_item(parser *ps, json_value *v, size_t *cap, int object, char *key)
+{
+    if (v->count == *cap) {
+        size_t ncap = *cap ? 2 * *cap : 8;
+        json_value *items = realloc(v->items, ncap * sizeof *items);
+        char **keys = object ? realloc(v->keys, ncap * sizeof *keys) : NULL;
+        if (items)
+            v->items = items;
+        if (keys)
+            v->keys = keys;
+        if (!items || (object && !keys)) {
+            free(key);
+            fail(ps, "out of memory");
+            return NULL;
+        }
+        *cap = ncap;
+    }
+    memset(&v->items[v->count], 0, sizeof v->items[0]);
+    if (object)
+        v->keys[v->count] = key;
+    return &v->items[v->count++];
+}
+
+/* After an item: 1 at a ',' (another item follows), 0 at the closing
+ * bracket (the container ends), -1 after fail(). */
+static int next_item(parser *ps, char close)
+{
+    skip_ws(ps);
+    if (*ps->p == ',') {
+        ps->p++;
+        return 1;
+    }
+    if (*ps->p == close) {
+        ps->p++;
+        ps->depth--;
+        return 0;
+    }
+    fail(ps, "expected ',' or '%c'", close);
+    return -1;
 }
 
 static int parse_container(parser *ps, json_value *v, int object)
 {
     size_t cap = 0;
     char close = object ? '}' : ']';
+    int more;
     v->type = object ? JSON_OBJECT : JSON_ARRAY;
     if (++ps->depth > 64) {
         fail(ps, "nested too deeply");
@@ -135,58 +217,17 @@ static int parse_container(parser *ps, json_value *v, int object)
         ps->depth--;
         return 0;
     }
-    for (;;) {
+    do {
         char *key = NULL;
+        json_value *item;
         skip_ws(ps);
-        if (object) {
-            if (*ps->p != '"') {
-                fail(ps, "expected a member name in quotes");
-                return -1;
-            }
-            if (!(key = parse_string_raw(ps)))
-                return -1;
-            skip_ws(ps);
-            if (*ps->p != ':') {
-                fail(ps, "expected ':' after \"%s\"", key);
-                free(key);
-                return -1;
-            }
-            ps->p++;
-        }
-        if (v->count == cap) {
-            size_t ncap = cap ? 2 * cap : 8;
-            json_value *items = realloc(v->items, ncap * sizeof *items);
-            char **keys = object ? realloc(v->keys, ncap * sizeof *keys) : NULL;
-            if (items)
-                v->items = items;
-            if (keys)
-                v->keys = keys;
-            if (!items || (object && !keys)) {
-                free(key);
-                fail(ps, "out of memory");
-                return -1;
-            }
-            cap = ncap;
-        }
-        memset(&v->items[v->count], 0, sizeof v->items[0]);
-        if (object)
-            v->keys[v->count] = key;
-        v->count++;
-        if (parse_value(ps, &v->items[v->count - 1]) != 0)
+        if (object && parse_member_name(ps, &key) != 0)
             return -1;
-        skip_ws(ps);
-        if (*ps->p == ',') {
-            ps->p++;
-            continue;
-        }
-        if (*ps->p == close) {
-            ps->p++;
-            ps->depth--;
-            return 0;
-        }
-        fail(ps, "expected ',' or '%c'", close);
-        return -1;
-    }
+        if (!(item = add_item(ps, v, &cap, object, key)) || parse_value(ps, item) != 0)
+            return -1;
+        more = next_item(ps, close);
+    } while (more > 0);
+    return more;
 }
 
 static int parse_value(parser *ps, json_value *v)

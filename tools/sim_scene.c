@@ -114,27 +114,162 @@ static int terrain_mesh(const json_value *o, sim_shape *sh, char *err, size_t er
     return 0;
 }
 
+/* One [x, y, z] into out; -1 if p is not three numbers. */
+static int read_point(const json_value *p, double *out)
+{
+    int k;
+    if (p->type != JSON_ARRAY || p->count != 3)
+        return -1;
+    for (k = 0; k < 3; k++) {
+        if (p->items[k].type != JSON_NUMBER)
+            return -1;
+        out[k] = p->items[k].number;
+    }
+    return 0;
+}
+
+/* A non-empty list of [x, y, z] into *out (malloc, 3 per point); -1 with
+ * *out NULL if it is not one. */
 static int read_point_list(const json_value *arr, double **out, size_t *count)
 {
     size_t i;
-    int k;
+    *out = NULL;
     if (!arr || arr->type != JSON_ARRAY || arr->count == 0)
         return -1;
     *out = malloc(3 * arr->count * sizeof(double));
     if (!*out)
         return -1;
-    for (i = 0; i < arr->count; i++) {
-        const json_value *p = &arr->items[i];
-        if (p->type != JSON_ARRAY || p->count != 3)
+    for (i = 0; i < arr->count; i++)
+        if (read_point(&arr->items[i], *out + 3 * i) != 0) {
+            free(*out);
+            *out = NULL;
             return -1;
-        for (k = 0; k < 3; k++) {
-            if (p->items[k].type != JSON_NUMBER)
-                return -1;
-            (*out)[3 * i + (size_t)k] = p->items[k].number;
         }
-    }
     *count = arr->count;
     return 0;
+}
+
+/* A shape that is not (or no longer) the scene's: its handle and arrays. */
+static void free_shape(sim_shape *sh)
+{
+    locd_shape_destroy(sh->handle);
+    free(sh->points);
+    free(sh->tris);
+    memset(sh, 0, sizeof *sh);
+}
+
+/* What a shape builder reads (the object and, for a rock, the variant) and
+ * fills (the shape; err on a bad description). */
+typedef struct shape_req {
+    const json_value *o;
+    int variant;
+    sim_shape *sh;
+    char *err;
+    size_t errlen;
+} shape_req;
+
+/* A builder returns -1 (err set) for a bad description, else 0 with the
+ * library's answer in *st. */
+typedef int (*shape_builder)(const shape_req *q, locd_status *st);
+
+static int build_sphere(const shape_req *q, locd_status *st)
+{
+    q->sh->kind = LOCD_SHAPE_SPHERE;
+    *st = locd_shape_sphere(q->sh->radius, &q->sh->handle);
+    return 0;
+}
+
+static int build_box(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    sh->kind = LOCD_SHAPE_BOX;
+    *st = locd_shape_box(sh->half[0], sh->half[1], sh->half[2], &sh->handle);
+    return 0;
+}
+
+/* A capsule's half length defaults to its radius. */
+static int build_capsule(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    sh->kind = LOCD_SHAPE_CAPSULE;
+    if (!json_get(q->o, "half_length"))
+        sh->half[2] = sh->radius;
+    *st = locd_shape_capsule(sh->radius, sh->half[2], &sh->handle);
+    return 0;
+}
+
+static int build_convex(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    sh->kind = LOCD_SHAPE_CONVEX;
+    if (read_point_list(json_get(q->o, "points"), &sh->points, &sh->npoints) != 0)
+        return bad(q->err, q->errlen, "convex: \"points\" is a non-empty list of [x, y, z]");
+    *st = locd_shape_convex(sh->points, sh->npoints, &sh->handle);
+    return 0;
+}
+
+/* A convex rock; each variant of a generator gets its own random points. */
+static int build_rock(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    double count = 14, seed = 1;
+    if (json_get_number(q->o, "points", &count) < 0 || json_get_number(q->o, "seed", &seed) < 0 || count < 4 ||
+        count > 1000)
+        return bad(q->err, q->errlen, "rock: points is 4..1000, seed a number");
+    sh->kind = LOCD_SHAPE_CONVEX;
+    sh->npoints = (size_t)count;
+    sh->points = rock_points(sh->radius, sh->npoints, (uint64_t)seed * 7919u + (uint64_t)q->variant);
+    if (!sh->points)
+        return bad(q->err, q->errlen, "out of memory");
+    *st = locd_shape_convex(sh->points, sh->npoints, &sh->handle);
+    return 0;
+}
+
+/* Triangles come as triples of numbers; a negative or too large one becomes
+ * UINT32_MAX, which the library rejects as out of range. */
+static int build_mesh(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    size_t i;
+    double *tmp = NULL;
+    sh->kind = LOCD_SHAPE_MESH;
+    if (read_point_list(json_get(q->o, "vertices"), &sh->points, &sh->npoints) != 0 ||
+        read_point_list(json_get(q->o, "triangles"), &tmp, &sh->ntris) != 0)
+        return bad(q->err, q->errlen, "mesh: \"vertices\" and \"triangles\" are lists of triples");
+    sh->tris = malloc(3 * sh->ntris * sizeof(uint32_t));
+    for (i = 0; sh->tris && i < 3 * sh->ntris; i++)
+        sh->tris[i] = tmp[i] >= 0 && tmp[i] < 4294967295.0 ? (uint32_t)tmp[i] : UINT32_MAX;
+    free(tmp);
+    if (!sh->tris)
+        return bad(q->err, q->errlen, "out of memory");
+    *st = locd_shape_mesh(sh->points, sh->npoints, sh->tris, sh->ntris, &sh->handle);
+    return 0;
+}
+
+static int build_terrain(const shape_req *q, locd_status *st)
+{
+    sim_shape *sh = q->sh;
+    if (terrain_mesh(q->o, sh, q->err, q->errlen) != 0)
+        return -1;
+    *st = locd_shape_mesh(sh->points, sh->npoints, sh->tris, sh->ntris, &sh->handle);
+    return 0;
+}
+
+static const struct {
+    const char *kind;
+    shape_builder build;
+} shape_builders[] = {
+    {"sphere", build_sphere}, {"box", build_box},   {"capsule", build_capsule}, {"convex", build_convex},
+    {"rock", build_rock},     {"mesh", build_mesh}, {"terrain", build_terrain},
+};
+
+static shape_builder find_builder(const char *kind)
+{
+    size_t i;
+    for (i = 0; i < sizeof shape_builders / sizeof shape_builders[0]; i++)
+        if (!strcmp(kind, shape_builders[i].kind))
+            return shape_builders[i].build;
+    return NULL;
 }
 
 /* Builds the shape described by o's "shape" member (variant picks a rock). */
@@ -142,6 +277,9 @@ static int make_shape(const json_value *o, int variant, sim_shape *sh, char *err
 {
     const char *kind = NULL;
     locd_status st = LOCD_OK;
+    shape_req q;
+    shape_builder build;
+    int rc;
     memset(sh, 0, sizeof *sh);
     if (json_get_string(o, "shape", &kind) != 1)
         return bad(err, errlen, "missing \"shape\" (sphere, box, capsule, convex, rock, mesh, terrain)");
@@ -150,58 +288,19 @@ static int make_shape(const json_value *o, int variant, sim_shape *sh, char *err
     if (json_get_number(o, "radius", &sh->radius) < 0 || json_get_vec(o, "half", sh->half, 3) < 0 ||
         json_get_number(o, "half_length", &sh->half[2]) < 0)
         return bad(err, errlen, "%s: radius, half [x, y, z] and half_length are numbers", kind);
-    if (!strcmp(kind, "sphere")) {
-        sh->kind = LOCD_SHAPE_SPHERE;
-        st = locd_shape_sphere(sh->radius, &sh->handle);
-    } else if (!strcmp(kind, "box")) {
-        sh->kind = LOCD_SHAPE_BOX;
-        st = locd_shape_box(sh->half[0], sh->half[1], sh->half[2], &sh->handle);
-    } else if (!strcmp(kind, "capsule")) {
-        sh->kind = LOCD_SHAPE_CAPSULE;
-        if (!json_get(o, "half_length"))
-            sh->half[2] = sh->radius;
-        st = locd_shape_capsule(sh->radius, sh->half[2], &sh->handle);
-    } else if (!strcmp(kind, "convex")) {
-        sh->kind = LOCD_SHAPE_CONVEX;
-        if (read_point_list(json_get(o, "points"), &sh->points, &sh->npoints) != 0)
-            return bad(err, errlen, "convex: \"points\" is a non-empty list of [x, y, z]");
-        st = locd_shape_convex(sh->points, sh->npoints, &sh->handle);
-    } else if (!strcmp(kind, "rock")) {
-        double count = 14, seed = 1;
-        if (json_get_number(o, "points", &count) < 0 || json_get_number(o, "seed", &seed) < 0 || count < 4 ||
-            count > 1000)
-            return bad(err, errlen, "rock: points is 4..1000, seed a number");
-        sh->kind = LOCD_SHAPE_CONVEX;
-        sh->npoints = (size_t)count;
-        sh->points = rock_points(sh->radius, sh->npoints, (uint64_t)seed * 7919u + (uint64_t)variant);
-        if (!sh->points)
-            return bad(err, errlen, "out of memory");
-        st = locd_shape_convex(sh->points, sh->npoints, &sh->handle);
-    } else if (!strcmp(kind, "mesh")) {
-        const json_value *tris = json_get(o, "triangles");
-        size_t i;
-        double *tmp = NULL;
-        sh->kind = LOCD_SHAPE_MESH;
-        if (read_point_list(json_get(o, "vertices"), &sh->points, &sh->npoints) != 0 ||
-            read_point_list(tris, &tmp, &sh->ntris) != 0)
-            return bad(err, errlen, "mesh: \"vertices\" and \"triangles\" are lists of triples");
-        sh->tris = malloc(3 * sh->ntris * sizeof(uint32_t));
-        for (i = 0; sh->tris && i < 3 * sh->ntris; i++)
-            sh->tris[i] = tmp[i] >= 0 && tmp[i] < 4294967295.0 ? (uint32_t)tmp[i] : UINT32_MAX;
-        free(tmp);
-        if (!sh->tris)
-            return bad(err, errlen, "out of memory");
-        st = locd_shape_mesh(sh->points, sh->npoints, sh->tris, sh->ntris, &sh->handle);
-    } else if (!strcmp(kind, "terrain")) {
-        if (terrain_mesh(o, sh, err, errlen) != 0)
-            return -1;
-        st = locd_shape_mesh(sh->points, sh->npoints, sh->tris, sh->ntris, &sh->handle);
-    } else {
+    if (!(build = find_builder(kind)))
         return bad(err, errlen, "unknown shape \"%s\"", kind);
-    }
-    if (st != LOCD_OK)
-        return bad(err, errlen, "%s: %s", kind, locd_last_error());
-    return 0;
+    q.o = o;
+    q.variant = variant;
+    q.sh = sh;
+    q.err = err;
+    q.errlen = errlen;
+    rc = build(&q, &st);
+    if (rc == 0 && st != LOCD_OK)
+        rc = bad(err, errlen, "%s: %s", kind, locd_last_error());
+    if (rc != 0)
+        free_shape(sh); /* what the builder made before it failed */
+    return rc;
 }
 
 static int grow_objects(sim_scene *s, size_t extra)
@@ -260,6 +359,13 @@ static void put_object(sim_scene *s, const placement *p, const double *pos, cons
     s->names[i] = name ? strdup(name) : NULL;
 }
 
+static int read_name(const json_value *o, const char **name, char *err, size_t errlen)
+{
+    if (json_get_string(o, "name", name) < 0)
+        return bad(err, errlen, "\"name\" is a string");
+    return 0;
+}
+
 static int load_objects(const json_value *list, sim_scene *s, char *err, size_t errlen)
 {
     size_t k;
@@ -273,71 +379,114 @@ static int load_objects(const json_value *list, sim_scene *s, char *err, size_t 
         placement p;
         const char *name = NULL;
         char sub[200];
-        if (make_shape(o, 0, &sh, sub, sizeof sub) != 0 || read_placement(o, &p, sub, sizeof sub) != 0 ||
-            json_get_string(o, "name", &name) < 0)
+        if (make_shape(o, 0, &sh, sub, sizeof sub) != 0)
             return bad(err, errlen, "objects[%zu]: %s", k, sub);
-        if (add_shape(s, &sh) != 0 || grow_objects(s, 1) != 0)
+        if (read_placement(o, &p, sub, sizeof sub) != 0 || read_name(o, &name, sub, sizeof sub) != 0) {
+            free_shape(&sh);
+            return bad(err, errlen, "objects[%zu]: %s", k, sub);
+        }
+        if (add_shape(s, &sh) != 0) {
+            free_shape(&sh);
+            return bad(err, errlen, "out of memory");
+        }
+        if (grow_objects(s, 1) != 0)
             return bad(err, errlen, "out of memory");
         put_object(s, &p, p.pos, p.vel, (uint32_t)(s->nshapes - 1), name);
     }
     return 0;
 }
 
+/* A "generate" entry: how many objects, where, and how many shape variants. */
+typedef struct generator {
+    double count, lo[3], hi[3], grid[3], seed, jitter, variants;
+    const char *layout; /* "random" or "grid" */
+} generator;
+
+/* -1 (err set) when a member has the wrong type or is out of range. */
+static int read_generator(const json_value *g, generator *gen, char *err, size_t errlen)
+{
+    static const generator defaults = {0, {0, 0, 0}, {1, 1, 1}, {0, 0, 0}, 1, 0, 1, "random"};
+    *gen = defaults;
+    if (json_get_number(g, "count", &gen->count) < 0 || json_get_vec(g, "min", gen->lo, 3) < 0 ||
+        json_get_vec(g, "max", gen->hi, 3) < 0 || json_get_vec(g, "grid", gen->grid, 3) < 0 ||
+        json_get_number(g, "seed", &gen->seed) < 0 || json_get_number(g, "velocity_jitter", &gen->jitter) < 0 ||
+        json_get_number(g, "variants", &gen->variants) < 0 || json_get_string(g, "layout", &gen->layout) < 0)
+        return bad(err, errlen, "count, min, max, grid, seed, velocity_jitter, variants, layout");
+    if (!strcmp(gen->layout, "grid"))
+        gen->count = gen->grid[0] * gen->grid[1] * gen->grid[2];
+    if (!(gen->count >= 0 && gen->count <= 1e8) || !(gen->variants >= 1 && gen->variants <= 64))
+        return bad(err, errlen, "count 0..1e8, variants 1..64");
+    return 0;
+}
+
+/* Generator k's shape variants, added to the scene one after another. */
+static int add_variants(const json_value *g, size_t k, const generator *gen, sim_scene *s, char *err, size_t errlen)
+{
+    char sub[200];
+    int v;
+    for (v = 0; v < (int)gen->variants; v++) {
+        sim_shape sh;
+        if (make_shape(g, v, &sh, sub, sizeof sub) != 0)
+            return bad(err, errlen, "generate[%zu]: %s", k, sub);
+        if (add_shape(s, &sh) != 0) {
+            free_shape(&sh);
+            return bad(err, errlen, "out of memory");
+        }
+    }
+    return 0;
+}
+
+/* Object i's position: the centre of its grid cell, or uniform at random. */
+static void generated_position(const generator *gen, size_t i, cli_rng *r, double *pos)
+{
+    int a;
+    if (!strcmp(gen->layout, "grid")) {
+        size_t gx = (size_t)gen->grid[0], gy = (size_t)gen->grid[1];
+        size_t idx[3] = {i % gx, (i / gx) % gy, i / (gx * gy)};
+        for (a = 0; a < 3; a++)
+            pos[a] = gen->lo[a] + ((double)idx[a] + 0.5) * (gen->hi[a] - gen->lo[a]) / gen->grid[a];
+    } else {
+        for (a = 0; a < 3; a++)
+            pos[a] = gen->lo[a] + (gen->hi[a] - gen->lo[a]) * cli_rng_uniform(r);
+    }
+}
+
+/* The generator's objects, cycling through its variants from first_shape on. */
+static void put_generated(sim_scene *s, const generator *gen, const placement *p, uint32_t first_shape)
+{
+    cli_rng r;
+    size_t i;
+    cli_rng_seed(&r, (uint64_t)gen->seed);
+    for (i = 0; i < (size_t)gen->count; i++) {
+        double pos[3], vel[3];
+        int a;
+        generated_position(gen, i, &r, pos);
+        for (a = 0; a < 3; a++)
+            vel[a] = p->vel[a] + gen->jitter * cli_rng_normal(&r);
+        put_object(s, p, pos, vel, first_shape + (uint32_t)(i % (size_t)gen->variants), NULL);
+    }
+}
+
 static int load_generators(const json_value *list, sim_scene *s, char *err, size_t errlen)
 {
-    size_t k, i;
+    size_t k;
     if (!list)
         return 0;
     if (list->type != JSON_ARRAY)
         return bad(err, errlen, "\"generate\" is a list");
     for (k = 0; k < list->count; k++) {
         const json_value *g = &list->items[k];
-        double count = 0, lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1}, grid[3] = {0, 0, 0}, seed = 1, jitter = 0, variants = 1;
-        const char *layout = "random";
+        generator gen;
         placement p;
-        cli_rng r;
-        uint32_t first_shape;
+        uint32_t first_shape = (uint32_t)s->nshapes;
         char sub[200];
-        int v;
-        if (json_get_number(g, "count", &count) < 0 || json_get_vec(g, "min", lo, 3) < 0 ||
-            json_get_vec(g, "max", hi, 3) < 0 || json_get_vec(g, "grid", grid, 3) < 0 ||
-            json_get_number(g, "seed", &seed) < 0 || json_get_number(g, "velocity_jitter", &jitter) < 0 ||
-            json_get_number(g, "variants", &variants) < 0 || json_get_string(g, "layout", &layout) < 0)
-            return bad(err, errlen, "generate[%zu]: count, min, max, grid, seed, velocity_jitter, variants, layout",
-                       k);
-        if (!strcmp(layout, "grid"))
-            count = grid[0] * grid[1] * grid[2];
-        if (!(count >= 0 && count <= 1e8) || !(variants >= 1 && variants <= 64))
-            return bad(err, errlen, "generate[%zu]: count 0..1e8, variants 1..64", k);
-        if (read_placement(g, &p, sub, sizeof sub) != 0)
+        if (read_generator(g, &gen, sub, sizeof sub) != 0 || read_placement(g, &p, sub, sizeof sub) != 0)
             return bad(err, errlen, "generate[%zu]: %s", k, sub);
-        first_shape = (uint32_t)s->nshapes;
-        for (v = 0; v < (int)variants; v++) {
-            sim_shape sh;
-            if (make_shape(g, v, &sh, sub, sizeof sub) != 0)
-                return bad(err, errlen, "generate[%zu]: %s", k, sub);
-            if (add_shape(s, &sh) != 0)
-                return bad(err, errlen, "out of memory");
-        }
-        if (grow_objects(s, (size_t)count) != 0)
-            return bad(err, errlen, "out of memory for %.0f objects", count);
-        cli_rng_seed(&r, (uint64_t)seed);
-        for (i = 0; i < (size_t)count; i++) {
-            double pos[3], vel[3];
-            int a;
-            if (!strcmp(layout, "grid")) {
-                size_t gx = (size_t)grid[0], gy = (size_t)grid[1];
-                size_t idx[3] = {i % gx, (i / gx) % gy, i / (gx * gy)};
-                for (a = 0; a < 3; a++)
-                    pos[a] = lo[a] + ((double)idx[a] + 0.5) * (hi[a] - lo[a]) / grid[a];
-            } else {
-                for (a = 0; a < 3; a++)
-                    pos[a] = lo[a] + (hi[a] - lo[a]) * cli_rng_uniform(&r);
-            }
-            for (a = 0; a < 3; a++)
-                vel[a] = p.vel[a] + jitter * cli_rng_normal(&r);
-            put_object(s, &p, pos, vel, first_shape + (uint32_t)(i % (size_t)variants), NULL);
-        }
+        if (add_variants(g, k, &gen, s, err, errlen) != 0)
+            return -1;
+        if (grow_objects(s, (size_t)gen.count) != 0)
+            return bad(err, errlen, "out of memory for %.0f objects", gen.count);
+        put_generated(s, &gen, &p, first_shape);
     }
     return 0;
 }
@@ -405,11 +554,8 @@ void sim_scene_free(sim_scene *s)
     size_t i;
     for (i = 0; i < s->n; i++)
         free(s->names[i]);
-    for (i = 0; i < s->nshapes; i++) {
-        locd_shape_destroy(s->shapes[i].handle);
-        free(s->shapes[i].points);
-        free(s->shapes[i].tris);
-    }
+    for (i = 0; i < s->nshapes; i++)
+        free_shape(&s->shapes[i]);
     free(s->shapes);
     free(s->names);
     free(s->poses);
