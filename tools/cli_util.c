@@ -168,9 +168,15 @@ static void put_box(float *b, double x, double y, double z, double sx, double sy
 static void gen_uniform(float *b, size_t n, double w, double off, double scale, cli_rng *r)
 {
     size_t i;
-    for (i = 0; i < n; i++)
-        put_box(b + 6 * i, off + scale * cli_rng_uniform(r) * (1 - w), off + scale * cli_rng_uniform(r) * (1 - w),
-                off + scale * cli_rng_uniform(r) * (1 - w), scale * w, scale * w, scale * w);
+    for (i = 0; i < n; i++) {
+        /* One draw a statement: the order of a call's arguments is
+           unspecified in C, and the scene must not depend on the compiler.
+           z, y, x is the order GCC gave the old one-call form, so the
+           scenes (and every figure measured on them) stay the same. */
+        double z = cli_rng_uniform(r), y = cli_rng_uniform(r), x = cli_rng_uniform(r);
+        put_box(b + 6 * i, off + scale * x * (1 - w), off + scale * y * (1 - w), off + scale * z * (1 - w), scale * w,
+                scale * w, scale * w);
+    }
 }
 
 /* Half the cubes in 64 Gaussian hot spots, half spread evenly. */
@@ -208,7 +214,8 @@ static void gen_mixed(float *b, size_t n, double w, cli_rng *r)
         double s = 0.3 * w * pow(10.0, 3.0 * cli_rng_uniform(r) - 2.0);
         double sx = s * (0.5 + cli_rng_uniform(r)), sy = s * (0.5 + cli_rng_uniform(r)),
                sz = s * (0.5 + cli_rng_uniform(r));
-        put_box(b + 6 * i, cli_rng_uniform(r), cli_rng_uniform(r), cli_rng_uniform(r), sx, sy, sz);
+        double z = cli_rng_uniform(r), y = cli_rng_uniform(r), x = cli_rng_uniform(r); /* as in gen_uniform */
+        put_box(b + 6 * i, x, y, z, sx, sy, sz);
     }
 }
 
