@@ -1,8 +1,9 @@
 // Integration levels 2 (worker processes) and 3 (service) through the C#
 // binding: the option strings (WorkerPath, ServiceAddress, ServiceSecret)
 // reach the library, results equal level 1's, errors map. The executables
-// come from the directory of LOCD_CLI (locd, locd-worker); without them, or
-// while a level is not implemented (Unsupported), the tests report skipped.
+// come from the build of LOCD_CLI: locd beside it in tools/, locd-worker in
+// the build's lib/ beside the library; without them, or while a level is
+// not implemented (Unsupported), the tests report skipped.
 using System;
 using System.Diagnostics;
 using System.IO;
@@ -22,6 +23,13 @@ namespace Locd.Tests
             if (string.IsNullOrEmpty(cli) || !File.Exists(cli))
                 throw new SkipException("LOCD_CLI not set (the CI step sets it to the built `locd` tool)");
             return Path.GetDirectoryName(Path.GetFullPath(cli));
+        }
+
+        // The build's locd-worker: built beside the library (lib/), the
+        // tools' sibling folder.
+        static string WorkerPath()
+        {
+            return Path.GetFullPath(Path.Combine(ToolDir(), "..", "lib", "locd-worker"));
         }
 
         static Engine CreateOrSkip(EngineOptions opt, string what)
@@ -58,9 +66,9 @@ namespace Locd.Tests
 
         public static void Workers()
         {
-            string worker = Path.Combine(ToolDir(), "locd-worker");
+            string worker = WorkerPath();
             if (!File.Exists(worker))
-                throw new SkipException("no locd-worker next to LOCD_CLI");
+                throw new SkipException("no locd-worker in the lib/ folder of LOCD_CLI's build");
             using (var e = CreateOrSkip(new EngineOptions { Level = Level.Workers, Threads = 2, WorkerPath = worker },
                                         "level 2")) {
                 Assert.Equal(Level.Workers, e.Level, "level");
