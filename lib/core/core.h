@@ -54,6 +54,9 @@ enum lc_magic {
  *     or 0;
  *   - a test whose answer is yes/no and that can also fail returns int 1 or
  *     0, or a negative locd_status it raised (the narrow phase's pair tests);
+ *   - a function that can fail and reports its reason in a `why` buffer
+ *     instead of raising (the service's connection threads, whose reasons go
+ *     to a log line or a job) returns int 1 on success, 0 on failure;
  *   - a function that cannot fail returns void or its result.
  * Every public function clears the last error (lc_clear_error) on each path
  * that returns a status >= 0. */

@@ -109,15 +109,16 @@ static int is_executable(const char *p)
     return p && p[0] && stat(p, &sb) == 0 && S_ISREG(sb.st_mode) && access(p, X_OK) == 0;
 }
 
-/* dir of `file` + "/" + name into out; 0 on success. */
+/* dir of `file` + "/" + name into out; 1 on success, 0 when file has no
+ * directory or the path does not fit. */
 static int sibling(const char *file, const char *name, char *out, size_t len)
 {
     const char *slash = strrchr(file, '/');
     int w;
     if (!slash)
-        return -1;
+        return 0;
     w = snprintf(out, len, "%.*s/%s", (int)(slash - file), file, name);
-    return (w < 0 || (size_t)w >= len) ? -1 : 0;
+    return w >= 0 && (size_t)w < len;
 }
 
 /* Any object of this library: dladdr names the file it was loaded from. */
@@ -151,7 +152,7 @@ static locd_status find_worker(const locd_engine *e, char *out, size_t len)
         return LOCD_OK;
     }
 #endif
-    if (dladdr(&lc_worker_anchor, &info) && info.dli_fname && !sibling(info.dli_fname, LC_WORKER_EXE, buf, sizeof buf) &&
+    if (dladdr(&lc_worker_anchor, &info) && info.dli_fname && sibling(info.dli_fname, LC_WORKER_EXE, buf, sizeof buf) &&
         is_executable(buf)) {
         snprintf(out, len, "%s", buf);
         return LOCD_OK;
@@ -159,7 +160,7 @@ static locd_status find_worker(const locd_engine *e, char *out, size_t len)
     r = readlink("/proc/self/exe", out, len - 1);
     if (r > 0) {
         out[r] = '\0';
-        if (!sibling(out, LC_WORKER_EXE, buf, sizeof buf) && is_executable(buf)) {
+        if (sibling(out, LC_WORKER_EXE, buf, sizeof buf) && is_executable(buf)) {
             snprintf(out, len, "%s", buf);
             return LOCD_OK;
         }

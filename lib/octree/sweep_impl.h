@@ -56,12 +56,12 @@ LC_INLINE void LC_FN(prefetch_)(const locd_grid *g, const LC_T *boxes, const uin
  * (1/LC_SLABS of the cell) where each box starts, then by object, and
  * slab[b] receives the first row of slab b: an entry then needs only the
  * rows from the slab where a box ending at its own start could begin (see
- * the main loop), not the whole cell. A smaller cell keeps entry order and
- * returns 0 (every row is a candidate). */
+ * the main loop), not the whole cell, and 1 is returned. A smaller cell
+ * keeps entry order and returns 0 (every row is a candidate). A negative
+ * locd_status when the slab buffer cannot grow (raised). */
 static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox,
                                       const uint64_t *entries, size_t p, size_t q, lc_sweep_out *o,
-                                      size_t at, const lc_slabs *sl, size_t slab[LC_SLABS + 1], int64_t *ext,
-                                      locd_status *st_out)
+                                      size_t at, const lc_slabs *sl, size_t slab[LC_SLABS + 1], int64_t *ext)
 {
     const uint32_t ib = g->index_bits;
     const uint64_t imask = (1ull << ib) - 1;
@@ -83,10 +83,8 @@ static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, co
         }
         return 0;
     }
-    if (m > o->group.cap && (st = lc_buf_reserve(o->alloc, &o->group, sizeof(uint64_t), m)) != LOCD_OK) {
-        *st_out = st;
-        return -1;
-    }
+    if (m > o->group.cap && (st = lc_buf_reserve(o->alloc, &o->group, sizeof(uint64_t), m)) != LOCD_OK)
+        return st;
     tag = (uint64_t *)o->group.data;
     for (b = 0; b <= LC_SLABS; b++)
         slab[b] = 0;
@@ -144,8 +142,8 @@ static LC_TARGET locd_status LC_FN(rebuild_stack_)(const lc_sweep_ctx *cx, lc_sw
         if ((st = push_filtered(cx->g, cx->o, ss->segs, &ss->nseg, &ss->ncand, pml, l, cl, b - a)) != LOCD_OK)
             return st;
         slabs_of(&ss->sl, cl[0], LC_SBITS - l);
-        if (LC_FN(load_cell_)(cx->g, boxes, cx->qbox, cx->entries, a, b, cx->o, ss->ncand, &ss->sl, ss->slab, &ss->ext,
-                              &st) < 0)
+        if ((st = LC_FN(load_cell_)(cx->g, boxes, cx->qbox, cx->entries, a, b, cx->o, ss->ncand, &ss->sl, ss->slab,
+                                    &ss->ext)) < 0)
             return st;
         ss->ncand += b - a;
     }
@@ -233,9 +231,9 @@ LC_TARGET LC_INLINE locd_status LC_FN(sweep_dense_)(lc_sweep_ctx *cx, lc_sweep_s
     } else {
         slabs_of(&ss->sl, ss->sc.cell[0], ss->sc.s);
         slabbed = LC_FN(load_cell_)(cx->g, boxes, cx->qbox, cx->entries, p, q, cx->o, own, &ss->sl, ss->slab,
-                                    &ss->ext, &st);
+                                    &ss->ext);
         if (slabbed < 0)
-            return st;
+            return slabbed;
     }
     if ((st = LC_FN(scan_cell_)(cx, ss, first, own, m, slabbed)) != LOCD_OK)
         return st;

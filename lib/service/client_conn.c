@@ -37,7 +37,8 @@ void lc_svc_conn_unref(lc_svc_conn *c)
     lc_free(&c->alloc, c, sizeof *c);
 }
 
-static int connect_socket(const lc_address *a, char *why, size_t wl)
+/* Connects to a: 1 with the socket in *out, or 0 (why). */
+static int connect_socket(const lc_address *a, int *out, char *why, size_t wl)
 {
     int fd = -1;
     if (!a->tcp) {
@@ -50,7 +51,7 @@ static int connect_socket(const lc_address *a, char *why, size_t wl)
             snprintf(why, wl, "cannot connect to unix:%s: %s", a->path, strerror(errno));
             if (fd >= 0)
                 close(fd);
-            return -1;
+            return 0;
         }
     } else {
         struct addrinfo hints, *res = NULL, *ai;
@@ -61,7 +62,7 @@ static int connect_socket(const lc_address *a, char *why, size_t wl)
         rc = getaddrinfo(a->host, a->port, &hints, &res);
         if (rc != 0) {
             snprintf(why, wl, "cannot resolve %.100s:%.15s: %.60s", a->host, a->port, gai_strerror(rc));
-            return -1;
+            return 0;
         }
         snprintf(why, wl, "cannot connect to tcp:%.100s:%.15s", a->host, a->port);
         for (ai = res; ai; ai = ai->ai_next) {
@@ -76,10 +77,11 @@ static int connect_socket(const lc_address *a, char *why, size_t wl)
         }
         freeaddrinfo(res);
         if (fd < 0)
-            return -1;
+            return 0;
         setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
     }
-    return fd;
+    *out = fd;
+    return 1;
 }
 
 /* HELLO -> WELCOME or ERROR. */
@@ -96,10 +98,10 @@ static locd_status handshake(lc_svc_conn *c, const char *secret)
     lc_put_u32(buf + LC_PROTO_HEADER, (uint32_t)slen);
     if (slen)
         memcpy(buf + LC_PROTO_HEADER + 4, secret, slen);
-    if (lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + 4 + slen) != 0)
+    if (!lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + 4 + slen))
         return lc_error(LOCD_ERR_CONNECTION, "the service closed the connection: %s", strerror(errno));
     if (lc_proto_read_all(c->fd, hb, sizeof hb, LC_CONNECT_TIMEOUT_MS, why, sizeof why) != 1 ||
-        lc_proto_get_header(hb, 8 + LC_PROTO_MAX_TEXT, &h, why, sizeof why) != 0)
+        !lc_proto_get_header(hb, 8 + LC_PROTO_MAX_TEXT, &h, why, sizeof why))
         return lc_error(LOCD_ERR_CONNECTION, "no welcome from the service: %s", why);
     if (h.type == LC_MSG_WELCOME && h.length == 4) {
         if (lc_proto_read_all(c->fd, pl, 4, LC_CONNECT_TIMEOUT_MS, why, sizeof why) != 1)
@@ -129,7 +131,7 @@ static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
     *out = NULL;
     if (!lc_proto_host_ok())
         return lc_error(LOCD_ERR_UNSUPPORTED, "level 3 needs a little-endian machine");
-    if (lc_proto_parse_address(e->cfg.service_address, &a, why, sizeof why) != 0)
+    if (!lc_proto_parse_address(e->cfg.service_address, &a, why, sizeof why))
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "service_address: %s", why);
     c = lc_alloc(&e->alloc, sizeof *c);
     if (!c)
@@ -139,8 +141,8 @@ static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
     c->refs = 1;
     pthread_mutex_init(&c->mu, NULL);
     pthread_mutex_init(&c->wmu, NULL);
-    c->fd = connect_socket(&a, why, sizeof why);
-    if (c->fd < 0) {
+    c->fd = -1;
+    if (!connect_socket(&a, &c->fd, why, sizeof why)) {
         lc_svc_conn_unref(c);
         return lc_error(LOCD_ERR_CONNECTION, "%s", why);
     }

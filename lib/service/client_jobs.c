@@ -54,7 +54,7 @@ static locd_status send_submit(lc_svc_conn *c, lc_svc_job *j, lc_submit_fixed *f
     uint8_t buf[LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4 + 64];
     char name[sizeof j->shm_name];
     size_t nl, len;
-    int rc;
+    int ok;
     /* The reader thread may fail the job (and clear its segment name) as
        soon as it is registered: read the name under the job's lock. */
     pthread_mutex_lock(&j->job.mu);
@@ -68,20 +68,20 @@ static locd_status send_submit(lc_svc_conn *c, lc_svc_job *j, lc_submit_fixed *f
     lc_proto_put_submit(buf + LC_PROTO_HEADER, f);
     pthread_mutex_lock(&c->wmu);
     if (c->fd < 0) {
-        rc = -1;
+        ok = 0;
     } else if (nl) {
         lc_put_u32(buf + LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED, (uint32_t)nl);
         memcpy(buf + LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4, name, nl);
-        rc = lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + len);
+        ok = lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + len);
     } else {
-        rc = lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED);
-        if (!rc && bytes)
-            rc = lc_proto_write_all(c->fd, boxes, bytes);
+        ok = lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED);
+        if (ok && bytes)
+            ok = lc_proto_write_all(c->fd, boxes, bytes);
     }
-    if (rc)
+    if (!ok)
         shutdown(c->fd, SHUT_RDWR); /* half a message was sent: the stream is unusable */
     pthread_mutex_unlock(&c->wmu);
-    return rc ? lc_error(LOCD_ERR_CONNECTION, "the service connection broke while sending") : LOCD_OK;
+    return ok ? LOCD_OK : lc_error(LOCD_ERR_CONNECTION, "the service connection broke while sending");
 }
 
 /* lc_job_ops.cancel: asks the service to drop the job. */
@@ -94,7 +94,7 @@ static void svc_job_cancel(locd_job *job)
         return;
     lc_proto_put_header(hb, LC_MSG_CANCEL, j->id, 0);
     pthread_mutex_lock(&c->wmu);
-    if (c->fd >= 0 && lc_proto_write_all(c->fd, hb, sizeof hb) != 0)
+    if (c->fd >= 0 && !lc_proto_write_all(c->fd, hb, sizeof hb))
         shutdown(c->fd, SHUT_RDWR);
     pthread_mutex_unlock(&c->wmu);
 }

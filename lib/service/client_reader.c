@@ -54,50 +54,50 @@ typedef struct lc_result_head {
 } lc_result_head;
 
 /* Reads a RESULT payload (after its header) up to its pairs and checks its
- * length against their count. 0, or -1 with the reason in why. */
+ * length against their count. 1, or 0 with the reason in why. */
 static int read_head(lc_svc_conn *c, const lc_msg_header *h, lc_result_head *r, char *why, size_t wl)
 {
     uint8_t fixed[16], sbuf[LC_PROTO_STATS_BYTES], cbuf[8];
     uint32_t mlen;
     if (h->length < 16 + LC_PROTO_STATS_BYTES + 8) {
         snprintf(why, wl, "short result message");
-        return -1;
+        return 0;
     }
     if (lc_proto_read_all(c->fd, fixed, 16, LC_MSG_TIMEOUT_MS, why, wl) != 1)
-        return -1;
+        return 0;
     r->status = (int32_t)lc_get_u32(fixed);
     r->index = (int64_t)lc_get_u64(fixed + 4);
     mlen = lc_get_u32(fixed + 12);
     if (mlen > LC_PROTO_MAX_TEXT || h->length < 16 + (uint64_t)mlen + LC_PROTO_STATS_BYTES + 8) {
         snprintf(why, wl, "bad result message");
-        return -1;
+        return 0;
     }
     if (lc_proto_read_all(c->fd, r->msg, mlen, LC_MSG_TIMEOUT_MS, why, wl) != 1 ||
         lc_proto_read_all(c->fd, sbuf, sizeof sbuf, LC_MSG_TIMEOUT_MS, why, wl) != 1 ||
         lc_proto_read_all(c->fd, cbuf, 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
-        return -1;
+        return 0;
     r->msg[mlen] = '\0';
     r->count = lc_get_u64(cbuf);
     if (r->count > (h->length / 8) || 16 + (uint64_t)mlen + LC_PROTO_STATS_BYTES + 8 + r->count * 8 != h->length) {
         snprintf(why, wl, "result length does not match its pair count");
-        return -1;
+        return 0;
     }
     lc_proto_get_stats(sbuf, &r->stats);
-    return 0;
+    return 1;
 }
 
-/* Reads the pairs of a successful result into j and finishes it. 0, or -1
+/* Reads the pairs of a successful result into j and finishes it. 1, or 0
  * when the stream broke (j is left unfinished). */
 static int read_pairs(lc_svc_conn *c, lc_svc_job *j, lc_result_head *r, char *why, size_t wl)
 {
     if (lc_pairs_reserve(&j->job.result, (size_t)r->count) != LOCD_OK) {
-        if (lc_proto_skip(c->fd, r->count * 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
-            return -1;
+        if (!lc_proto_skip(c->fd, r->count * 8, LC_MSG_TIMEOUT_MS, why, wl))
+            return 0;
         lc_svc_job_done(j, LOCD_ERR_NO_MEMORY, "no memory for the service's result", -1);
-        return 0;
+        return 1;
     }
     if (r->count && lc_proto_read_all(c->fd, j->job.result.data, (size_t)r->count * 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
-        return -1;
+        return 0;
     j->job.result.count = (size_t)r->count;
     /* Transfer: what the round trip cost beyond the service's own call. */
     r->stats.ms_transfer = lc_now_ms() - j->job.t_submit - r->stats.ms_total;
@@ -105,24 +105,24 @@ static int read_pairs(lc_svc_conn *c, lc_svc_job *j, lc_result_head *r, char *wh
         r->stats.ms_transfer = 0;
     j->job.stats = r->stats;
     lc_svc_job_done(j, LOCD_OK, NULL, -1);
-    return 0;
+    return 1;
 }
 
 /* Reads one RESULT payload (after its header) and finishes job j with it
- * (NULL: the job is no longer pending and its result is dropped). 0, or
- * -1 when the stream broke, with j left unfinished. */
+ * (NULL: the job is no longer pending and its result is dropped). 1, or 0
+ * when the stream broke, with j left unfinished. */
 static int read_result(lc_svc_conn *c, const lc_msg_header *h, lc_svc_job *j, char *why, size_t wl)
 {
     lc_result_head r;
-    if (read_head(c, h, &r, why, wl) != 0)
-        return -1;
+    if (!read_head(c, h, &r, why, wl))
+        return 0;
     if (j && r.status == LOCD_OK)
         return read_pairs(c, j, &r, why, wl);
-    if (r.count && lc_proto_skip(c->fd, r.count * 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
-        return -1;
+    if (r.count && !lc_proto_skip(c->fd, r.count * 8, LC_MSG_TIMEOUT_MS, why, wl))
+        return 0;
     if (j)
         lc_svc_job_done(j, r.status < 0 ? r.status : LOCD_ERR_PROTOCOL, r.msg, r.index);
-    return 0;
+    return 1;
 }
 
 void *lc_svc_reader_main(void *arg)
@@ -136,14 +136,14 @@ void *lc_svc_reader_main(void *arg)
         int r = lc_proto_read_all(c->fd, hb, sizeof hb, -1, why, sizeof why);
         if (r != 1)
             break;
-        if (lc_proto_get_header(hb, LC_RESULT_MAX_BYTES, &h, why, sizeof why) != 0)
+        if (!lc_proto_get_header(hb, LC_RESULT_MAX_BYTES, &h, why, sizeof why))
             break;
         if (h.type != LC_MSG_RESULT) {
             snprintf(why, sizeof why, "unexpected message type %u from the service", h.type);
             break;
         }
         j = lc_svc_take_pending(c, h.id);
-        if (read_result(c, &h, j, why, sizeof why) != 0) {
+        if (!read_result(c, &h, j, why, sizeof why)) {
             if (j) /* off the pending list: fail it here */
                 lc_svc_job_done(j, LOCD_ERR_CONNECTION, why, -1);
             break;

@@ -74,22 +74,22 @@ int lc_proto_get_header(const uint8_t *in, uint64_t max_length, lc_msg_header *h
     h->length = lc_get_u64(in + 16);
     if (h->magic != LC_PROTO_MAGIC) {
         snprintf(why, why_len, "bad magic 0x%08x (not a locd client?)", h->magic);
-        return -1;
+        return 0;
     }
     if (h->version != LC_PROTO_VERSION) {
         snprintf(why, why_len, "protocol version %u, expected %u", h->version, LC_PROTO_VERSION);
-        return -1;
+        return 0;
     }
     if (h->type < LC_MSG_HELLO || h->type > LC_MSG_ERROR) {
         snprintf(why, why_len, "unknown message type %u", h->type);
-        return -1;
+        return 0;
     }
     if (h->length > max_length) {
         snprintf(why, why_len, "message of %llu bytes exceeds the limit of %llu", (unsigned long long)h->length,
                  (unsigned long long)max_length);
-        return -1;
+        return 0;
     }
-    return 0;
+    return 1;
 }
 
 void lc_proto_put_submit(uint8_t *out, const lc_submit_fixed *s)
@@ -162,12 +162,12 @@ int lc_proto_write_all(int fd, const void *buf, size_t len)
         if (w < 0) {
             if (errno == EINTR)
                 continue;
-            return -1;
+            return 0;
         }
         p += w;
         len -= (size_t)w;
     }
-    return 0;
+    return 1;
 }
 
 int lc_proto_read_all(int fd, void *buf, size_t len, int timeout_ms, char *why, size_t why_len)
@@ -216,7 +216,7 @@ int lc_proto_skip(int fd, uint64_t len, int timeout_ms, char *why, size_t why_le
     while (len) {
         size_t chunk = len > sizeof buf ? sizeof buf : (size_t)len;
         if (lc_proto_read_all(fd, buf, chunk, timeout_ms, why, why_len) != 1)
-            return -1;
+            return 0;
         len -= chunk;
     }
     return 1;
@@ -228,15 +228,15 @@ int lc_proto_parse_address(const char *s, lc_address *a, char *why, size_t why_l
     memset(a, 0, sizeof *a);
     if (!s) {
         snprintf(why, why_len, "no address");
-        return -1;
+        return 0;
     }
     if (!strncmp(s, "unix:", 5)) {
         if (!s[5] || strlen(s + 5) >= sizeof a->path) {
             snprintf(why, why_len, "unix socket path is empty or longer than %zu bytes", sizeof a->path - 1);
-            return -1;
+            return 0;
         }
         strcpy(a->path, s + 5);
-        return 0;
+        return 1;
     }
     if (!strncmp(s, "tcp:", 4)) {
         s += 4;
@@ -244,15 +244,15 @@ int lc_proto_parse_address(const char *s, lc_address *a, char *why, size_t why_l
         if (!colon || colon == s || !colon[1] || (size_t)(colon - s) >= sizeof a->host ||
             strlen(colon + 1) >= sizeof a->port) {
             snprintf(why, why_len, "expected tcp:HOST:PORT");
-            return -1;
+            return 0;
         }
         a->tcp = 1;
         memcpy(a->host, s, (size_t)(colon - s));
         strcpy(a->port, colon + 1);
-        return 0;
+        return 1;
     }
     snprintf(why, why_len, "address '%s' is neither unix:PATH nor tcp:HOST:PORT", s);
-    return -1;
+    return 0;
 }
 
 int lc_proto_secret_equal(const char *a, size_t alen, const char *b, size_t blen)

@@ -74,7 +74,7 @@ static locd_status resolve_config(const locd_service_config *config, locd_servic
 static locd_status check_config(const locd_service_config *cfg, lc_address *a)
 {
     char why[200];
-    if (lc_proto_parse_address(cfg->listen, a, why, sizeof why) != 0)
+    if (!lc_proto_parse_address(cfg->listen, a, why, sizeof why))
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "listen: %s", why);
     if (a->tcp && (!cfg->secret || !cfg->secret[0]))
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "a TCP service needs a shared secret (--secret)");

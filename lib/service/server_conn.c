@@ -25,17 +25,17 @@ void lc_srv_conn_unref_locked(lc_srv_conn *c)
 
 int lc_srv_send(lc_srv_conn *c, const void *a, size_t alen, const void *b, size_t blen)
 {
-    int rc = -1;
+    int ok = 0;
     pthread_mutex_lock(&c->wmu);
     if (!c->closed) {
-        rc = lc_proto_write_all(c->fd, a, alen);
-        if (!rc && blen)
-            rc = lc_proto_write_all(c->fd, b, blen);
-        if (rc)
+        ok = lc_proto_write_all(c->fd, a, alen);
+        if (ok && blen)
+            ok = lc_proto_write_all(c->fd, b, blen);
+        if (!ok)
             shutdown(c->fd, SHUT_RDWR); /* the reader thread notices and cleans up */
     }
     pthread_mutex_unlock(&c->wmu);
-    return rc;
+    return ok;
 }
 
 static size_t text_length(const char *msg)

@@ -24,20 +24,20 @@ static int valid_shm_name(const char *n)
 }
 
 /* Maps the client's segment, then removes its name: the service is the
- * last party to open it. */
+ * last party to open it. 1, or 0 (why). */
 static int map_client_segment(lc_srv_job *j, const char *name, char *why, size_t wl)
 {
     struct stat sb;
     int fd = shm_open(name, O_RDONLY, 0);
     if (fd < 0) {
         snprintf(why, wl, "cannot open the job's segment %s: %s", name, strerror(errno));
-        return -1;
+        return 0;
     }
     shm_unlink(name);
     if (fstat(fd, &sb) != 0 || sb.st_uid != geteuid() || (uint64_t)sb.st_size != (uint64_t)j->bytes) {
         close(fd);
         snprintf(why, wl, "segment %s has the wrong owner or size", name);
-        return -1;
+        return 0;
     }
     if (j->bytes) {
         j->boxes = mmap(NULL, j->bytes, PROT_READ, MAP_SHARED, fd, 0);
@@ -45,15 +45,15 @@ static int map_client_segment(lc_srv_job *j, const char *name, char *why, size_t
             j->boxes = NULL;
             close(fd);
             snprintf(why, wl, "cannot map segment %s", name);
-            return -1;
+            return 0;
         }
         j->mapped = 1;
     }
     close(fd);
-    return 0;
+    return 1;
 }
 
-/* Reads the fixed part into a new job (no boxes yet); -1 to drop. */
+/* Reads the fixed part into a new job (no boxes yet): 1, or 0 to drop (why). */
 static int read_fixed(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **out, char *why, size_t wl)
 {
     uint8_t fixed[LC_PROTO_SUBMIT_FIXED];
@@ -61,14 +61,14 @@ static int read_fixed(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **out, 
     size_t es;
     if (h->length < LC_PROTO_SUBMIT_FIXED) {
         snprintf(why, wl, "short SUBMIT message");
-        return -1;
+        return 0;
     }
     if (lc_proto_read_all(c->fd, fixed, sizeof fixed, LC_MSG_TIMEOUT_MS, why, wl) != 1)
-        return -1;
+        return 0;
     j = calloc(1, sizeof *j);
     if (!j) {
         snprintf(why, wl, "out of memory");
-        return -1;
+        return 0;
     }
     j->id = h->id;
     lc_proto_get_submit(fixed, &j->f);
@@ -79,82 +79,85 @@ static int read_fixed(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **out, 
         snprintf(why, wl, "bad SUBMIT header (n %llu, f64 %u, transport %u)", (unsigned long long)j->f.n, j->f.f64,
                  j->f.transport);
         free(j);
-        return -1;
+        return 0;
     }
     j->bytes = (size_t)(j->f.n * LC_PROTO_BOX_VALUES * es);
     *out = j;
-    return 0;
+    return 1;
 }
 
+/* The boxes that follow the fixed part: 1, or 0 to drop (why). */
 static int read_inline_boxes(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job *j, char *why, size_t wl)
 {
     if (h->length != LC_PROTO_SUBMIT_FIXED + (uint64_t)j->bytes) {
         snprintf(why, wl, "SUBMIT length %llu does not match %llu boxes", (unsigned long long)h->length,
                  (unsigned long long)j->f.n);
-        return -1;
+        return 0;
     }
     j->boxes = malloc(j->bytes ? j->bytes : 1);
     if (!j->boxes) {
         snprintf(why, wl, "out of memory for %llu bytes", (unsigned long long)j->bytes);
-        return -1;
+        return 0;
     }
     if (j->bytes && lc_proto_read_all(c->fd, j->boxes, j->bytes, LC_MSG_TIMEOUT_MS, why, wl) != 1)
-        return -1;
-    return 0;
+        return 0;
+    return 1;
 }
 
 /* Reads the segment name that ends a shared-memory SUBMIT into name
- * (LC_SRV_MAX_SHM_NAME + 1 bytes). */
+ * (LC_SRV_MAX_SHM_NAME + 1 bytes): 1, or 0 to drop (why). */
 static int read_shm_name(lc_srv_conn *c, const lc_msg_header *h, char *name, char *why, size_t wl)
 {
     uint8_t nl[4];
     uint32_t len;
     if (lc_proto_read_all(c->fd, nl, sizeof nl, LC_MSG_TIMEOUT_MS, why, wl) != 1)
-        return -1;
+        return 0;
     len = lc_get_u32(nl);
     if (len > LC_SRV_MAX_SHM_NAME || h->length != LC_PROTO_SUBMIT_FIXED + sizeof nl + (uint64_t)len) {
         snprintf(why, wl, "bad segment name in SUBMIT");
-        return -1;
+        return 0;
     }
     if (lc_proto_read_all(c->fd, name, len, LC_MSG_TIMEOUT_MS, why, wl) != 1)
-        return -1;
+        return 0;
     name[len] = '\0';
     if (!valid_shm_name(name)) {
         snprintf(why, wl, "segment name '%s' is not a locd segment", name);
-        return -1;
+        return 0;
     }
-    return 0;
+    return 1;
 }
 
-static int read_shm_boxes(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job *j, char *why, size_t wl)
+/* Maps the boxes of *jp from the client's segment: 1 when the connection
+ * is fine (*jp is NULL, freed, when its segment was refused), 0 to drop
+ * (why). */
+static int read_shm_boxes(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **jp, char *why, size_t wl)
 {
     char name[LC_SRV_MAX_SHM_NAME + 1];
     if (!c->shm_ok) {
         snprintf(why, wl, "shared-memory SUBMIT on a connection that may not use it");
-        return -1;
+        return 0;
     }
-    if (read_shm_name(c, h, name, why, wl) != 0)
-        return -1;
-    if (map_client_segment(j, name, why, wl) != 0) {
+    if (!read_shm_name(c, h, name, why, wl))
+        return 0;
+    if (!map_client_segment(*jp, name, why, wl)) {
         /* The client's problem (or a cancelled job): answer, keep serving. */
-        lc_srv_send_result(c, j->id, LOCD_ERR_IO, why, -1, NULL, NULL, 0);
-        return 1;
+        lc_srv_send_result(c, (*jp)->id, LOCD_ERR_IO, why, -1, NULL, NULL, 0);
+        lc_srv_job_free(*jp);
+        *jp = NULL;
     }
-    return 0;
+    return 1;
 }
 
 int lc_srv_read_submit(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **out, char *why, size_t wl)
 {
     lc_srv_job *j;
-    int r;
     *out = NULL;
-    if (read_fixed(c, h, &j, why, wl) != 0)
-        return -1;
-    r = j->f.transport == 0 ? read_inline_boxes(c, h, j, why, wl) : read_shm_boxes(c, h, j, why, wl);
-    if (r != 0) {
+    if (!read_fixed(c, h, &j, why, wl))
+        return 0;
+    if (!(j->f.transport == 0 ? read_inline_boxes(c, h, j, why, wl) : read_shm_boxes(c, h, &j, why, wl))) {
         lc_srv_job_free(j);
-        return r;
+        return 0;
     }
     *out = j;
-    return 0;
+    return 1;
 }

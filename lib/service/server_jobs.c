@@ -50,7 +50,7 @@ int lc_srv_enqueue(lc_srv_conn *c, lc_srv_job *j, char *why, size_t wl)
     if (c->njobs >= s->cfg.max_jobs) {
         pthread_mutex_unlock(&s->mu);
         snprintf(why, wl, "more than %u jobs in flight", s->cfg.max_jobs);
-        return -1;
+        return 0;
     }
     j->c = c;
     c->refs++;
@@ -66,7 +66,7 @@ int lc_srv_enqueue(lc_srv_conn *c, lc_srv_job *j, char *why, size_t wl)
     s->qtail = j;
     pthread_cond_signal(&s->cv);
     pthread_mutex_unlock(&s->mu);
-    return 0;
+    return 1;
 }
 
 void lc_srv_cancel(lc_srv_conn *c, uint64_t id)

@@ -19,86 +19,88 @@
 
 /* ---- the handshake ---- */
 
-/* Reads HELLO's payload (the secret) into pl; returns its length, or -1. */
-static int64_t read_hello_secret(lc_srv_conn *c, uint8_t *pl, char *why, size_t wl)
+/* Reads HELLO's payload into pl, the secret's length into *slen (the
+ * secret follows it at pl + 4): 1, or 0 (why). */
+static int read_hello_secret(lc_srv_conn *c, uint8_t *pl, uint32_t *slen, char *why, size_t wl)
 {
     uint8_t hb[LC_PROTO_HEADER];
     lc_msg_header h;
-    uint32_t slen;
     if (lc_proto_read_all(c->fd, hb, sizeof hb, LC_HELLO_TIMEOUT_MS, why, wl) != 1)
-        return -1;
-    if (lc_proto_get_header(hb, 4 + LC_PROTO_MAX_SECRET, &h, why, wl) != 0)
-        return -1;
+        return 0;
+    if (!lc_proto_get_header(hb, 4 + LC_PROTO_MAX_SECRET, &h, why, wl))
+        return 0;
     if (h.type != LC_MSG_HELLO || h.length < 4) {
         snprintf(why, wl, "expected HELLO, got message type %u", h.type);
-        return -1;
+        return 0;
     }
     if (lc_proto_read_all(c->fd, pl, (size_t)h.length, LC_HELLO_TIMEOUT_MS, why, wl) != 1)
-        return -1;
-    slen = lc_get_u32(pl);
-    if ((uint64_t)slen + 4 != h.length) {
+        return 0;
+    *slen = lc_get_u32(pl);
+    if ((uint64_t)*slen + 4 != h.length) {
         snprintf(why, wl, "malformed HELLO");
-        return -1;
+        return 0;
     }
-    return slen;
+    return 1;
 }
 
-/* HELLO: the secret, when the service has one; then WELCOME. */
+/* HELLO: the secret, when the service has one; then WELCOME. 1, or 0 to
+ * drop the connection (why). */
 static int handshake(lc_srv_conn *c, char *why, size_t wl)
 {
     lc_server *s = c->s;
     uint8_t pl[4 + LC_PROTO_MAX_SECRET], reply[LC_PROTO_HEADER + 4];
-    int64_t slen = read_hello_secret(c, pl, why, wl);
-    if (slen < 0)
-        return -1;
+    uint32_t slen;
+    if (!read_hello_secret(c, pl, &slen, why, wl))
+        return 0;
     if (s->secret && !lc_proto_secret_equal(s->secret, strlen(s->secret), (const char *)pl + 4, (size_t)slen)) {
         snprintf(why, wl, "%s", slen ? "wrong secret" : "no secret given");
         lc_srv_send_error(c->fd, LOCD_ERR_AUTH, "a valid shared secret is required");
-        return -1;
+        return 0;
     }
     lc_proto_put_header(reply, LC_MSG_WELCOME, 0, 4);
     lc_put_u32(reply + LC_PROTO_HEADER, (uint32_t)c->shm_ok);
-    if (lc_srv_send(c, reply, sizeof reply, NULL, 0) != 0) {
+    if (!lc_srv_send(c, reply, sizeof reply, NULL, 0)) {
         snprintf(why, wl, "write failed");
-        return -1;
+        return 0;
     }
-    return 0;
+    return 1;
 }
 
 /* ---- the messages ---- */
 
 /* Reads the next header. 1: h is valid; 0: the client left cleanly; -1:
- * drop (why). */
+ * drop (why). Three values, as lc_proto_read_all's: the caller logs a
+ * client that left apart from one that broke. */
 static int read_header(lc_srv_conn *c, lc_msg_header *h, char *why, size_t wl)
 {
     uint8_t hb[LC_PROTO_HEADER];
     int r = lc_proto_read_all(c->fd, hb, 1, -1, why, wl); /* idle clients may wait forever */
     if (r == 1)
         r = lc_proto_read_all(c->fd, hb + 1, sizeof hb - 1, LC_MSG_TIMEOUT_MS, why, wl);
-    if (r == 1 && lc_proto_get_header(hb, c->s->cfg.max_message, h, why, wl) != 0)
+    if (r == 1 && !lc_proto_get_header(hb, c->s->cfg.max_message, h, why, wl))
         r = -1;
     return r;
 }
 
-/* Acts on one message; -1 drops the connection (why). */
+/* Acts on one message: 1, or 0 to drop the connection (why). */
 static int handle_message(lc_srv_conn *c, const lc_msg_header *h, char *why, size_t wl)
 {
     lc_srv_job *j;
-    int r;
     if (h->type == LC_MSG_SUBMIT) {
-        r = lc_srv_read_submit(c, h, &j, why, wl);
-        if (r == 0 && lc_srv_enqueue(c, j, why, wl) != 0) {
+        if (!lc_srv_read_submit(c, h, &j, why, wl))
+            return 0;
+        if (j && !lc_srv_enqueue(c, j, why, wl)) {
             lc_srv_job_free(j);
-            r = -1;
+            return 0;
         }
-        return r < 0 ? -1 : 0;
+        return 1;
     }
     if (h->type == LC_MSG_CANCEL && h->length == 0) {
         lc_srv_cancel(c, h->id);
-        return 0;
+        return 1;
     }
     snprintf(why, wl, "unexpected message type %u (length %llu)", h->type, (unsigned long long)h->length);
-    return -1;
+    return 0;
 }
 
 static void serve_connection(lc_srv_conn *c)
@@ -107,13 +109,13 @@ static void serve_connection(lc_srv_conn *c)
     char why[300] = "";
     lc_msg_header h;
     int r;
-    if (handshake(c, why, sizeof why) != 0) {
+    if (!handshake(c, why, sizeof why)) {
         lc_srv_log(s, LOCD_LOG_WARNING, "dropping connection from %s: %s", c->peer, why);
         return;
     }
     lc_srv_log(s, LOCD_LOG_DEBUG, "client %s connected", c->peer);
     while ((r = read_header(c, &h, why, sizeof why)) == 1)
-        if (handle_message(c, &h, why, sizeof why) != 0)
+        if (!handle_message(c, &h, why, sizeof why))
             break;
     if (r == 0)
         lc_srv_log(s, LOCD_LOG_DEBUG, "client %s disconnected", c->peer);

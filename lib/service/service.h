@@ -76,7 +76,7 @@ uint32_t lc_get_u32(const uint8_t *p);
 uint64_t lc_get_u64(const uint8_t *p);
 
 void lc_proto_put_header(uint8_t *out, uint16_t type, uint64_t id, uint64_t length);
-/* 0 when valid; otherwise -1 with the reason in why. */
+/* 1 when valid; otherwise 0 with the reason in why. */
 int lc_proto_get_header(const uint8_t *in, uint64_t max_length, lc_msg_header *h, char *why, size_t why_len);
 
 void lc_proto_put_submit(uint8_t *out, const lc_submit_fixed *s);
@@ -85,16 +85,19 @@ void lc_proto_put_stats(uint8_t *out, const locd_stats *s);
 void lc_proto_get_stats(const uint8_t *in, locd_stats *s);
 
 /* Writes all bytes (MSG_NOSIGNAL: a closed peer is an error, not SIGPIPE).
- * 0 on success, -1 on error. */
+ * 1 on success, 0 on error (errno). */
 int lc_proto_write_all(int fd, const void *buf, size_t len);
 /* Reads exactly len bytes. timeout_ms < 0 waits forever; otherwise each
- * wait for more bytes is bounded. Returns 1 on success, 0 on a clean end of
- * stream before the first byte, -1 on error, truncation or timeout (why). */
+ * wait for more bytes is bounded. Returns 1 on success; on failure (why), 0
+ * for a clean end of stream before the first byte and -1 for anything else
+ * (error, truncation, timeout). The exception to the 1/0 convention: the
+ * service's connection reader tells a client that left from one that broke. */
 int lc_proto_read_all(int fd, void *buf, size_t len, int timeout_ms, char *why, size_t why_len);
-/* Reads and drops len bytes. */
+/* Reads and drops len bytes. 1 on success, 0 on failure (why). */
 int lc_proto_skip(int fd, uint64_t len, int timeout_ms, char *why, size_t why_len);
 
-/* Parses "unix:PATH" or "tcp:HOST:PORT". 0 on success. */
+/* Parses "unix:PATH" or "tcp:HOST:PORT". 1 on success, 0 (why) when
+ * malformed. */
 typedef struct lc_address {
     int tcp;
     char path[108];
@@ -227,8 +230,9 @@ struct lc_server {
 
 /* server_conn.c */
 void lc_srv_log(const lc_server *s, int32_t sev, const char *fmt, ...) LC_PRINTF(3, 4);
-/* Writes a then b (blen may be 0) as one message; -1 when the connection
- * is closed or breaks (it is then shut down for its reader to notice). */
+/* Writes a then b (blen may be 0) as one message. 1 on success, 0 when the
+ * connection is closed or breaks (it is then shut down for its reader to
+ * notice). */
 int lc_srv_send(lc_srv_conn *c, const void *a, size_t alen, const void *b, size_t blen);
 void lc_srv_send_result(lc_srv_conn *c, uint64_t id, locd_status st, const char *msg, int64_t index,
                         const locd_stats *stats, const uint32_t *pairs, size_t count);
@@ -239,7 +243,7 @@ void lc_srv_conn_unref_locked(lc_srv_conn *c);
 
 /* server_jobs.c */
 void lc_srv_job_free(lc_srv_job *j);
-/* Queues j for the runners; -1 (why) when the connection has too many. */
+/* Queues j for the runners: 1, or 0 (why) when the connection has too many. */
 int lc_srv_enqueue(lc_srv_conn *c, lc_srv_job *j, char *why, size_t wl);
 void lc_srv_cancel(lc_srv_conn *c, uint64_t id);
 /* Under s->mu: marks every job of the connection cancelled. */
@@ -248,8 +252,9 @@ void lc_srv_cancel_all_locked(lc_srv_conn *c);
 void *lc_srv_runner_main(void *service);
 
 /* server_input.c */
-/* Reads a SUBMIT payload. Returns 0 and a job, 1 when the job is refused
- * but the connection is fine (an error result was sent), -1 to drop. */
+/* Reads a SUBMIT payload. 1 when the connection is fine, with the job in
+ * *out, or NULL there when the job was refused (an error result was sent);
+ * 0 to drop the connection (why). */
 int lc_srv_read_submit(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **out, char *why, size_t wl);
 
 /* server_session.c */
