@@ -27,7 +27,8 @@ if [ ${#SCENES[@]} -eq 0 ]; then
     SCENES+=("$DIR/$kind.aabb")
   done
 fi
-echo "# $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores; A=$A B=$B"
+if grep -q -w avx512f /proc/cpuinfo; then SIMD="AVX-512 and AVX2"; else SIMD="AVX2 only or less"; fi
+echo "# $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores, $SIMD; each case forces its kernel with LOCD_KERNEL; A=$A B=$B"
 for round in $(seq 1 "$ROUNDS"); do
   for scene in "${SCENES[@]}"; do
     for k in $KERNELS; do
