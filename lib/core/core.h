@@ -95,10 +95,10 @@ void lc_buf_release(const locd_allocator *a, lc_buf *b, size_t elem);
  * copied over dst, which holds the defaults (full_size bytes); dst->size is
  * kept. NULL src, or a size out of range, raise (what names the argument). */
 locd_status lc_struct_in(void *dst, size_t full_size, const void *src, size_t min_size, const char *what);
-/* Output: dst must not be NULL and must have min_size <= size <= full_size. */
-locd_status lc_struct_check_out(const void *dst, size_t full_size, size_t min_size, const char *what);
+/* A caller's struct (in or out) is not NULL and has min_size <= size <= full_size. */
+locd_status lc_struct_check(const void *dst, size_t full_size, size_t min_size, const char *what);
 /* Copies the library's full struct src into the caller's dst (checked by
- * lc_struct_check_out) no further than dst->size, and keeps dst->size. */
+ * lc_struct_check) no further than dst->size, and keeps dst->size. */
 void lc_struct_out(void *dst, const void *src);
 
 /* ---- SIMD kernels (kernel.c) ---- */

@@ -63,7 +63,7 @@ void lc_engine_log(const locd_engine *e, int32_t severity, const char *fmt, ...)
 
 locd_status lc_stats_check_out(const locd_stats *stats)
 {
-    return lc_struct_check_out(stats, sizeof *stats, LOCD_STATS_MIN_SIZE, "stats");
+    return lc_struct_check(stats, sizeof *stats, LOCD_STATS_MIN_SIZE, "stats");
 }
 
 void lc_stats_copy_out(locd_stats *dst, const locd_stats *src)

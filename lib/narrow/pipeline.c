@@ -330,7 +330,7 @@ locd_status locd_world_collide(locd_world *w, const locd_pipeline_options *optio
     locd_status st;
     if ((st = lc_world_check(w)) != LOCD_OK || (st = lc_contacts_check(out)) != LOCD_OK)
         return st;
-    if (stats && (st = lc_struct_check_out(stats, sizeof s, LOCD_PIPELINE_STATS_MIN_SIZE, "stats")) != LOCD_OK)
+    if (stats && (st = lc_struct_check(stats, sizeof s, LOCD_PIPELINE_STATS_MIN_SIZE, "stats")) != LOCD_OK)
         return st;
     if ((st = read_options(options, &o)) != LOCD_OK)
         return st;

@@ -62,7 +62,7 @@ locd_status LC_FN(lc_block_sweep_)(const locd_grid *grid, const LC_T *boxes, siz
         return st;
     if (count && (!entries || !boxes))
         return lc_error(LOCD_ERR_NULL_POINTER, "entries and boxes must not be NULL");
-    if (stats && (st = lc_struct_check_out(stats, sizeof *stats, LOCD_STATS_MIN_SIZE, "stats")) != LOCD_OK)
+    if (stats && (st = lc_struct_check(stats, sizeof *stats, LOCD_STATS_MIN_SIZE, "stats")) != LOCD_OK)
         return st;
     if (!entries_sorted(entries, count))
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entries are not strictly ascending");
