@@ -80,6 +80,8 @@ typedef int32_t locd_status;
 #define LOCD_ERR_CANCELLED (-17)        /* the job was cancelled */
 #define LOCD_ERR_AUTH (-18)             /* the service refused the shared secret */
 #define LOCD_ERR_SHAPE (-19)            /* a shape description is invalid */
+#define LOCD_ERR_STALE_ID (-20)         /* a scene id was removed or never issued (index in locd_last_error_index) */
+#define LOCD_ERR_DUPLICATE_ID (-21)     /* a scene id appears twice in one batch (index in locd_last_error_index) */
 #define LOCD_ERR_INTERNAL (-100)        /* a bug: please report it */
 
 /* Static English description of a status code; never NULL. */

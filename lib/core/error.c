@@ -35,6 +35,8 @@ const char *locd_status_string(locd_status status)
     case LOCD_ERR_CANCELLED: return "cancelled";
     case LOCD_ERR_AUTH: return "authentication refused";
     case LOCD_ERR_SHAPE: return "invalid shape";
+    case LOCD_ERR_STALE_ID: return "stale or unknown scene id";
+    case LOCD_ERR_DUPLICATE_ID: return "scene id repeated in one batch";
     case LOCD_ERR_INTERNAL: return "internal error";
     default: return "unknown status";
     }
