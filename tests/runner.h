@@ -9,8 +9,8 @@
  *   static const lt_test tests[] = { LT_TEST(test_a), LT_TEST_FIXTURE(test_b, up, down) };
  *   int main(void) { return LT_RUN(tests); }
  *
- * A setup run once before all the tests and a teardown once after them (what
- * cmocka called group fixtures): LT_RUN_GROUP(tests, setup, teardown).
+ * A setup run once before all the tests and a teardown once after them
+ * (group fixtures): LT_RUN_GROUP(tests, setup, teardown).
  *
  * LOCD_TEST_FILTER=substring runs only the tests whose name contains it. */
 #ifndef LOCD_TEST_RUNNER_H
