@@ -139,9 +139,12 @@ static uint64_t drive(const scenario *sc, void *ctx)
             fa_arm(0, 0);
             if (st != LOCD_OK) {
                 if (st != LOCD_ERR_NO_MEMORY)
-                    LT_FAIL("%s: allocation %llu%s failed: status %d (%s: %s), expected LOCD_ERR_NO_MEMORY", sc->name, (unsigned long long)k, sticky ? "+" : "", (int)st, locd_status_string(st), locd_last_error());
+                    LT_FAIL("%s: allocation %llu%s failed: status %d (%s: %s), expected LOCD_ERR_NO_MEMORY", sc->name,
+                            (unsigned long long)k, sticky ? "+" : "", (int)st, locd_status_string(st),
+                            locd_last_error());
                 if (c.failures == 0)
-                    LT_FAIL("%s: failed with %d (%s) though no allocation failed", sc->name, (int)st, locd_last_error());
+                    LT_FAIL("%s: failed with %d (%s) though no allocation failed", sc->name, (int)st,
+                            locd_last_error());
                 if (sc->unchanged)
                     sc->unchanged(ctx);
             } else if (sc->correct) {
@@ -152,12 +155,18 @@ static uint64_t drive(const scenario *sc, void *ctx)
             sc->teardown(ctx);
             fa_counts_get(&after);
             if (after.bad_frees != base.bad_frees)
-                LT_FAIL("%s: allocation %llu%s: free() with a wrong size or pointer", sc->name, (unsigned long long)k, sticky ? "+" : "");
+                LT_FAIL("%s: allocation %llu%s: free() with a wrong size or pointer", sc->name, (unsigned long long)k,
+                        sticky ? "+" : "");
             if (after.live_bytes < base.live_bytes || after.live_blocks < base.live_blocks)
                 LT_FAIL("%s: allocation %llu%s: %lld bytes in %lld blocks allocated before this call were freed "
-                         "during it: an earlier call's memory outlived its destroy (a thread still freeing?)", sc->name, (unsigned long long)k, sticky ? "+" : "", (long long)(base.live_bytes - after.live_bytes), (long long)(base.live_blocks - after.live_blocks));
+                        "during it: an earlier call's memory outlived its destroy (a thread still freeing?)",
+                        sc->name, (unsigned long long)k, sticky ? "+" : "",
+                        (long long)(base.live_bytes - after.live_bytes),
+                        (long long)(base.live_blocks - after.live_blocks));
             if (after.live_bytes != base.live_bytes || after.live_blocks != base.live_blocks)
-                LT_FAIL("%s: allocation %llu%s failed: %lld bytes in %lld blocks leaked (status %d)", sc->name, (unsigned long long)k, sticky ? "+" : "", (long long)(after.live_bytes - base.live_bytes), (long long)(after.live_blocks - base.live_blocks), (int)st);
+                LT_FAIL("%s: allocation %llu%s failed: %lld bytes in %lld blocks leaked (status %d)", sc->name,
+                        (unsigned long long)k, sticky ? "+" : "", (long long)(after.live_bytes - base.live_bytes),
+                        (long long)(after.live_blocks - base.live_blocks), (int)st);
             if (c.failures == 0) {
                 if (st != LOCD_OK)
                     LT_FAIL("%s: status %d with no failure", sc->name, (int)st);
@@ -313,7 +322,8 @@ static void find_unchanged(void *p)
     }
     if (locd_pairs_count(c->out) != c->before_count ||
         memcmp(locd_pairs_data(c->out), c->before, c->before_count * 2 * sizeof(uint32_t)) != 0)
-        LT_FAIL("a failed find (threads %u, %s, flags %u) changed *out (%zu pairs before, %zu after)", c->threads, c->f64 ? "f64" : "f32", c->flags, c->before_count, locd_pairs_count(c->out));
+        LT_FAIL("a failed find (threads %u, %s, flags %u) changed *out (%zu pairs before, %zu after)", c->threads,
+                c->f64 ? "f64" : "f32", c->flags, c->before_count, locd_pairs_count(c->out));
 }
 
 static void find_correct(void *p)

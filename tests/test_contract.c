@@ -90,7 +90,8 @@ static void assert_cleared_(int line, const char *what, locd_status st)
     if (st < 0)
         lt_fail_(line, "%s failed: %s", what, locd_last_error());
     if (locd_last_error()[0] != '\0' || locd_last_error_index() != -1)
-        lt_fail_(line, "%s succeeded (%d) but left the last error \"%s\" (index %lld)", what, (int)st, locd_last_error(), (long long)locd_last_error_index());
+        lt_fail_(line, "%s succeeded (%d) but left the last error \"%s\" (index %lld)", what, (int)st,
+                 locd_last_error(), (long long)locd_last_error_index());
 }
 
 /* ---- every successful call clears the last error ---- */
@@ -134,8 +135,8 @@ static void ctx_up(ctx *c)
     c->entries = malloc(LOCD_MAX_ENTRIES_PER_BOX * SCENE_N * sizeof *c->entries);
     c->scratch = malloc(LOCD_MAX_ENTRIES_PER_BOX * SCENE_N * sizeof *c->scratch);
     c->merged = malloc(LOCD_MAX_ENTRIES_PER_BOX * SCENE_N * sizeof *c->merged);
-    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_encode_f32(&c->grid, c->f, 0, SCENE_N, c->entries, LOCD_MAX_ENTRIES_PER_BOX * SCENE_N,
-                                     &c->nentries));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_encode_f32(&c->grid, c->f, 0, SCENE_N, c->entries,
+                                                     LOCD_MAX_ENTRIES_PER_BOX * SCENE_N, &c->nentries));
     TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_sort_entries(&c->grid, c->entries, c->scratch, c->nentries));
     locd_stats_init(&c->stats);
     if (narrow_built()) {
@@ -547,7 +548,8 @@ static void outputs_stop_at_the_callers_size(void)
     TEST_ASSERT_TRUE(untouched(&b, sizeof(locd_stats), sizeof b.bytes));
     /* The sweep's stats follow the same rule (it used to want the whole struct). */
     set_size(&b, offsetof(locd_stats, candidates));
-    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_sweep_f32(&c.grid, c.f, SCENE_N, c.entries, c.nentries, c.p, (locd_stats *)b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_sweep_f32(&c.grid, c.f, SCENE_N, c.entries, c.nentries, c.p, (locd_stats *)b.bytes));
     TEST_ASSERT_EQUAL_INT64(c.nentries, ((locd_stats *)b.bytes)->entries);
     TEST_ASSERT_TRUE(untouched(&b, offsetof(locd_stats, candidates), sizeof b.bytes));
     /* A job's stats. */
@@ -567,12 +569,14 @@ static void grid_fit_bounds_its_write(void)
     /* Uninitialized (here: 0xabababab) or larger than the library's: it
      * writes its own grid and says so in size. */
     set_size(&b, 0xabababab);
-    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_grid_fit_f32(c.f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, (locd_grid *)b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_grid_fit_f32(c.f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, (locd_grid *)b.bytes));
     TEST_ASSERT_EQUAL_INT64(sizeof(locd_grid), get_size(&b));
     TEST_ASSERT_TRUE(untouched(&b, sizeof(locd_grid), sizeof b.bytes));
     TEST_ASSERT_EQUAL_MEMORY(&c.grid, b.bytes, sizeof(locd_grid));
     set_size(&b, 0);
-    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_grid_fit_f32(c.f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, (locd_grid *)b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_grid_fit_f32(c.f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, (locd_grid *)b.bytes));
     TEST_ASSERT_EQUAL_INT64(LOCD_GRID_MIN_SIZE, get_size(&b));
     TEST_ASSERT_TRUE(untouched(&b, LOCD_GRID_MIN_SIZE, sizeof b.bytes));
     TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_encode_f32((locd_grid *)b.bytes, c.f, 0, SCENE_N, c.scratch,
@@ -580,7 +584,8 @@ static void grid_fit_bounds_its_write(void)
     TEST_ASSERT_EQUAL_INT64(c.nentries, w);
     /* A grid whose size says it is not one the library wrote. */
     ((locd_grid *)b.bytes)->size = LOCD_GRID_MIN_SIZE - 8;
-    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_sort_entries((locd_grid *)b.bytes, c.entries, c.scratch, c.nentries));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT,
+                            locd_sort_entries((locd_grid *)b.bytes, c.entries, c.scratch, c.nentries));
     ctx_down(&c);
 }
 
@@ -629,7 +634,8 @@ static void pipeline_structs_follow_the_rules(void)
     locd_pipeline_options_init(&o);
     o.size = LOCD_PIPELINE_OPTIONS_MIN_SIZE;
     /* A short struct has no route table to write into. */
-    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT,
+                            locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED));
     set_size(&b, LOCD_PIPELINE_STATS_MIN_SIZE + 4);
     TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_collide(w, &o, ct, (locd_pipeline_stats *)b.bytes));
     TEST_ASSERT_EQUAL_INT64(1, locd_contacts_count(ct));
@@ -784,9 +790,12 @@ static void world_life(const locd_allocator *a, locd_shape *const *shapes, size_
     o.stages = LOCD_STAGE_SHAPE | LOCD_STAGE_CONTACT;
     o.swept = LOCD_SWEPT_ON;
     o.dt = 0.1;
-    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pipeline_options_route(&o, LOCD_SHAPE_BOX, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED));
-    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED));
-    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_SPHERE, LOCD_ROUTE_CLOSED));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_pipeline_options_route(&o, LOCD_SHAPE_BOX, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_SPHERE, LOCD_ROUTE_CLOSED));
     locd_pipeline_stats_init(&ps);
     TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_create(&cfg, &w));
     for (i = 0; i < 200; i++) {

@@ -64,7 +64,8 @@ static void same_bytes(const uint32_t *got, size_t got_n, const uint32_t *want, 
         LT_FAIL("%s: %zu pairs, expected %zu", what, got_n, want_n);
     for (i = 0; i < 2 * got_n; i++)
         if (got[i] != want[i])
-            LT_FAIL("%s: pair %zu is (%u, %u), expected (%u, %u)", what, i / 2, got[i & ~(size_t)1], got[i | 1], want[i & ~(size_t)1], want[i | 1]);
+            LT_FAIL("%s: pair %zu is (%u, %u), expected (%u, %u)", what, i / 2, got[i & ~(size_t)1], got[i | 1],
+                    want[i & ~(size_t)1], want[i | 1]);
 }
 
 static void same_pairs(const locd_pairs *got, const locd_pairs *want, const char *what)

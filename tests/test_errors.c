@@ -244,7 +244,8 @@ static void into_buffer_too_small_keeps_pairs_available(void)
     uint32_t small[4];
     const uint32_t *last;
     uint32_t *big;
-    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_BUFFER_TOO_SMALL, locd_engine_find_pairs_f32_into(f->e, b, n, 0, small, 2, &count));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_BUFFER_TOO_SMALL,
+                            locd_engine_find_pairs_f32_into(f->e, b, n, 0, small, 2, &count));
     TEST_ASSERT_TRUE(count > 2);
     TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_last_pairs(f->e, &last, &m));
     TEST_ASSERT_EQUAL_INT64(count, m);
@@ -264,8 +265,9 @@ static void statuses_have_strings_and_version_matches(void)
         TEST_ASSERT_NOT_NULL(locd_status_string(s));
     TEST_ASSERT_NOT_NULL(locd_status_string(LOCD_ERR_NONFINITE));
     TEST_ASSERT_NOT_NULL(locd_status_string(LOCD_ERR_INVERTED_BOX));
-    TEST_ASSERT_TRUE_MESSAGE(strcmp(locd_status_string(LOCD_ERR_NONFINITE), locd_status_string(LOCD_ERR_INVERTED_BOX)) != 0,
-                             "two statuses share a string");
+    TEST_ASSERT_TRUE_MESSAGE(
+        strcmp(locd_status_string(LOCD_ERR_NONFINITE), locd_status_string(LOCD_ERR_INVERTED_BOX)) != 0,
+        "two statuses share a string");
     TEST_ASSERT_EQUAL_INT64(LOCD_VERSION, locd_version());
     TEST_ASSERT_EQUAL_STRING(LOCD_VERSION_STRING, locd_version_string());
 }

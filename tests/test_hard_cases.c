@@ -244,7 +244,7 @@ static void print_service_log(void)
     int status;
     if (service_pid > 0 && waitpid(service_pid, &status, WNOHANG) == service_pid) {
         LT_PRINT("locd serve exited: %s %d\n", WIFSIGNALED(status) ? "signal" : "status",
-                    WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status));
+                 WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status));
         service_pid = -1;
     }
     if (!f)
@@ -322,7 +322,7 @@ static uint64_t *sorted_keys(const uint32_t *p, size_t m)
 static void print_box(const char *tag, const double *b, uint32_t i)
 {
     LT_PRINT("  %s box %u: [%.17g %.17g %.17g] - [%.17g %.17g %.17g]\n", tag, i, b[6 * i], b[6 * i + 1],
-                b[6 * i + 2], b[6 * i + 3], b[6 * i + 4], b[6 * i + 5]);
+             b[6 * i + 2], b[6 * i + 3], b[6 * i + 4], b[6 * i + 5]);
 }
 
 /* Reports the first difference between two sorted key arrays. */
@@ -429,7 +429,8 @@ static size_t check_scene(const void *boxes, size_t n, int f64, const char *what
         if (st != LOCD_OK && R->level == 3)
             print_service_log();
         if (st != LOCD_OK)
-            LT_FAIL("%s (%s, n %zu, %s): status %d %s: %s", what, f64 ? "f64" : "f32", n, R->name, st, locd_status_string(st), locd_last_error());
+            LT_FAIL("%s (%s, n %zu, %s): status %d %s: %s", what, f64 ? "f64" : "f32", n, R->name, st,
+                    locd_status_string(st), locd_last_error());
         c = locd_pairs_count(p);
         if (first_order[R->group]) {
             /* The same bytes as the group's first engine (already checked
@@ -438,13 +439,13 @@ static size_t check_scene(const void *boxes, size_t n, int f64, const char *what
                 (!c || !memcmp(first_order[R->group], locd_pairs_data(p), c * 2 * sizeof(uint32_t))))
                 continue;
             LT_PRINT("%s (%s, n %zu, %s): pair order differs from the first engine of its group\n", what,
-                        f64 ? "f64" : "f32", n, R->name);
+                     f64 ? "f64" : "f32", n, R->name);
             failed = 1;
         }
         got = sorted_keys(locd_pairs_data(p), c);
         if (c != m || (m && memcmp(got, ref, m * sizeof *ref) != 0)) {
             LT_PRINT("%s (%s, n %zu, %s): %zu pairs, brute force %zu\n", what, f64 ? "f64" : "f32", n, R->name, c,
-                        m);
+                     m);
             explain_difference(ref, m, got, c, wide);
             failed = 1;
         }
@@ -1365,11 +1366,14 @@ static void bad_values_name_the_first_bad_box(void)
                         prime(runners[r].e, p);
                         if (locd_engine_find_pairs_f32(runners[r].e, u, n, 0, p) != want ||
                             locd_last_error_index() != (int64_t)at)
-                            LT_FAIL("%s: f32 n %zu bad value kind %d at box %zu coord %d: got index %lld (%s)", runners[r].name, n, kind, at, coord, (long long)locd_last_error_index(), locd_last_error());
+                            LT_FAIL("%s: f32 n %zu bad value kind %d at box %zu coord %d: got index %lld (%s)",
+                                    runners[r].name, n, kind, at, coord, (long long)locd_last_error_index(),
+                                    locd_last_error());
                         assert_primed(p);
                         if (locd_engine_find_pairs_f64(runners[r].e, d, n, 0, p) != want ||
                             locd_last_error_index() != (int64_t)at)
-                            LT_FAIL("%s: f64 n %zu bad value kind %d at box %zu coord %d", runners[r].name, n, kind, at, coord);
+                            LT_FAIL("%s: f64 n %zu bad value kind %d at box %zu coord %d", runners[r].name, n, kind, at,
+                                    coord);
                         assert_primed(p);
                         u[6 * at + coord] = sf;
                         d[6 * at + coord] = sd;
@@ -1617,7 +1621,8 @@ static void randomized_search(void)
         scenes++;
         sc_free(&s);
     }
-    LT_PRINT("# randomized search: %zu scenes, %zu pairs, seed %llu, budget %.0f ms\n", scenes, pairs, (unsigned long long)seed, budget);
+    LT_PRINT("# randomized search: %zu scenes, %zu pairs, seed %llu, budget %.0f ms\n", scenes, pairs,
+             (unsigned long long)seed, budget);
     TEST_ASSERT_TRUE(scenes > 0);
     trim_runners();
 }

@@ -78,7 +78,8 @@ static void levels_give_identical_pairs(void)
                 if (st != LOCD_OK)
                     LT_FAIL("engine %d kind %d n %zu: %s", o, kind, n, locd_last_error());
                 if (!lu_same_pairs(ref, got))
-                    LT_FAIL("engine %d (level %d) differs from level 1: kind %d n %zu (%zu vs %zu pairs)", o, locd_engine_level(others[o]), kind, n, locd_pairs_count(got), locd_pairs_count(ref));
+                    LT_FAIL("engine %d (level %d) differs from level 1: kind %d n %zu (%zu vs %zu pairs)", o,
+                            locd_engine_level(others[o]), kind, n, locd_pairs_count(got), locd_pairs_count(ref));
             }
             /* float64 entry points, sorted order */
             TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f64(e1, d, n, LOCD_FIND_SORTED, ref));
@@ -127,7 +128,8 @@ static void octree_settings_reach_every_level(void)
             TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
             TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, n, 0, level == 1 ? ref : got));
             if (level > 1 && !lu_same_pairs(ref, got))
-                LT_FAIL("level %d differs from level 1 with depth %u bias %d flags %u", level, v[i].depth, (int)v[i].bias, v[i].flags);
+                LT_FAIL("level %d differs from level 1 with depth %u bias %d flags %u", level, v[i].depth,
+                        (int)v[i].bias, v[i].flags);
             if (level == 1 && !ts_same_as_brute_f32(b, n, ref))
                 LT_FAIL("level 1 differs from brute force with depth %u", v[i].depth);
             locd_engine_destroy(e);
@@ -271,7 +273,8 @@ static void queued_jobs_levels_1_and_2(void)
         for (i = 0; i < 12; i++) {
             n[i] = 300 + 400 * (size_t)i;
             b[i] = ts_scene(i % 2 ? 2 : 0, n[i], 900 + (uint64_t)i);
-            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, b[i], n[i], i % 3 ? 0 : LOCD_FIND_SORTED, &j[i]));
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                                    locd_engine_submit_f32(e, b[i], n[i], i % 3 ? 0 : LOCD_FIND_SORTED, &j[i]));
         }
         {
             locd_status s = locd_engine_find_pairs_f32(e, b[0], n[0], 0, p); /* busy unless all are done */

@@ -136,7 +136,8 @@ static void general_paths_match_closed_forms(void)
             for (route = LOCD_ROUTE_CCD; route <= LOCD_ROUTE_FCL; route++) {
                 int method;
                 if (test_hit(a, pa, b, pb, route) != want)
-                    LT_FAIL("iter %d kinds %d route %d: yes/no differs from the closed form (%d)", iter, kinds, route, want);
+                    LT_FAIL("iter %d kinds %d route %d: yes/no differs from the closed form (%d)", iter, kinds, route,
+                            want);
                 for (method = 0; method < (route == LOCD_ROUTE_CCD ? 2 : 1) && want; method++) {
                     double c[7];
                     char what[64];
@@ -506,7 +507,8 @@ static void route_box_skips_shape_test(void)
     TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_collide(w, &o, c, &s));
     TEST_ASSERT_EQUAL_INT64(0, locd_contacts_count(c));
     TEST_ASSERT_EQUAL_INT64(1, s.tests_closed);
-    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_SPHERE, LOCD_ROUTE_BOX));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_SPHERE, LOCD_ROUTE_BOX));
     locd_pipeline_stats_init(&s);
     TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_collide(w, &o, c, &s));
     TEST_ASSERT_EQUAL_INT64(1, locd_contacts_count(c));
