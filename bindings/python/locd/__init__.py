@@ -5,7 +5,8 @@ per object, float32 (zero-copy: read in place when C-contiguous) or float64
 (computed in float64, also zero-copy when C-contiguous). Two boxes
 overlap iff on every axis ``a.min <= b.max and b.min <= a.max`` (closed
 intervals: touching faces, edges and corners count; zero-size boxes are
-valid). The result is exactly the overlapping pairs as an (m, 2) uint32 array,
+valid). Integer arrays and lists are converted to float64. The result is exactly
+the overlapping pairs as an (m, 2) uint32 array (``index_dtype=numpy.int64`` for int64),
 ``i < j``, each pair once, in an order that does not depend on the thread
 count, the integration level or the run (``sort=True`` orders it by (i, j)).
 
@@ -23,10 +24,13 @@ Main entry points:
 - :mod:`locd.abi` -- the same ``find_pairs`` through cffi's ABI mode (no
   compiler, only the shared library and the public header's declarations).
 
-Errors: bad boxes raise :class:`InvalidBoxError` (a ``ValueError`` whose
-``index`` names the first bad box); wrong shapes raise ``ValueError``, wrong
-dtypes ``TypeError``; any other failure raises :class:`Error` carrying the C
-status code. The GIL is released while the C library works.
+Errors: arguments Python checks raise ``ValueError`` / ``TypeError``; failures
+the C library reports raise a subclass of :class:`Error` chosen by the status
+(``ERRORS``), which also derives from the matching builtin: bad boxes raise
+:class:`InvalidBoxError` (a ``ValueError`` whose ``index`` names the first bad
+box), a busy engine :class:`BusyError`, an unreachable service
+:class:`ConnectionFailedError` (a ``ConnectionError``)... The GIL is released
+while the C library works.
 """
 from __future__ import annotations
 

@@ -23,6 +23,7 @@ python -m pip wheel --disable-pip-version-check --no-deps --no-build-isolation \
   -Cbuild-dir="$OUT/build" -w "$OUT/dist" "$ROOT"
 auditwheel repair -w "$OUT/repaired" "$OUT"/dist/locd-*.whl
 whl=$(ls "$OUT"/repaired/locd-*.whl)
+echo "[20-python] wheel built and repaired: ${SECONDS}s"
 auditwheel show "$whl" | tee "$OUT/auditwheel-show.txt"
 if tr -s ' \n' ' ' < "$OUT/auditwheel-show.txt" | grep -q 'consistent with the following platform tag: "manylinux_'; then
   case_ manylinux_tag passed
@@ -40,6 +41,7 @@ fi
 python3 -m venv "$OUT/venv"
 "$OUT/venv/bin/python" -m pip install -q --disable-pip-version-check "$whl" pytest hypothesis
 PY="$OUT/venv/bin/python"
+echo "[20-python] fresh venv ready: ${SECONDS}s"
 pkg=$("$PY" -c 'import os, locd; print(os.path.dirname(locd.__file__))')
 
 # 3. Every FCL/libccd/octomap library the package needs resolves inside the
@@ -78,4 +80,5 @@ if [ -x "$ROOT/build-ci/c/tools/locd" ]; then
   LOCD_CLI="$ROOT/build-ci/c/tools/locd" "${run[@]}" --junitxml="$LOCD_RESULTS/python-cli.junit.xml" \
     -k "test_service_in_another_process" "$ROOT/tests/python/test_jobs_levels.py" || rc=$?
 fi
+echo "[20-python] suite done: ${SECONDS}s"
 exit $rc
