@@ -38,8 +38,10 @@ else
 fi
 
 # 2. A fresh venv with nothing but the wheel and the test tools.
-python3 -m venv "$OUT/venv"
-"$OUT/venv/bin/python" -m pip install -q --disable-pip-version-check "$whl" pytest hypothesis
+# No pip inside it (bootstrapping one costs seconds): the project venv's pip
+# installs into it with --python.
+python3 -m venv --without-pip "$OUT/venv"
+python -m pip --python "$OUT/venv/bin/python" install -q --disable-pip-version-check "$whl" pytest hypothesis
 PY="$OUT/venv/bin/python"
 echo "[20-python] fresh venv ready: ${SECONDS}s"
 pkg=$("$PY" -c 'import os, locd; print(os.path.dirname(locd.__file__))')
