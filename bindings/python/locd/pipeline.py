@@ -18,7 +18,7 @@ object to its second.
     ([[0, 1]], 0.15)
 
 Without the narrow phase in the library (built without libccd/FCL), every
-call raises :class:`locd.Error` with status ``ERR_UNSUPPORTED``.
+call raises :class:`locd.UnsupportedError` (status ``ERR_UNSUPPORTED``).
 """
 from __future__ import annotations
 
