@@ -12,7 +12,6 @@
 #include <cstdint>
 #include <cstring>
 #include <mutex>
-#include <condition_variable>
 #include <string>
 #include <thread>
 #include <vector>
@@ -247,9 +246,12 @@ private:
 // A submitted job. Python's locd.Job (a concurrent.futures.Future) waits on
 // it from a thread of its own and adds the future's semantics on top.
 //
-// mutex_ guards job_ against release(), but is never held across the
-// blocking locd_job_wait: cancel() (which wakes that wait) must not queue
-// behind it. release() instead cancels and waits for the waiters to leave.
+// mutex_ guards job_, but is never held across the blocking locd_job_wait:
+// cancel() (which wakes that wait) must not queue behind it. release()
+// cancels, and the C job is freed by whoever leaves last: release() itself,
+// or the last wait() still inside locd_job_wait. (No condition variable:
+// GCC 12's std::condition_variable::wait needs GLIBCXX_3.4.30, which would
+// raise the wheel's manylinux tag.)
 class Job {
 public:
     explicit Job(locd_job *job) : job_(job) {}
@@ -280,9 +282,13 @@ public:
             if (!job)
                 return LOCD_ERR_CANCELLED;
             st = locd_job_wait(job, timeout_ms);
-            std::lock_guard<std::mutex> lock(mutex_);
-            if (--waiters_ == 0)
-                left_.notify_all();
+            bool last;
+            {
+                std::lock_guard<std::mutex> lock(mutex_);
+                last = --waiters_ == 0 && !job_;
+            }
+            if (last) // released meanwhile: the job is ours to free
+                locd_job_release(job);
         }
         return checked(st);
     }
@@ -333,13 +339,20 @@ public:
     void release()
     {
         py::gil_scoped_release nogil;
-        std::unique_lock<std::mutex> lock(mutex_);
-        if (!job_)
-            return;
-        locd_job_cancel(job_); // wakes every waiter (a finished job stays finished)
-        left_.wait(lock, [this] { return waiters_ == 0; });
-        locd_job_release(job_);
-        job_ = nullptr;
+        locd_job *job;
+        bool now;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            job = job_;
+            if (!job)
+                return;
+            job_ = nullptr;
+            now = waiters_ == 0;
+            if (!now)
+                locd_job_cancel(job); // wakes the waiters; the last one frees the job
+        }
+        if (now)
+            locd_job_release(job);
     }
 
 private:
@@ -352,8 +365,7 @@ private:
 
     locd_job *job_ = nullptr;
     std::mutex mutex_;
-    std::condition_variable left_;
-    int waiters_ = 0;
+    int waiters_ = 0; // threads inside locd_job_wait
 };
 
 Job *submit(Engine &engine, py::handle boxes_obj, bool sort)
