@@ -7,6 +7,8 @@ import concurrent.futures
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import locd
 import locd.abi
@@ -38,6 +40,21 @@ def test_integer_boxes_are_accepted_like_lists(find, dtype):
     assert len(got) > 0
     # A strided integer view converts too.
     np.testing.assert_array_equal(find(np.asfortranarray(boxes), sort=True), expected)
+
+
+@given(st.integers(1, 300), st.sampled_from([np.int16, np.int64, np.uint32]), st.integers(0, 2 ** 32 - 1),
+       st.sampled_from([0, 2 ** 40]))
+def test_random_integer_boxes_match_the_reference(n, dtype, seed, offset):
+    """Small integer boxes on a coarse grid (many exact ties), shifted far from 0 for int64/uint32."""
+    rng = np.random.default_rng(seed)
+    lo = rng.integers(0, 12, size=(n, 3))
+    boxes = np.hstack([lo, lo + rng.integers(0, 4, size=(n, 3))])
+    if np.dtype(dtype).itemsize >= 8:
+        boxes = boxes + offset
+    boxes = boxes.astype(dtype)
+    expected = numpy_pairs(boxes.astype(np.float64))
+    np.testing.assert_array_equal(locd.find_pairs(boxes, sort=True), expected)
+    np.testing.assert_array_equal(locd.abi.find_pairs(boxes, sort=True, index_dtype=np.int64), expected)
 
 
 @pytest.mark.parametrize("find", FINDERS)
