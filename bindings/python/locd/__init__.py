@@ -5,7 +5,8 @@ per object, float32 (zero-copy: read in place when C-contiguous) or float64
 (computed in float64, also zero-copy when C-contiguous). Two boxes
 overlap iff on every axis ``a.min <= b.max and b.min <= a.max`` (closed
 intervals: touching faces, edges and corners count; zero-size boxes are
-valid). The result is exactly the overlapping pairs as an (m, 2) uint32 array,
+valid). Integer arrays and lists are converted to float64. The result is exactly
+the overlapping pairs as an (m, 2) uint32 array (``index_dtype=numpy.int64`` for int64),
 ``i < j``, each pair once, in an order that does not depend on the thread
 count, the integration level or the run (``sort=True`` orders it by (i, j)).
 
@@ -23,14 +24,19 @@ Main entry points:
 - :mod:`locd.abi` -- the same ``find_pairs`` through cffi's ABI mode (no
   compiler, only the shared library and the public header's declarations).
 
-Errors: bad boxes raise :class:`InvalidBoxError` (a ``ValueError`` whose
-``index`` names the first bad box); wrong shapes raise ``ValueError``, wrong
-dtypes ``TypeError``; any other failure raises :class:`Error` carrying the C
-status code. The GIL is released while the C library works.
+Errors: arguments Python checks raise ``ValueError`` / ``TypeError``; failures
+the C library reports raise a subclass of :class:`Error` chosen by the status
+(``ERRORS``), which also derives from the matching builtin: bad boxes raise
+:class:`InvalidBoxError` (a ``ValueError`` whose ``index`` names the first bad
+box), a busy engine :class:`BusyError`, an unreachable service
+:class:`ConnectionFailedError` (a ``ConnectionError``)... The GIL is released
+while the C library works.
 """
 from __future__ import annotations
 
 import concurrent.futures
+import numbers
+import os
 import dataclasses
 import math
 import threading
@@ -39,11 +45,17 @@ from typing import Any, Dict, Optional, Union
 
 import numpy as np
 
-from . import _core
-from ._errors import STATUS, Error, InvalidBoxError
+from . import _arrays, _core
+from ._errors import (ERRORS, STATUS, AuthError, BusyError, ClosedError, ConnectionFailedError, Error, InternalError,
+                      InvalidArgumentError, InvalidBoxError, IOFailedError, JobCancelledError, NoMemoryError,
+                      ProtocolError, ShapeError, UnsupportedError, WaitTimeoutError, WorkerError)
 
-__all__ = ["find_pairs", "brute_force", "Engine", "Job", "Service", "Stats", "Error", "InvalidBoxError", "STATUS",
-           "LEVELS", "__version__"]
+Future = concurrent.futures.Future
+
+__all__ = ["find_pairs", "brute_force", "Engine", "Job", "Service", "Stats", "STATUS", "LEVELS", "__version__",
+           "Error", "ERRORS", "InvalidArgumentError", "InvalidBoxError", "ShapeError", "ClosedError", "NoMemoryError",
+           "BusyError", "UnsupportedError", "WorkerError", "ConnectionFailedError", "IOFailedError", "ProtocolError",
+           "AuthError", "WaitTimeoutError", "JobCancelledError", "InternalError"]
 
 #: Version of the loaded C library (the Meson project version).
 __version__: str = _core.version()
@@ -53,7 +65,6 @@ LEVELS: Dict[str, int] = {"inprocess": 1, "workers": 2, "service": 3}
 
 _OK = STATUS["OK"]
 _PENDING = STATUS["PENDING"]
-_TIMEOUT = STATUS["ERR_TIMEOUT"]
 _CANCELLED = STATUS["ERR_CANCELLED"]
 
 
@@ -87,10 +98,27 @@ class Stats:
         return dataclasses.asdict(self)
 
 
+def _integer(name: str, value: Any) -> int:
+    """An int from a Python or numpy integer; anything else (floats, strings, bools) is a TypeError."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError("%s must be an integer, got %s" % (name, type(value).__name__))
+    return int(value)
+
+
+def _text(name: str, value: Any) -> Optional[str]:
+    if value is None:
+        return None
+    if isinstance(value, os.PathLike):
+        value = os.fspath(value)
+    if not isinstance(value, str):
+        raise TypeError("%s must be a str or None, got %s" % (name, type(value).__name__))
+    return value
+
+
 def _count(name: str, value: Optional[int]) -> int:
     if value is None:
         return 0
-    value = int(value)
+    value = _integer(name, value)
     if value < 1:
         raise ValueError("%s must be >= 1 (or None for one per core), got %d" % (name, value))
     return value
@@ -133,7 +161,7 @@ class Engine:
                 raise ValueError("level must be one of %s, got %r" % (", ".join(map(repr, LEVELS)), level))
             lvl = LEVELS[level]
         else:
-            lvl = int(level)
+            lvl = _integer("level", level)
             if lvl not in LEVELS.values():
                 raise ValueError("level must be 1, 2 or 3, got %d" % lvl)
         if workers is not None and lvl != LEVELS["workers"]:
@@ -144,11 +172,16 @@ class Engine:
                        workers if lvl == LEVELS["workers"] else threads)
         if lvl == LEVELS["service"] and not service:
             raise ValueError("level='service' needs service='unix:/path.sock' or 'tcp:host:port'")
+        max_depth = _integer("max_depth", max_depth)
+        cell_bias = _integer("cell_bias", cell_bias)
         if max_depth < 0:
             raise ValueError("max_depth must be >= 0, got %d" % max_depth)
+        if not 0 <= cell_bias <= 8:
+            raise ValueError("cell_bias must be in 0..8, got %d" % cell_bias)
+        service, secret = _text("service", service), _text("secret", secret)
+        worker_path = _text("worker_path", worker_path)
         self._jobs: "weakref.WeakSet[Job]" = weakref.WeakSet()
-        self._core = _core.Engine(lvl, count, int(max_depth), int(cell_bias), bool(cubes), service, secret,
-                                  worker_path)
+        self._core = _core.Engine(lvl, count, max_depth, cell_bias, bool(cubes), service, secret, worker_path)
 
     # -- lifetime -------------------------------------------------------------
     def close(self) -> None:
@@ -195,17 +228,19 @@ class Engine:
 
     def _check_open(self) -> None:
         if self._core.closed:
-            raise ValueError("the engine is closed")
+            raise ClosedError(STATUS["ERR_INVALID_HANDLE"], "the engine is closed")
 
     # -- work -----------------------------------------------------------------
-    def find_pairs(self, boxes: Any, *, sort: bool = False) -> np.ndarray:
-        """Every overlapping pair of ``boxes`` as an (m, 2) uint32 array, i < j.
+    def find_pairs(self, boxes: Any, *, sort: bool = False, index_dtype: Any = np.uint32) -> np.ndarray:
+        """Every overlapping pair of ``boxes`` as an (m, 2) array, i < j.
 
-        ``boxes``: (n, 6) float32 or float64 array (float32 C-contiguous is read
-        in place; other layouts are converted). ``sort=True`` orders the pairs
-        by (i, j); otherwise the order is deterministic but unspecified.
+        ``boxes``: (n, 6) float32 or float64 array (read in place when
+        C-contiguous), or integers/lists (converted to float64).
+        ``sort=True`` orders the pairs by (i, j); otherwise the order is
+        deterministic but unspecified. ``index_dtype``: ``numpy.uint32``
+        (default) or ``numpy.int64``.
         """
-        return self._core.find_pairs(boxes, bool(sort))
+        return self._core.find_pairs(boxes, bool(sort), _arrays.index_dtype(index_dtype))
 
     @property
     def stats(self) -> Stats:
@@ -213,67 +248,108 @@ class Engine:
         self._check_open()
         return Stats(**self._core.stats())
 
-    def submit(self, boxes: Any, *, sort: bool = False) -> "Job":
-        """Starts finding the pairs asynchronously and returns a :class:`Job`.
+    def submit(self, boxes: Any, *, sort: bool = False, index_dtype: Any = np.uint32) -> "Job":
+        """Starts finding the pairs asynchronously and returns a :class:`Job` (a ``concurrent.futures.Future``).
 
         The boxes are copied, so the array may be reused at once.
         """
-        job = Job(self._core.submit(boxes, bool(sort)))
+        wide = _arrays.index_dtype(index_dtype)
+        job = Job(self._core.submit(boxes, bool(sort)), wide, self)
         self._jobs.add(job)
         return job
 
 
-class Job:
-    """An asynchronous :meth:`Engine.submit` call (concurrent.futures style)."""
+class Job(concurrent.futures.Future):
+    """An asynchronous :meth:`Engine.submit` call: a real ``concurrent.futures.Future``.
 
-    def __init__(self, core: Any) -> None:
+    It works with ``concurrent.futures.as_completed`` and ``wait``,
+    ``asyncio.wrap_future``, ``add_done_callback``, ``result(timeout)``,
+    ``exception(timeout)`` and ``cancel()``. A thread of its own waits for the
+    C job (blocked in ``locd_job_wait``, the GIL released: no polling) and
+    sets the result, the exception or the cancellation; it ends as soon as the
+    job does, and done-callbacks run on it. ``cancel()`` calls
+    ``locd_job_cancel``: it returns False only if the job had already
+    finished. ``running()`` is True until the job is done.
+    """
+
+    def __init__(self, core: Any, wide: bool, engine: "Engine") -> None:
+        super().__init__()
         self._core = core
-        self._result: Optional[np.ndarray] = None
-        self._lock = threading.Lock()
+        self._engine: Optional[Engine] = engine  # an unfinished job keeps its engine open
+        self._wide = wide
+        self._stats: Optional[Stats] = None
+        self._cancel_lock = threading.RLock()
+        self._notified = False
+        self._waiter = threading.Thread(target=self._wait, name="locd-job-waiter", daemon=True)
+        self._waiter.start()
 
-    def done(self) -> bool:
-        """True when the job finished (successfully, with an error or cancelled)."""
-        return self._result is not None or self._core.poll() != _PENDING
+    # -- the waiter thread ----------------------------------------------------
+    def _wait(self) -> None:
+        try:
+            status = self._core.wait(-1)
+            if status == _OK:
+                pairs = self._core.take(self._wide)
+                self._stats = Stats(**self._core.stats())
+                self._settle(pairs, None)
+            else:  # LOCD_ERR_CANCELLED (no timeout with -1)
+                self._mark_cancelled()
+        except BaseException as e:  # the job's own error (InvalidBoxError, ConnectionFailedError, ...)
+            self._settle(None, e)
+        finally:
+            self._engine = None
 
-    def cancelled(self) -> bool:
-        return self._result is None and self._core.poll() == _CANCELLED
+    def _settle(self, pairs: Optional[np.ndarray], exc: Optional[BaseException]) -> None:
+        with self._cancel_lock:
+            if self.cancelled():
+                return
+            try:
+                if exc is None:
+                    self.set_result(pairs)
+                else:
+                    self.set_exception(exc)
+            except concurrent.futures.InvalidStateError:
+                pass
 
+    def _mark_cancelled(self) -> None:
+        # PENDING -> CANCELLED (wakes result(), runs callbacks), then ->
+        # CANCELLED_AND_NOTIFIED, which as_completed() and wait() look for.
+        with self._cancel_lock:
+            if Future.cancel(self) and not self._notified:
+                self._notified = True
+                self.set_running_or_notify_cancel()
+
+    # -- the Future API -------------------------------------------------------
     def cancel(self) -> bool:
-        """Asks the job to stop. True unless it had already finished."""
-        if self._result is not None or self._core.poll() == _OK:
-            return False
+        """Cancels the job (``locd_job_cancel``). True unless it had already finished."""
+        if self.done():
+            return self.cancelled()
         self._core.cancel()
-        return self._core.poll() != _OK
+        if self._core.poll() != _CANCELLED:
+            return False  # it finished first: the waiter sets its result
+        self._mark_cancelled()
+        return True
 
-    def result(self, timeout: Optional[float] = None) -> np.ndarray:
-        """Waits for the pairs (an (m, 2) uint32 array) at most ``timeout`` seconds.
-
-        Raises ``TimeoutError`` if the job is still running then (it keeps
-        running), ``concurrent.futures.CancelledError`` if it was cancelled, or
-        the job's own :class:`Error`.
-        """
-        with self._lock:
-            if self._result is not None:
-                return self._result
-            ms = -1 if timeout is None else max(0, int(math.ceil(timeout * 1000.0)))
-            status = self._core.wait(ms)
-            if status == _TIMEOUT:
-                raise concurrent.futures.TimeoutError("locd job still running after %.3f s" % timeout)
-            if status == _CANCELLED:
-                raise concurrent.futures.CancelledError("locd job was cancelled")
-            self._result = self._core.take()
-            return self._result
+    def running(self) -> bool:
+        """True until the job is done (it is queued or running in the library)."""
+        return not self.done()
 
     @property
     def stats(self) -> Stats:
-        """:class:`Stats` of the finished job."""
-        return Stats(**self._core.stats())
+        """:class:`Stats` of the finished job (waits for it, like ``result()``)."""
+        self.result()
+        assert self._stats is not None
+        return self._stats
 
     def _release(self) -> None:
+        """Cancels the job if unfinished and frees the C job (Engine.close)."""
+        self._core.cancel()
+        if self._waiter is not threading.current_thread():
+            self._waiter.join()
         self._core.release()
 
     def __repr__(self) -> str:
-        state = "finished" if self._result is not None else "running" if not self.done() else "done"
+        state = ("cancelled" if self.cancelled() else "failed" if self.done() and self.exception() else
+                 "finished" if self.done() else "running")
         return "<locd.Job %s>" % state
 
 
@@ -294,7 +370,7 @@ class Service:
 
     def __init__(self, listen: Optional[str] = None, *, secret: Optional[str] = None,
                  threads: Optional[int] = None, engine_threads: Optional[int] = None) -> None:
-        self._core = _core.Service(listen, secret, _count("threads", threads),
+        self._core = _core.Service(_text("listen", listen), _text("secret", secret), _count("threads", threads),
                                    _count("engine_threads", engine_threads))
 
     @property
@@ -330,27 +406,33 @@ def _engine_for(threads: Optional[int]) -> Engine:
     return engine
 
 
-def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False) -> np.ndarray:
-    """Every overlapping pair of ``boxes`` as an (m, 2) uint32 array, i < j.
+def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False,
+               index_dtype: Any = np.uint32) -> np.ndarray:
+    """Every overlapping pair of ``boxes`` as an (m, 2) array, i < j.
 
     Args:
         boxes: (n, 6) array, rows ``minx miny minz maxx maxy maxz``; float32
-            (zero-copy when C-contiguous) or float64 (computed in float64).
+            (zero-copy when C-contiguous) or float64 (computed in float64);
+            integer arrays and lists are converted to float64.
         threads: threads to use (None = one per core).
         sort: order the pairs by (i, j) (costs time); otherwise the order is
             deterministic (the same for every thread count and run).
+        index_dtype: ``numpy.uint32`` (default, the library's own indices) or
+            ``numpy.int64`` (subtracting columns cannot wrap).
 
     Raises:
         InvalidBoxError: a box has NaN/inf coordinates or min > max (``.index``).
-        ValueError: ``boxes`` is not of shape (n, 6).
-        TypeError: ``boxes`` is not float32/float64.
+        ValueError: ``boxes`` is not of shape (n, 6), or a bad option value.
+        TypeError: ``boxes`` has a dtype that is neither float32/float64 nor
+            integer, or an option has the wrong type.
 
     Each Python thread gets its own engine (kept for later calls), so calls
     from several threads run in parallel.
     """
-    return _engine_for(threads)._core.find_pairs(boxes, bool(sort))
+    wide = _arrays.index_dtype(index_dtype)
+    return _engine_for(threads)._core.find_pairs(boxes, bool(sort), wide)
 
 
-def brute_force(boxes: Any) -> np.ndarray:
+def brute_force(boxes: Any, *, index_dtype: Any = np.uint32) -> np.ndarray:
     """The O(n^2) C reference: every overlapping pair, sorted by (i, j). For tests and tiny scenes."""
-    return _core.brute_force(boxes)
+    return _core.brute_force(boxes, _arrays.index_dtype(index_dtype))

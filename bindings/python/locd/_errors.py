@@ -1,5 +1,17 @@
-"""Exceptions raised by locd (shared by the pybind11 and the cffi modules)."""
+"""Exceptions raised by locd (shared by the pybind11 and the cffi modules).
+
+One mapping everywhere: arguments that Python can check itself raise the
+builtin ``ValueError`` / ``TypeError``; every failure the C library reports
+raises a subclass of :class:`Error` chosen by its ``locd_status``
+(:data:`ERRORS`). The subclasses also derive from the builtin exception that
+names the same kind of failure (``ValueError`` for bad input found by C,
+``MemoryError``, ``ConnectionError``, ``OSError``...), so code that
+catches builtins keeps working. docs/python.md has the table.
+"""
 from __future__ import annotations
+
+import concurrent.futures
+from typing import Dict, Type
 
 from ._cdef import CONSTANTS
 
@@ -14,7 +26,7 @@ class Error(Exception):
 
     Attributes: ``status`` (the C library's negative ``locd_status`` code),
     ``name`` (e.g. ``'ERR_NO_MEMORY'``), ``detail`` (the library's message for
-    the failed call) and ``index`` (the first bad box, or -1).
+    the failed call) and ``index`` (the first bad box or id, or -1).
     """
 
     def __init__(self, status: int, message: str, detail: str = "", index: int = -1):
@@ -24,17 +36,105 @@ class Error(Exception):
         self.detail = detail
         self.index = index
 
+    def __reduce__(self):  # picklable (multiprocessing, concurrent.futures.ProcessPoolExecutor)
+        return (type(self), (self.status, str(self), self.detail, self.index))
 
-class InvalidBoxError(Error, ValueError):
+
+class InvalidArgumentError(Error, ValueError):
+    """The C library rejected an argument (an option out of range, too many objects, a bad id...)."""
+
+
+class InvalidBoxError(InvalidArgumentError):
     """A box has a NaN/infinite coordinate or min > max; ``index`` names it."""
+
+
+class ShapeError(InvalidArgumentError):
+    """A shape description is invalid (locd.pipeline)."""
+
+
+class ClosedError(Error, ValueError):
+    """The handle is closed or invalid (like I/O on a closed file: a ``ValueError``)."""
+
+
+class NoMemoryError(Error, MemoryError):
+    """An allocation failed; nothing was changed."""
+
+
+class BusyError(Error):
+    """The engine is running another call or job (levels 1 and 2)."""
+
+
+class UnsupportedError(Error, NotImplementedError):
+    """The feature or level is not in this build of the library."""
+
+
+class WorkerError(Error):
+    """A worker process failed or died, or a thread could not be started."""
+
+
+class ConnectionFailedError(Error, ConnectionError):
+    """The service is unreachable or went away."""
+
+
+class IOFailedError(Error, OSError):
+    """A shared memory, socket or file operation failed."""
+
+
+class ProtocolError(Error):
+    """A malformed or unexpected message from the service."""
+
+
+class AuthError(Error, PermissionError):
+    """The service refused the shared secret."""
+
+
+class WaitTimeoutError(Error, concurrent.futures.TimeoutError):
+    """A wait ran out of time; the work is still running."""
+
+
+class JobCancelledError(Error, concurrent.futures.CancelledError):
+    """The job was cancelled."""
+
+
+class InternalError(Error):
+    """A bug in locd: please report it."""
+
+
+#: Status name -> the exception class raised for it (anything else: :class:`Error`).
+ERRORS: Dict[str, Type[Error]] = {
+    "ERR_INVALID_ARGUMENT": InvalidArgumentError,
+    "ERR_NULL_POINTER": InvalidArgumentError,
+    "ERR_TOO_MANY_OBJECTS": InvalidArgumentError,
+    "ERR_BUFFER_TOO_SMALL": InvalidArgumentError,
+    "ERR_STALE_ID": InvalidArgumentError,
+    "ERR_DUPLICATE_ID": InvalidArgumentError,
+    "ERR_NONFINITE": InvalidBoxError,
+    "ERR_INVERTED_BOX": InvalidBoxError,
+    "ERR_SHAPE": ShapeError,
+    "ERR_INVALID_HANDLE": ClosedError,
+    "ERR_NO_MEMORY": NoMemoryError,
+    "ERR_BUSY": BusyError,
+    "ERR_THREAD": WorkerError,
+    "ERR_WORKER": WorkerError,
+    "ERR_UNSUPPORTED": UnsupportedError,
+    "ERR_IO": IOFailedError,
+    "ERR_CONNECTION": ConnectionFailedError,
+    "ERR_PROTOCOL": ProtocolError,
+    "ERR_AUTH": AuthError,
+    "ERR_TIMEOUT": WaitTimeoutError,
+    "ERR_CANCELLED": JobCancelledError,
+    "ERR_INTERNAL": InternalError,
+}
+_BY_STATUS = {STATUS[name]: cls for name, cls in ERRORS.items() if name in STATUS}
 
 
 def from_status(status: int, text: str, detail: str, index: int) -> Error:
     """Builds the exception for a failed call (text: locd_status_string)."""
+    cls = _BY_STATUS.get(status, Error)
     if status in (STATUS["ERR_NONFINITE"], STATUS["ERR_INVERTED_BOX"]):
         what = "has a NaN or infinite coordinate" if status == STATUS["ERR_NONFINITE"] else "has min > max on some axis"
-        return InvalidBoxError(status, "box %d %s" % (index, what), detail, index)
+        return cls(status, "box %d %s" % (index, what), detail, index)
     # The library's detail usually starts with the status text already.
     message = detail if detail.startswith(text) else ("%s: %s" % (text, detail) if detail else text)
     message = "%s [LOCD_%s = %d]" % (message, _STATUS_NAMES.get(status, "?"), status)
-    return Error(status, message, detail, index)
+    return cls(status, message, detail, index)

@@ -11,6 +11,7 @@ proof that the C ABI alone is enough. :func:`find_pairs` returns exactly what
 """
 from __future__ import annotations
 
+import numbers
 import os
 import threading
 from typing import Any, Optional
@@ -19,6 +20,8 @@ import numpy as np
 from cffi import FFI
 
 from ._cdef import CDEF, CONSTANTS, LIBRARY
+from ._arrays import boxes as _as_boxes
+from ._arrays import index_dtype as _index_dtype
 from ._errors import from_status
 
 __all__ = ["find_pairs", "brute_force", "version", "ffi", "lib", "CONSTANTS", "LIBRARY_PATH"]
@@ -40,26 +43,13 @@ def _raise(status: int) -> None:
     raise from_status(status, text, detail, index)
 
 
-def _as_boxes(boxes: Any) -> np.ndarray:
-    """The same checks and conversions as the pybind11 module."""
-    arr = boxes if isinstance(boxes, np.ndarray) else np.asarray(boxes, dtype=np.float64)
-    if arr.dtype.kind != "f" or arr.dtype.itemsize not in (4, 8):
-        raise TypeError("boxes must be a float32 or float64 array, got dtype %s "
-                        "(convert it with .astype(numpy.float64))" % arr.dtype)
-    if arr.ndim != 2 or arr.shape[1] != 6:
-        raise ValueError("boxes must have shape (n, 6): minx miny minz maxx maxy maxz per row; got shape %s"
-                         % (arr.shape,))
-    native = np.dtype(np.float64 if arr.dtype.itemsize == 8 else np.float32)
-    # Zero-copy when already native, aligned and C-contiguous.
-    return np.require(arr, native, "CA")
-
-
-def _pairs_array(pairs: Any) -> np.ndarray:
+def _pairs_array(pairs: Any, wide: bool = False) -> np.ndarray:
     m = int(lib.locd_pairs_count(pairs))
     if m == 0:
-        return np.empty((0, 2), dtype=np.uint32)
+        return np.empty((0, 2), dtype=np.int64 if wide else np.uint32)
     data = lib.locd_pairs_data(pairs)
-    return np.frombuffer(ffi.buffer(data, 8 * m), dtype=np.uint32).reshape(m, 2).copy()
+    view = np.frombuffer(ffi.buffer(data, 8 * m), dtype=np.uint32).reshape(m, 2)
+    return view.astype(np.int64) if wide else view.copy()
 
 
 def _new_pairs() -> Any:
@@ -92,6 +82,8 @@ def _engine_for(threads: Optional[int]) -> _Engine:
     engines = getattr(_local, "engines", None)
     if engines is None:
         engines = _local.engines = {}
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, numbers.Integral)):
+        raise TypeError("threads must be an integer, got %s" % type(threads).__name__)
     if threads is not None and int(threads) < 1:
         raise ValueError("threads must be >= 1 (or None for one per core), got %d" % threads)
     key = 0 if threads is None else int(threads)
@@ -101,9 +93,11 @@ def _engine_for(threads: Optional[int]) -> _Engine:
     return engine
 
 
-def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False) -> np.ndarray:
+def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False,
+               index_dtype: Any = np.uint32) -> np.ndarray:
     """Same contract as :func:`locd.find_pairs`, through cffi (the GIL is released during the call)."""
     arr = _as_boxes(boxes)
+    wide = _index_dtype(index_dtype)
     engine = _engine_for(threads)
     flags = CONSTANTS["LOCD_FIND_SORTED"] if sort else 0
     n = arr.shape[0]
@@ -115,12 +109,13 @@ def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False)
                                                 engine.pairs)
     if status != _OK:
         _raise(status)
-    return _pairs_array(engine.pairs)
+    return _pairs_array(engine.pairs, wide)
 
 
-def brute_force(boxes: Any) -> np.ndarray:
+def brute_force(boxes: Any, *, index_dtype: Any = np.uint32) -> np.ndarray:
     """The O(n^2) C reference through cffi: pairs sorted by (i, j)."""
     arr = _as_boxes(boxes)
+    wide = _index_dtype(index_dtype)
     pairs = _new_pairs()
     if arr.dtype == np.float64:
         status = lib.locd_brute_force_f64(ffi.from_buffer("double[]", arr), arr.shape[0], pairs)
@@ -128,7 +123,7 @@ def brute_force(boxes: Any) -> np.ndarray:
         status = lib.locd_brute_force_f32(ffi.from_buffer("float[]", arr), arr.shape[0], pairs)
     if status != _OK:
         _raise(status)
-    return _pairs_array(pairs)
+    return _pairs_array(pairs, wide)
 
 
 def version() -> str:

@@ -18,7 +18,7 @@ object to its second.
     ([[0, 1]], 0.15)
 
 Without the narrow phase in the library (built without libccd/FCL), every
-call raises :class:`locd.Error` with status ``ERR_UNSUPPORTED``.
+call raises :class:`locd.UnsupportedError` (status ``ERR_UNSUPPORTED``).
 """
 from __future__ import annotations
 
@@ -27,6 +27,7 @@ from typing import Any, Dict, Optional, Sequence
 
 import numpy as np
 
+from . import _arrays
 from .abi import CONSTANTS, _raise, ffi, lib
 
 __all__ = ["Shape", "World", "Result", "collide_pair", "available"]
@@ -43,6 +44,14 @@ _SWEPT = {"off": CONSTANTS["LOCD_SWEPT_OFF"], "on": CONSTANTS["LOCD_SWEPT_ON"],
           "auto": CONSTANTS["LOCD_SWEPT_AUTO"]}
 _METHODS = {"epa": CONSTANTS["LOCD_CONTACT_EPA"], "mpr": CONSTANTS["LOCD_CONTACT_MPR"]}
 _STAGES = ("broad", "shape", "swept", "contact")
+
+
+def _choice(table: Dict[str, int], value: Any, what: str) -> int:
+    if not isinstance(value, str):
+        raise TypeError("%s must be a str, got %s" % (what, type(value).__name__))
+    if value not in table:
+        raise ValueError("%s must be one of %s, got %r" % (what, ", ".join(map(repr, table)), value))
+    return table[value]
 
 
 def _check(status: int) -> None:
@@ -102,7 +111,7 @@ class Shape:
     @classmethod
     def mesh(cls, vertices: Any, triangles: Any) -> "Shape":
         v = np.ascontiguousarray(vertices, dtype=np.float64).reshape(-1, 3)
-        t = np.ascontiguousarray(triangles, dtype=np.uint32).reshape(-1, 3)
+        t = _arrays.indices(triangles, "triangles").reshape(-1, 3)
         return cls._make(lib.locd_shape_mesh, _ptr(v), v.shape[0], _ptr(t, "uint32_t *"), t.shape[0])
 
     @property
@@ -120,10 +129,12 @@ class Shape:
 def collide_pair(a: Shape, pose_a: Sequence[float], b: Shape, pose_b: Sequence[float], *, route: str = "auto",
                  contact: bool = False, method: str = "epa"):
     """(hit, contact) for one pair; contact is (depth, normal[3], point[3]) or None."""
+    if not isinstance(a, Shape) or not isinstance(b, Shape):
+        raise TypeError("a and b must be locd.pipeline.Shape objects")
     pa, pb = _doubles(pose_a, 7, "pose_a"), _doubles(pose_b, 7, "pose_b")
     hit = ffi.new("int32_t *")
     c = np.zeros(7, dtype=np.float64)
-    _check(lib.locd_shape_collide(a._h, _ptr(pa), b._h, _ptr(pb), _ROUTES[route], _METHODS[method], hit,
+    _check(lib.locd_shape_collide(a._h, _ptr(pa), b._h, _ptr(pb), _choice(_ROUTES, route, "route"), _choice(_METHODS, method, "method"), hit,
                                   _ptr(c) if contact else ffi.NULL))
     if not hit[0]:
         return False, None
@@ -133,7 +144,7 @@ def collide_pair(a: Shape, pose_a: Sequence[float], b: Shape, pose_b: Sequence[f
 @dataclass
 class Result:
     """Colliding pairs of one :meth:`World.collide` call (arrays are copies)."""
-    pairs: np.ndarray             # (m, 2) uint32, i < j
+    pairs: np.ndarray             # (m, 2) uint32 (or int64: index_dtype), i < j
     toi: np.ndarray               # (m,) time of impact as a fraction of dt (0 for discrete pairs)
     depth: Optional[np.ndarray]   # (m,) or None without contact data
     normal: Optional[np.ndarray]  # (m, 3) or None
@@ -159,6 +170,8 @@ class World:
         return int(lib.locd_world_count(self._h))
 
     def add(self, shape: Shape, pose: Sequence[float], velocity: Optional[Sequence[float]] = None) -> int:
+        if not isinstance(shape, Shape):
+            raise TypeError("shape must be a locd.pipeline.Shape, got %s" % type(shape).__name__)
         p = _doubles(pose, 7, "pose")
         v = _doubles(velocity, 6, "velocity") if velocity is not None else None
         idx = ffi.new("uint32_t *")
@@ -175,20 +188,23 @@ class World:
 
     def collide(self, *, shape_tests: bool = True, contacts: bool = False, swept: str = "off", dt: float = 0.0,
                 swept_threshold: float = 0.25, method: str = "epa", routes: Optional[Dict[Any, str]] = None,
-                sort: bool = False) -> Result:
+                sort: bool = False, index_dtype: Any = np.uint32) -> Result:
         """Runs the pipeline. routes maps (kind_a, kind_b) names to route names, e.g.
-        ``{("sphere", "sphere"): "ccd", ("mesh", "convex"): "box"}``."""
+        ``{("sphere", "sphere"): "ccd", ("mesh", "convex"): "box"}``. ``index_dtype``: pairs as
+        ``numpy.uint32`` (default) or ``numpy.int64``."""
+        wide = _arrays.index_dtype(index_dtype)
         o = ffi.new("locd_pipeline_options *")
         lib.locd_pipeline_options_init(o)
         o.stages = ((CONSTANTS["LOCD_STAGE_SHAPE"] if shape_tests else 0)
                     | (CONSTANTS["LOCD_STAGE_CONTACT"] if contacts else 0))
-        o.swept = _SWEPT[swept]
+        o.swept = _choice(_SWEPT, swept, "swept")
         o.dt = float(dt)
         o.swept_threshold = float(swept_threshold)
-        o.contact_method = _METHODS[method]
+        o.contact_method = _choice(_METHODS, method, "method")
         o.find_flags = CONSTANTS["LOCD_FIND_SORTED"] if sort else 0
         for (ka, kb), r in (routes or {}).items():
-            _check(lib.locd_pipeline_options_route(o, _KINDS[ka], _KINDS[kb], _ROUTES[r]))
+            _check(lib.locd_pipeline_options_route(o, _choice(_KINDS, ka, "shape kind"), _choice(_KINDS, kb, "shape kind"),
+                                                   _choice(_ROUTES, r, "route")))
         s = ffi.new("locd_pipeline_stats *")
         lib.locd_pipeline_stats_init(s)
         _check(lib.locd_world_collide(self._h, o, self._c, s))
@@ -205,8 +221,8 @@ class World:
                                  for name in _STAGES}
         stats.update(objects=s.objects, swept_objects=s.swept_objects, ms_total=s.ms_total,
                      tests={"closed": s.tests_closed, "ccd": s.tests_ccd, "fcl": s.tests_fcl})
-        empty2 = np.empty((0, 2), dtype=np.uint32)
-        return Result(pairs=arr(lib.locd_contacts_pairs(self._c), 2, np.uint32) if m else empty2,
+        pairs = arr(lib.locd_contacts_pairs(self._c), 2, np.uint32) if m else np.empty((0, 2), dtype=np.uint32)
+        return Result(pairs=_arrays.widen(pairs, wide),
                       toi=arr(lib.locd_contacts_toi(self._c), 1, np.float64) if m else np.empty(0),
                       depth=arr(lib.locd_contacts_depth(self._c), 1, np.float64),
                       normal=arr(lib.locd_contacts_normal(self._c), 3, np.float64),
