@@ -622,4 +622,4 @@ static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int
     return sweep_and_give(w, &c, sorted, r.total, flags, out, stats);
 }
 
-const lc_backend lc_workers_backend = {"worker processes", workers_open, workers_close, workers_find, NULL};
+const lc_backend lc_workers_backend = {"worker processes", workers_open, workers_close, workers_find, NULL, NULL};

@@ -127,6 +127,12 @@ typedef struct lc_sweep_out {
     lc_buf group;         /* uint64 per entry of the largest slab-ordered cell so far: slab and object */
     uint64_t candidates;
     uint64_t exact_tests;
+    /* Two-set query (locd_engine_find_pairs_between_*): 0 for one set;
+       otherwise objects below `split` form set a, the others set b, and a
+       candidate of the same set is dropped before any test, so only pairs
+       with one object of each are reported (as (a's index, b's index +
+       split)). Set between sweeps by the level that runs them. */
+    uint32_t split;
 } lc_sweep_out;
 /* kernel: the LC_KERNEL_* every sweep into o uses (lc_kernel_choose). */
 void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a, int kernel);
