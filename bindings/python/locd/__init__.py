@@ -198,13 +198,21 @@ class Engine:
             raise ValueError("the engine is closed")
 
     # -- work -----------------------------------------------------------------
-    def find_pairs(self, boxes: Any, *, sort: bool = False) -> np.ndarray:
+    def find_pairs(self, boxes: Any, other: Any = None, *, sort: bool = False) -> np.ndarray:
         """Every overlapping pair of ``boxes`` as an (m, 2) uint32 array, i < j.
 
         ``boxes``: (n, 6) float32 or float64 array (float32 C-contiguous is read
         in place; other layouts are converted). ``sort=True`` orders the pairs
         by (i, j); otherwise the order is deterministic but unspecified.
+
+        With ``other`` (a second (nb, 6) array): the two-set query, every pair
+        (i, j) with ``boxes[i]`` and ``other[j]`` overlapping (i indexes
+        ``boxes``, j indexes ``other``; pairs within one set are not reported;
+        a bad box of ``other`` has ``InvalidBoxError.index`` n + j). Level 1
+        engines only (others raise ``locd.Error`` with status UNSUPPORTED).
         """
+        if other is not None:
+            return self._core.find_pairs_between(boxes, other, bool(sort))
         return self._core.find_pairs(boxes, bool(sort))
 
     @property
@@ -330,12 +338,18 @@ def _engine_for(threads: Optional[int]) -> Engine:
     return engine
 
 
-def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False) -> np.ndarray:
+def find_pairs(boxes: Any, other: Any = None, *, threads: Optional[int] = None, sort: bool = False) -> np.ndarray:
     """Every overlapping pair of ``boxes`` as an (m, 2) uint32 array, i < j.
 
     Args:
         boxes: (n, 6) array, rows ``minx miny minz maxx maxy maxz``; float32
             (zero-copy when C-contiguous) or float64 (computed in float64).
+        other: a second (nb, 6) array for the two-set query: then the result is
+            every pair (i, j) with ``boxes[i]`` and ``other[j]`` overlapping (i
+            indexes ``boxes``, j indexes ``other``, so i < j does not apply;
+            pairs within one set are not reported; a bad box of ``other`` has
+            ``InvalidBoxError.index`` n + j). A float32 set meeting a float64
+            one is computed in float64.
         threads: threads to use (None = one per core).
         sort: order the pairs by (i, j) (costs time); otherwise the order is
             deterministic (the same for every thread count and run).
@@ -348,7 +362,10 @@ def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False)
     Each Python thread gets its own engine (kept for later calls), so calls
     from several threads run in parallel.
     """
-    return _engine_for(threads)._core.find_pairs(boxes, bool(sort))
+    engine = _engine_for(threads)._core
+    if other is not None:
+        return engine.find_pairs_between(boxes, other, bool(sort))
+    return engine.find_pairs(boxes, bool(sort))
 
 
 def brute_force(boxes: Any) -> np.ndarray:
