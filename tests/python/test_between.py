@@ -6,6 +6,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 import locd
+import locd.abi
 
 
 def numpy_between(a, b):
@@ -44,6 +45,8 @@ def check(a, b, threads):
     np.testing.assert_array_equal(locd.find_pairs(a, b, threads=threads, sort=True), expected)
     # deterministic: the same order for every thread count
     np.testing.assert_array_equal(locd.find_pairs(a, b, threads=1), got)
+    # the cffi ABI module returns the identical array
+    np.testing.assert_array_equal(locd.abi.find_pairs(a, b, threads=threads), got)
 
 
 @given(grid_boxes(np.float32), grid_boxes(np.float32), st.sampled_from([1, 2]))
