@@ -77,8 +77,8 @@ def main():
                     "`python3 bench/between.py --locd %s --threads %d --rounds %d --repeat %d --out %s` "
                     "(each cell: median over %d rounds of the CLI's median of %d calls)._\n" % (
                         cpu, os.cpu_count(), args.threads, load_start, load_end, version.strip(),
-                        time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "BUILD/tools/locd", args.threads, args.rounds, args.repeat, args.out, args.rounds,
-                        args.repeat))
+                        time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "BUILD/tools/locd", args.threads,
+                        args.rounds, args.repeat, args.out, args.rounds, args.repeat))
 
 
 if __name__ == "__main__":

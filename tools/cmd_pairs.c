@@ -296,7 +296,8 @@ static void print_summary(const pairs_opts *p, const cli_scene *sc, const cli_sc
            "\"total_ms\":%.3f,\"stage_ms\":{\"bounds\":%.3f,\"encode\":%.3f,\"sort\":%.3f,\"merge\":%.3f,"
            "\"sweep\":%.3f,\"order\":%.3f,\"transfer\":%.3f},\"entries\":%llu,\"candidates\":%llu,"
            "\"exact_tests\":%llu,\"depth\":%u%s}\n",
-           b ? sc->n + b->n : sc->n, locd_pairs_count(pairs), (int)locd_engine_level(eng), st->threads, sc->f64 ? "f64" : "f32", m,
+           b ? sc->n + b->n : sc->n, locd_pairs_count(pairs), (int)locd_engine_level(eng), st->threads,
+           sc->f64 ? "f64" : "f32", m,
            cli_median(t->total, m), cli_median(t->stage[0], m), cli_median(t->stage[1], m),
            cli_median(t->stage[2], m), cli_median(t->stage[3], m), cli_median(t->stage[4], m),
            cli_median(t->stage[5], m), cli_median(t->stage[6], m), (unsigned long long)st->entries,
