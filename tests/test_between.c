@@ -1,8 +1,8 @@
 /* The two-set query (locd_engine_find_pairs_between_*): exactly the pairs
  * (i in a, j in b) whose closed boxes overlap, against a bipartite brute
  * force, for random and hard scenes, every kernel, 1 and 2 threads,
- * float32 and float64, empty sets, and the errors (a bad box of b is
- * reported as na + j). */
+ * float32 and float64, empty sets, level 2 against level 1, and the errors
+ * (a bad box of b is reported as na + j; level 3 does not offer it). */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stddef.h>
@@ -315,24 +315,70 @@ static void every_kernel_gives_the_same_pairs(void)
     free(b);
 }
 
-/* Level 2 says it does not offer the query, with a message. */
-static void level_two_is_unsupported(void)
+/* Level 2 gives level 1's pairs in level 1's order (and validates the
+ * same way); level 3 says it does not offer the query, with a message. */
+static void level_two_same_as_level_one(void)
 {
+    const size_t na = 5000, nb = 4000;
+    float *a = ts_scene(2, na, 41), *b = ts_scene(0, nb, 42);
+    locd_engine_config cfg;
+    locd_engine *e2 = NULL, *e1 = engine_with(2);
+    locd_pairs *p1, *p2;
+    uint32_t flags;
+    lu_setup();
+    locd_engine_config_init(&cfg);
+    cfg.level = LOCD_LEVEL_WORKERS;
+    cfg.threads = 2;
+    if (locd_engine_create(&cfg, &e2) != LOCD_OK) {
+        locd_engine_destroy(e1);
+        free(a);
+        free(b);
+        TEST_IGNORE_MESSAGE("no level-2 engine here");
+    }
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p1));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p2));
+    for (flags = 0; flags <= LOCD_FIND_SORTED; flags += LOCD_FIND_SORTED) {
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_between_f32(e1, a, na, b, nb, flags, p1));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_between_f32(e2, a, na, b, nb, flags, p2));
+        TEST_ASSERT_TRUE(locd_pairs_count(p1) > 100);
+        TEST_ASSERT_TRUE(lu_same_pairs(p1, p2));
+    }
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_between_f32(e2, a, 0, b, nb, 0, p2));
+    TEST_ASSERT_EQUAL_UINT64(0, locd_pairs_count(p2));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_between_f32(e2, a, na, b, 0, 0, p2));
+    TEST_ASSERT_EQUAL_UINT64(0, locd_pairs_count(p2));
+    b[6 * 9 + 2] = NAN;
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NONFINITE, locd_engine_find_pairs_between_f32(e2, a, na, b, nb, 0, p2));
+    TEST_ASSERT_EQUAL_INT64((int64_t)na + 9, locd_last_error_index());
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NONFINITE, locd_engine_find_pairs_between_f32(e2, NULL, 0, b, nb, 0, p2));
+    TEST_ASSERT_EQUAL_INT64(9, locd_last_error_index());
+    locd_pairs_destroy(p1);
+    locd_pairs_destroy(p2);
+    locd_engine_destroy(e1);
+    locd_engine_destroy(e2);
+    free(a);
+    free(b);
+}
+
+static void level_three_is_unsupported(void)
+{
+    lu_fixture f;
     locd_engine_config cfg;
     locd_engine *e = NULL;
     locd_pairs *p;
     float box[6] = {0, 0, 0, 1, 1, 1};
-    lu_setup();
+    if (lu_fixture_up(&f) != 0)
+        TEST_IGNORE_MESSAGE("no level-3 service here");
     locd_engine_config_init(&cfg);
-    cfg.level = LOCD_LEVEL_WORKERS;
-    cfg.threads = 1;
-    if (locd_engine_create(&cfg, &e) != LOCD_OK)
-        TEST_IGNORE_MESSAGE("no level-2 engine here");
+    cfg.level = LOCD_LEVEL_SERVICE;
+    cfg.service_address = f.addr;
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
     TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
     TEST_ASSERT_EQUAL_INT64(LOCD_ERR_UNSUPPORTED, locd_engine_find_pairs_between_f32(e, box, 1, box, 1, 0, p));
-    TEST_ASSERT_NOT_NULL(strstr(locd_last_error(), "level 1"));
+    TEST_ASSERT_NOT_NULL(strstr(locd_last_error(), "levels 1 and 2"));
     locd_pairs_destroy(p);
     locd_engine_destroy(e);
+    lu_fixture_down(&f);
 }
 
 int main(void)
@@ -344,7 +390,8 @@ int main(void)
         LT_TEST(empty_set_gives_no_pairs),
         LT_TEST(bad_box_names_its_index),
         LT_TEST(every_kernel_gives_the_same_pairs),
-        LT_TEST(level_two_is_unsupported),
+        LT_TEST(level_two_same_as_level_one),
+        LT_TEST(level_three_is_unsupported),
     };
     return LT_RUN(tests);
 }

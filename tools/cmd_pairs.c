@@ -11,7 +11,7 @@ static void pairs_usage(void)
     printf("usage: locd pairs SCENE [options]\n"
            "  SCENE: FILE.aabb (float32), FILE.aabb64 (float64), FILE.npy (float32/float64 (n, 6)),\n"
            "         or - for stdin (.npy if it starts with the NumPy magic, else .aabb); docs/formats.md\n"
-           "  --against B        two sets: pairs (i in SCENE, j in B) only (level 1); B as SCENE\n"
+           "  --against B        two sets: pairs (i in SCENE, j in B) only (levels 1, 2); B as SCENE\n"
            "  --threads K        threads (level 1; default: one per core)\n"
            "  --level L          inprocess (1), workers (2) or service (3)\n"
            "  --workers K        worker processes (implies --level workers)\n"

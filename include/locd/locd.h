@@ -259,8 +259,8 @@ LOCD_API locd_status locd_engine_find_pairs_f64(locd_engine *engine, const doubl
  * deterministic; LOCD_FIND_SORTED orders by (i, j). A bad box is reported
  * through locd_last_error_index as its index in a, or as na + j for box j
  * of b. na = 0 or nb = 0 give no pairs (the other set is still validated).
- * Level 1 only: levels 2 and 3 return LOCD_ERR_UNSUPPORTED. On error *out
- * is left unchanged. */
+ * Levels 1 and 2 (the same pairs in the same order); level 3 returns
+ * LOCD_ERR_UNSUPPORTED. On error *out is left unchanged. */
 LOCD_API locd_status locd_engine_find_pairs_between_f32(locd_engine *engine, const float *a, size_t na,
                                                         const float *b, size_t nb, uint32_t flags, locd_pairs *out);
 LOCD_API locd_status locd_engine_find_pairs_between_f64(locd_engine *engine, const double *a, size_t na,

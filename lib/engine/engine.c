@@ -222,8 +222,9 @@ static locd_status find_between_common(locd_engine *e, const void *a, size_t na,
     if ((st = lc_check_request(e, a ? a : b, na + nb, flags)) != LOCD_OK)
         return st;
     if (!e->ops->find_between)
-        return lc_error(LOCD_ERR_UNSUPPORTED, "the two-set query runs at level 1 only (this engine is level %d, %s)",
-                        (int)e->level, e->ops->name);
+        return lc_error(LOCD_ERR_UNSUPPORTED,
+                        "the two-set query runs at levels 1 and 2 only (this engine is level %d, %s)", (int)e->level,
+                        e->ops->name);
     if (!lc_mul_size(na + nb, row, &bytes))
         return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu boxes overflow size_t", na + nb);
     if (bytes && !(boxes = lc_alloc(&e->alloc, bytes)))

@@ -166,10 +166,12 @@ locd_status lc_block_encode_f32(const locd_grid *grid, const float *boxes, size_
                                 uint64_t *entries, size_t capacity, size_t *written, int kernel);
 locd_status lc_block_encode_f64(const locd_grid *grid, const double *boxes, size_t first, size_t count,
                                 uint64_t *entries, size_t capacity, size_t *written, int kernel);
+/* split: 0, or the two-set query's first object of set b (lc_sweep_out.split);
+ * the pairs then come out as (i, j - split). */
 locd_status lc_block_sweep_f32(const locd_grid *grid, const float *boxes, size_t n, const uint64_t *entries,
-                               size_t count, locd_pairs *out, locd_stats *stats, int kernel);
+                               size_t count, size_t split, locd_pairs *out, locd_stats *stats, int kernel);
 locd_status lc_block_sweep_f64(const locd_grid *grid, const double *boxes, size_t n, const uint64_t *entries,
-                               size_t count, locd_pairs *out, locd_stats *stats, int kernel);
+                               size_t count, size_t split, locd_pairs *out, locd_stats *stats, int kernel);
 
 /* ---- 3-D Morton (Z-order) interleaving of 21-bit coordinates ---- */
 static __inline__ uint64_t lc_morton_split3(uint32_t a)

@@ -208,8 +208,8 @@ class Engine:
         With ``other`` (a second (nb, 6) array): the two-set query, every pair
         (i, j) with ``boxes[i]`` and ``other[j]`` overlapping (i indexes
         ``boxes``, j indexes ``other``; pairs within one set are not reported;
-        a bad box of ``other`` has ``InvalidBoxError.index`` n + j). Level 1
-        engines only (others raise ``locd.Error`` with status UNSUPPORTED).
+        a bad box of ``other`` has ``InvalidBoxError.index`` n + j). Levels 1
+        and 2 (level 3 raises ``locd.Error`` with status UNSUPPORTED).
         """
         if other is not None:
             return self._core.find_pairs_between(boxes, other, bool(sort))

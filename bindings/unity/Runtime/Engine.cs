@@ -230,8 +230,8 @@ namespace Locd
 
         /// <summary>The two-set query: every pair (i, j) with box i of a and box j of b
         /// overlapping, as i0 j0 i1 j1 ... (i indexes a, j indexes b; pairs within one set are
-        /// not reported). A bad box of b is reported with BoxIndex a.Length / 6 + j. Level 1
-        /// only: other levels throw with Status.Unsupported.</summary>
+        /// not reported). A bad box of b is reported with BoxIndex a.Length / 6 + j. Levels 1
+        /// and 2; level 3 throws with Status.Unsupported.</summary>
         public uint[] FindPairsBetween(float[] a, float[] b, FindFlags flags = FindFlags.None)
         {
             long na = RowCount(a, a == null ? 0 : a.Length), nb = RowCount(b, b == null ? 0 : b.Length);
