@@ -5,6 +5,7 @@
  * (a bad box of b is reported as na + j; level 3 does not offer it). */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
+#include <pthread.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -315,6 +316,106 @@ static void every_kernel_gives_the_same_pairs(void)
     free(b);
 }
 
+/* An allocator that fails its k-th allocation (counting from when it is
+ * armed) and counts what is live; locked: the engine's pool threads
+ * allocate too. */
+typedef struct failing {
+    pthread_mutex_t mu;
+    long left; /* allocations before the failing one; -1: never fail */
+    long live;
+} failing;
+
+static void *failing_alloc(size_t size, void *user)
+{
+    failing *f = user;
+    void *p = NULL;
+    pthread_mutex_lock(&f->mu);
+    if (f->left != 0) {
+        if (f->left > 0)
+            f->left--;
+        if ((p = malloc(size)) != NULL)
+            f->live++;
+    } else {
+        f->left = -1; /* one failure per call */
+    }
+    pthread_mutex_unlock(&f->mu);
+    return p;
+}
+
+static void failing_free(void *ptr, size_t size, void *user)
+{
+    failing *f = user;
+    (void)size;
+    if (!ptr)
+        return;
+    pthread_mutex_lock(&f->mu);
+    f->live--;
+    pthread_mutex_unlock(&f->mu);
+    free(ptr);
+}
+
+/* Every allocation of the call failing in turn: LOCD_ERR_NO_MEMORY, *out
+ * as it was, nothing leaked once the engine is gone; then it succeeds. */
+static void allocation_failures_fail_cleanly(void)
+{
+    const size_t na = 5000, nb = 3000;
+    float *a = ts_scene(1, na, 51), *b = ts_scene(2, nb, 52);
+    failing f;
+    uint32_t threads;
+    pthread_mutex_init(&f.mu, NULL);
+    for (threads = 1; threads <= 2; threads++) {
+        long k;
+        int done = 0;
+        for (k = 0; k < 400 && !done; k++) {
+            locd_engine_config cfg;
+            locd_engine *e = NULL;
+            locd_pairs *p = NULL;
+            uint32_t *before;
+            size_t before_count;
+            locd_status st;
+            f.left = -1;
+            f.live = 0;
+            locd_engine_config_init(&cfg);
+            cfg.threads = threads;
+            cfg.allocator.alloc = failing_alloc;
+            cfg.allocator.free = failing_free;
+            cfg.allocator.user = &f;
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(&cfg.allocator, &p));
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, 200, 0, p)); /* an earlier answer */
+            before_count = locd_pairs_count(p);
+            before = malloc(before_count * 2 * sizeof *before + 8);
+            memcpy(before, locd_pairs_data(p), before_count * 2 * sizeof *before);
+            pthread_mutex_lock(&f.mu);
+            f.left = k;
+            pthread_mutex_unlock(&f.mu);
+            st = locd_engine_find_pairs_between_f32(e, a, na, b, nb, LOCD_FIND_SORTED, p);
+            if (st == LOCD_OK) {
+                TEST_ASSERT_TRUE(f.left == -1 ? 0 : 1); /* succeeded without meeting the failure */
+                TEST_ASSERT_TRUE(locd_pairs_count(p) > 100);
+                done = 1;
+            } else {
+                if (st != LOCD_ERR_NO_MEMORY)
+                    LT_FAIL("threads %u, allocation %ld failed: status %d, not LOCD_ERR_NO_MEMORY", threads, k,
+                            (int)st);
+                if (locd_pairs_count(p) != before_count ||
+                    memcmp(locd_pairs_data(p), before, before_count * 2 * sizeof *before) != 0)
+                    LT_FAIL("threads %u, allocation %ld failed: *out changed", threads, k);
+            }
+            free(before);
+            locd_pairs_destroy(p);
+            locd_engine_destroy(e);
+            if (f.live != 0)
+                LT_FAIL("threads %u, allocation %ld failed: %ld blocks leaked", threads, k, f.live);
+        }
+        TEST_ASSERT_TRUE(done);
+        LT_PRINT("threads %u: the call makes %ld allocations, each failed in turn\n", threads, k - 1);
+    }
+    pthread_mutex_destroy(&f.mu);
+    free(a);
+    free(b);
+}
+
 /* Level 2 gives level 1's pairs in level 1's order (and validates the
  * same way); level 3 says it does not offer the query, with a message. */
 static void level_two_same_as_level_one(void)
@@ -390,6 +491,7 @@ int main(void)
         LT_TEST(empty_set_gives_no_pairs),
         LT_TEST(bad_box_names_its_index),
         LT_TEST(every_kernel_gives_the_same_pairs),
+        LT_TEST(allocation_failures_fail_cleanly),
         LT_TEST(level_two_same_as_level_one),
         LT_TEST(level_three_is_unsupported),
     };
