@@ -17,6 +17,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.ticker import FixedLocator, NullFormatter, NullLocator  # noqa: E402
 
 STAGES = ["bounds", "encode", "sort", "merge", "sweep"]
 
@@ -51,24 +53,32 @@ def main():
                 ax[0].plot([d], [t], "*", ms=16, color=line.get_color())
     ax[0].set_xlabel("octree depth used (max_depth; the star is the default, automatic)")
     ax[0].set_ylabel("CPU ms per call")
-    ax[0].set_title("Depth limit (%d objects)" % n)
+    ax[0].set_title("Depth limit ({:,} objects)".format(n))
     ax[0].legend()
 
     twin = ax[1].twinx()
     for s in scenes:
         pts = sorted((int(r["value"]), r["cpu_ms"], (r["candidates"] - r["pairs"]) / r["n"]) for r in rows
                      if r["scene"] == s and r["knob"] == "cell_bias")
-        line, = ax[1].plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=s + " (ms)")
-        twin.plot([p[0] for p in pts], [p[2] for p in pts], "x--", color=line.get_color(), alpha=0.6,
-                  label=s + " (false cand./obj)")
+        line, = ax[1].plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=s)
+        twin.plot([p[0] for p in pts], [p[2] for p in pts], "x--", color=line.get_color(), alpha=0.6)
     ax[1].axvline(2, color="grey", lw=0.8, ls=":")
     ax[1].set_xticks([0, 1, 2, 3])
     ax[1].set_xlabel("cell_bias (dotted: default 2)")
     ax[1].set_ylabel("CPU ms per call (solid)")
     twin.set_ylabel("false candidates per object (dashed)")
     twin.set_yscale("log")
-    ax[1].set_title("Level-choice bias (%d objects)" % n)
-    ax[1].legend(loc="upper left", fontsize=8)
+    # Plain numbers on the log axis (5, 10, 20, 50), not 2x10^1.
+    twin.yaxis.set_major_locator(FixedLocator([1, 2, 5, 10, 20, 50, 100, 200]))
+    twin.yaxis.set_major_formatter(plt.FuncFormatter(lambda v, _: "%g" % v))
+    twin.yaxis.set_minor_locator(NullLocator())
+    twin.yaxis.set_minor_formatter(NullFormatter())
+    ax[1].set_title("Level-choice bias ({:,} objects)".format(n))
+    # Colours are the scenes of the first panel; here the legend says which line is which axis.
+    ax[1].legend(handles=[Line2D([], [], color="black", marker="o", label="CPU ms per call (left axis)"),
+                          Line2D([], [], color="black", marker="x", ls="--", alpha=0.6,
+                                 label="false candidates per object (right)")],
+                 loc="center left", fontsize=8)
 
     variants = [("default", lambda r: r["knob"] == "shape" and r["value"] == "boxes"),
                 ("cubes", lambda r: r["knob"] == "shape" and r["value"] == "cubes"),
@@ -96,7 +106,7 @@ def main():
     ax[2].set_xticks(range(len(scenes)))
     ax[2].set_xticklabels(scenes)
     ax[2].set_ylabel("CPU ms per call, split by the stages' wall times")
-    ax[2].set_title("Where the time goes (%d objects)" % n)
+    ax[2].set_title("Where the time goes ({:,} objects)".format(n))
     ax[2].legend(fontsize=8)
     ymax = ax[2].get_ylim()[1]
     ax[2].set_ylim(0, ymax * 1.25)

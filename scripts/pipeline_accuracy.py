@@ -3,6 +3,7 @@
 docs/accuracy-pipeline.md and docs/img/accuracy-pipeline.png.
 
     python3 scripts/pipeline_accuracy.py [--locd build/tools/locd] [--seconds 2.0]
+    python3 scripts/pipeline_accuracy.py --replot   # only redraw the figure from the page's tables
 
 For each example scene and step size, `locd simulate --ladder` runs the full
 pipeline for the dynamics and, on every step's state, the ladder of
@@ -53,6 +54,8 @@ def plot(results, path, seconds):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from matplotlib.ticker import FixedLocator, MaxNLocator, NullFormatter, NullLocator
+
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
     width = 0.2
     ref = 1 / 60
@@ -63,6 +66,12 @@ def plot(results, path, seconds):
     a.set_xticklabels(SCENES)
     a.set_ylabel("pipeline ms per step")
     a.set_yscale("log")
+    # Plain numbers at 1-2-5 steps: a log axis labelled only at powers of ten is hard to read.
+    a.yaxis.set_major_locator(FixedLocator([0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1, 2, 5]))
+    a.yaxis.set_major_formatter(plt.FuncFormatter(lambda v, _: "%g" % v))
+    a.yaxis.set_minor_locator(NullLocator())
+    a.yaxis.set_minor_formatter(NullFormatter())
+    a.grid(True, axis="y", alpha=0.3)
     a.set_title("time per rung (dt = 1/60 s)")
     a.legend()
     for sc in SCENES:
@@ -70,6 +79,12 @@ def plot(results, path, seconds):
         ys = [results[(sc, dt)]["ladder"]["missed_by_discrete"] for dt in STEP_SIZES]
         b.plot(xs, ys, marker="o", label=sc)
     b.set_xscale("log", base=2)
+    # Ticks at the step rates that were run (30, 60, 120, 240), not at powers of two.
+    b.xaxis.set_major_locator(FixedLocator([1 / dt for dt in STEP_SIZES]))
+    b.xaxis.set_major_formatter(plt.FuncFormatter(lambda v, _: "%d" % round(v)))
+    b.xaxis.set_minor_locator(NullLocator())
+    b.yaxis.set_major_locator(MaxNLocator(integer=True))
+    b.grid(True, alpha=0.3)
     b.set_xlabel("steps per second (1/dt)")
     b.set_ylabel("contacts missed by discrete stepping")
     b.set_title("caught only by the swept stage (%g s simulated)" % seconds)
@@ -78,12 +93,37 @@ def plot(results, path, seconds):
     fig.savefig(path, dpi=90)
 
 
+def from_page(path):
+    """The figure's numbers from the page's two tables: ms per step of each rung at dt = 1/60, and the
+    contacts missed by discrete stepping per step size."""
+    results = {(sc, dt): {"steps_run": 1, "ladder": {}} for sc in SCENES for dt in STEP_SIZES}
+    seconds = 2.0
+    for line in open(path, encoding="utf-8"):
+        if "--seconds" in line:
+            seconds = float(line.split("--seconds", 1)[1].split()[0].strip("`"))
+        cols = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cols) == 10 and cols[0] in SCENES:  # scene, objects, then (pairs, ms) per rung
+            for k, rung in enumerate(RUNGS):
+                results[(cols[0], 1 / 60)]["ladder"][rung] = {"ms": float(cols[3 + 2 * k])}
+        elif len(cols) == 8 and cols[0] in SCENES and cols[1].startswith("1/"):
+            dt = 1 / int(cols[1][2:])
+            key = min(STEP_SIZES, key=lambda s: abs(s - dt))
+            results[(cols[0], key)]["ladder"]["missed_by_discrete"] = int(cols[5])
+    return results, seconds
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--locd", default=os.path.join(ROOT, "build", "tools", "locd"))
     ap.add_argument("--seconds", type=float, default=2.0, help="simulated time per run")
     ap.add_argument("--out", default=os.path.join(ROOT, "docs", "accuracy-pipeline.md"))
+    ap.add_argument("--replot", action="store_true",
+                    help="redraw the figure from the tables of --out (the recorded results); run nothing")
     a = ap.parse_args()
+    if a.replot:
+        results, seconds = from_page(a.out)
+        plot(results, os.path.join(os.path.dirname(a.out), "img", "accuracy-pipeline.png"), seconds)
+        return
     results = {}
     for sc in SCENES:
         for dt in STEP_SIZES:
@@ -145,6 +185,9 @@ def main():
                         ld["missed_by_discrete"], ld["swept"]["ms"] / n, ld["mesh"]["ms"] / n))
     L.append("")
     L.append("![time per rung and contacts missed by discrete stepping](%s)" % img_rel)
+    L.append("")
+    L.append("_The figure alone is redrawn from this page's tables, without running anything, by "
+             "`python3 scripts/pipeline_accuracy.py --replot`._")
     L.append("")
     L.append("Reading it: the box test alone pairs every rock with the terrain (the terrain's box covers the scene);")
     L.append("the mesh stage removes those. The convex stage removes the box-only pairs among spheres and rocks;")

@@ -6,7 +6,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* A scene as loaded from .aabb (float32) or .aabb64 (float64). */
+/* A scene as loaded from .aabb (float32), .aabb64 (float64) or .npy
+ * (float32 or float64, shape (n, 6), C order, little-endian); docs/formats.md. */
 typedef struct cli_scene {
     size_t n;
     int f64;
@@ -14,9 +15,11 @@ typedef struct cli_scene {
     double *d; /* 6n values when f64 */
 } cli_scene;
 
+/* path "-" reads stdin: .npy when it starts with the NumPy magic, else
+ * .aabb (float32). 0, or -1 after a message on stderr. */
 int cli_load_scene(const char *path, cli_scene *s);
 void cli_free_scene(cli_scene *s);
-/* Writes m pairs (2m uint32, little-endian) to path; 0 on success. */
+/* Writes m pairs (2m uint32, little-endian) to path ("-": stdout); 0 on success. */
 int cli_write_pairs(const char *path, const uint32_t *pairs, size_t m);
 int cli_write_file(const char *path, const void *data, size_t bytes);
 
@@ -33,6 +36,12 @@ double cli_rng_normal(cli_rng *r);
  * Returns 6n floats (malloc) or NULL for an unknown kind. */
 float *cli_generate(const char *kind, size_t n, uint64_t seed);
 const char *cli_generator_kinds(void);
+
+/* Progress of a long command, "\rlocd: what done/total" on stderr, only when
+ * stderr is a terminal (never in a pipe, a log or CI); done == total
+ * clears the line. */
+int cli_stderr_is_terminal(void);
+void cli_progress(const char *what, size_t done, size_t total);
 
 void cli_cpu_model(char *buf, size_t len);
 double cli_median(double *v, size_t n);

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 static void die_v(const char *fmt, va_list ap)
 {
@@ -31,43 +32,171 @@ static int ends_with(const char *s, const char *suffix)
     return a >= b && strcmp(s + a - b, suffix) == 0;
 }
 
-int cli_load_scene(const char *path, cli_scene *s)
+/* The whole of a file, or of stdin for "-", in one malloc'd block. */
+static int read_all(const char *path, unsigned char **data, size_t *size)
 {
-    FILE *f = fopen(path, "rb");
-    long size;
-    size_t row, n;
-    void *data;
-    memset(s, 0, sizeof *s);
+    const int from_stdin = !strcmp(path, "-");
+    FILE *f = from_stdin ? stdin : fopen(path, "rb");
+    size_t cap = 1 << 16, len = 0, got;
+    unsigned char *buf;
     if (!f) {
         fprintf(stderr, "locd: cannot open %s: %s\n", path, strerror(errno));
         return -1;
     }
-    s->f64 = ends_with(path, ".aabb64");
-    row = s->f64 ? 48 : 24;
-    if (fseek(f, 0, SEEK_END) != 0 || (size = ftell(f)) < 0 || fseek(f, 0, SEEK_SET) != 0) {
-        fprintf(stderr, "locd: cannot read %s\n", path);
-        fclose(f);
+    buf = malloc(cap);
+    while (buf && (got = fread(buf + len, 1, cap - len, f)) > 0) {
+        len += got;
+        if (len == cap) {
+            unsigned char *bigger = cap > SIZE_MAX / 2 ? NULL : realloc(buf, cap * 2);
+            if (!bigger) {
+                free(buf);
+                buf = NULL;
+                break;
+            }
+            buf = bigger;
+            cap *= 2;
+        }
+    }
+    if (!buf || ferror(f)) {
+        fprintf(stderr, "locd: cannot read %s%s\n", from_stdin ? "stdin" : path, buf ? "" : " (out of memory)");
+        free(buf);
+        if (!from_stdin)
+            fclose(f);
         return -1;
     }
-    if ((size_t)size % row) {
-        fprintf(stderr, "locd: %s: size %ld is not a multiple of %zu bytes (one box)\n", path, size, row);
+    if (!from_stdin)
         fclose(f);
+    *data = buf;
+    *size = len;
+    return 0;
+}
+
+/* The value of key `key` in a .npy header (a Python dict literal): points
+ * just past the colon, or NULL. */
+static const char *npy_value(const char *header, const char *key)
+{
+    char quoted[32];
+    const char *p;
+    snprintf(quoted, sizeof quoted, "'%s'", key);
+    if (!(p = strstr(header, quoted)))
+        return NULL;
+    p += strlen(quoted);
+    while (*p == ' ')
+        p++;
+    if (*p != ':')
+        return NULL;
+    p++;
+    while (*p == ' ')
+        p++;
+    return p;
+}
+
+/* A .npy file (format versions 1-3) holding float32 or float64 (n, 6),
+ * C order, little-endian; anything else is refused with the reason. On
+ * success the boxes are moved to the start of data. */
+static int parse_npy(const char *path, unsigned char *data, size_t size, cli_scene *s)
+{
+    size_t hlen, start, n = 0, item, need;
+    char *header;
+    const char *v;
+    unsigned long long dims[3];
+    int ndim = 0;
+    if (size < 10 || data[6] < 1 || data[6] > 3) {
+        fprintf(stderr, "locd: %s: not a .npy file of a known version\n", path);
         return -1;
     }
-    n = (size_t)size / row;
-    data = malloc(size ? (size_t)size : 1);
-    if (!data || (size && fread(data, 1, (size_t)size, f) != (size_t)size)) {
-        fprintf(stderr, "locd: cannot read %s\n", path);
-        free(data);
-        fclose(f);
+    hlen = data[6] == 1 ? (size_t)data[8] | (size_t)data[9] << 8
+                        : (size_t)data[8] | (size_t)data[9] << 8 | (size_t)data[10] << 16 | (size_t)data[11] << 24;
+    start = (data[6] == 1 ? 10 : 12) + hlen;
+    if (start > size) {
+        fprintf(stderr, "locd: %s: truncated .npy header\n", path);
         return -1;
     }
-    fclose(f);
+    header = malloc(hlen + 1);
+    if (!header)
+        cli_die("out of memory");
+    memcpy(header, data + (start - hlen), hlen);
+    header[hlen] = '\0';
+    if (!(v = npy_value(header, "descr")) || (strncmp(v, "'<f4'", 5) && strncmp(v, "'<f8'", 5))) {
+        const char *end = v && *v == '\'' ? strchr(v + 1, '\'') : NULL;
+        fprintf(stderr, "locd: %s: dtype %.*s is not supported: the boxes must be float32 or float64, "
+                        "little-endian ('<f4' or '<f8'), shape (n, 6)%s\n",
+                path, end ? (int)(end - v + 1) : 6, v ? v : "(none)",
+                v && v[1] == '>' ? "; convert with .astype('<f4') or .astype('<f8')" : "");
+        free(header);
+        return -1;
+    }
+    s->f64 = v[3] == '8';
+    if (!(v = npy_value(header, "fortran_order")) || strncmp(v, "False", 5)) {
+        fprintf(stderr, "locd: %s: the array is in Fortran order: save it in C order "
+                        "(numpy.ascontiguousarray) as shape (n, 6)\n",
+                path);
+        free(header);
+        return -1;
+    }
+    if ((v = npy_value(header, "shape")) && *v == '(') {
+        v++;
+        while (ndim < 3) {
+            char *end;
+            while (*v == ' ')
+                v++;
+            if (*v < '0' || *v > '9')
+                break;
+            dims[ndim++] = strtoull(v, &end, 10);
+            v = end;
+            while (*v == ' ' || *v == ',')
+                v++;
+        }
+    }
+    free(header);
+    if (ndim != 2 || dims[1] != 6) {
+        fprintf(stderr, "locd: %s: the array must have shape (n, 6): minx miny minz maxx maxy maxz per row\n", path);
+        return -1;
+    }
+    n = (size_t)dims[0];
+    item = s->f64 ? sizeof(double) : sizeof(float);
+    if (n > (SIZE_MAX - start) / (6 * item) || (need = n * 6 * item) != size - start) {
+        fprintf(stderr, "locd: %s: the data does not hold %llu x 6 values\n", path, dims[0]);
+        return -1;
+    }
+    memmove(data, data + start, need);
     s->n = n;
+    return 0;
+}
+
+int cli_load_scene(const char *path, cli_scene *s)
+{
+    static const unsigned char npy_magic[6] = {0x93, 'N', 'U', 'M', 'P', 'Y'};
+    const char *name = strcmp(path, "-") ? path : "stdin";
+    unsigned char *data;
+    size_t size, row;
+    memset(s, 0, sizeof *s);
+    if (read_all(path, &data, &size) != 0)
+        return -1;
+    if (ends_with(path, ".npy") || (size >= 6 && !memcmp(data, npy_magic, 6))) {
+        if (size < 6 || memcmp(data, npy_magic, 6)) {
+            fprintf(stderr, "locd: %s: not a .npy file (no NumPy magic)\n", name);
+            free(data);
+            return -1;
+        }
+        if (parse_npy(name, data, size, s) != 0) {
+            free(data);
+            return -1;
+        }
+    } else {
+        s->f64 = ends_with(path, ".aabb64");
+        row = s->f64 ? 48 : 24;
+        if (size % row) {
+            fprintf(stderr, "locd: %s: size %zu is not a multiple of %zu bytes (one box)\n", name, size, row);
+            free(data);
+            return -1;
+        }
+        s->n = size / row;
+    }
     if (s->f64)
-        s->d = data;
+        s->d = (double *)(void *)data;
     else
-        s->f = data;
+        s->f = (float *)(void *)data;
     return 0;
 }
 
@@ -80,18 +209,20 @@ void cli_free_scene(cli_scene *s)
 
 int cli_write_file(const char *path, const void *data, size_t bytes)
 {
-    FILE *f = fopen(path, "wb");
+    const int to_stdout = !strcmp(path, "-");
+    FILE *f = to_stdout ? stdout : fopen(path, "wb");
     if (!f) {
         fprintf(stderr, "locd: cannot create %s: %s\n", path, strerror(errno));
         return -1;
     }
     if (bytes && fwrite(data, 1, bytes, f) != bytes) {
-        fprintf(stderr, "locd: cannot write %s\n", path);
-        fclose(f);
+        fprintf(stderr, "locd: cannot write %s\n", to_stdout ? "stdout" : path);
+        if (!to_stdout)
+            fclose(f);
         return -1;
     }
-    if (fclose(f) != 0) {
-        fprintf(stderr, "locd: cannot write %s\n", path);
+    if (to_stdout ? fflush(f) != 0 : fclose(f) != 0) {
+        fprintf(stderr, "locd: cannot write %s\n", to_stdout ? "stdout" : path);
         return -1;
     }
     return 0;
@@ -100,6 +231,25 @@ int cli_write_file(const char *path, const void *data, size_t bytes)
 int cli_write_pairs(const char *path, const uint32_t *pairs, size_t m)
 {
     return cli_write_file(path, pairs, m * 2 * sizeof(uint32_t));
+}
+
+int cli_stderr_is_terminal(void)
+{
+    static int known = -1;
+    if (known < 0)
+        known = isatty(STDERR_FILENO) ? 1 : 0;
+    return known;
+}
+
+void cli_progress(const char *what, size_t done, size_t total)
+{
+    if (!cli_stderr_is_terminal())
+        return;
+    if (done < total)
+        fprintf(stderr, "\rlocd: %s %zu/%zu ", what, done, total);
+    else
+        fprintf(stderr, "\r\033[K"); /* done: clear the line */
+    fflush(stderr);
 }
 
 static uint64_t splitmix64(uint64_t *x)

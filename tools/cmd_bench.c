@@ -164,8 +164,11 @@ int cmd_bench(int argc, char **argv)
     if (parse_bench_args(argc, argv, &o))
         return 0;
     print_table_head(&o);
-    for (si = 0; si < o.nsizes; si++)
+    for (si = 0; si < o.nsizes; si++) {
+        cli_progress("bench: size", (size_t)si, (size_t)o.nsizes);
         bench_size(&o, o.sizes[si]);
+    }
+    cli_progress("bench: size", 1, 1);
     printf("\npaper: Lucchesi, Egbert, Harris, IJCA 21(4) 2014, Tables 1-2 (2 processors at 1M: 94.7%% efficiency).\n");
     return 0;
 }

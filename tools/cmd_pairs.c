@@ -1,4 +1,5 @@
-/* locd pairs FILE.aabb: run the engine on a scene, print one JSON line. */
+/* locd pairs FILE.aabb: run the engine on a scene, print one JSON line.
+ * With --against B: the two-set query (locd_engine_find_pairs_between_*). */
 #include "cli.h"
 
 #include <stdio.h>
@@ -7,20 +8,25 @@
 
 static void pairs_usage(void)
 {
-    printf("usage: locd pairs FILE.aabb|FILE.aabb64 [options]\n"
+    printf("usage: locd pairs SCENE [options]\n"
+           "  SCENE: FILE.aabb (float32), FILE.aabb64 (float64), FILE.npy (float32/float64 (n, 6)),\n"
+           "         or - for stdin (.npy if it starts with the NumPy magic, else .aabb); docs/formats.md\n"
+           "  --against B        two sets: pairs (i in SCENE, j in B) only (levels 1, 2); B as SCENE\n"
            "  --threads K        threads (level 1; default: one per core)\n"
            "  --level L          inprocess (1), workers (2) or service (3)\n"
            "  --workers K        worker processes (implies --level workers)\n"
            "  --service ADDR     unix:PATH or tcp:HOST:PORT (implies --level service)\n"
            "  --secret S         shared secret for a TCP service\n"
-           "  --out PAIRS.bin    write the pairs, sorted by (i, j), as little-endian uint32 i j rows\n"
+           "  --out PAIRS.bin    write the pairs, sorted by (i, j), as little-endian uint32 i j rows;\n"
+           "                     - writes them to stdout (the JSON line then goes to stderr)\n"
            "  --repeat R         run R times; total_ms is the median (default 2)\n"
            "  --f64              convert a float32 scene to float64 and use the f64 entry point\n"
            "  --sorted           ask the engine for (i, j) order inside the timed call\n"
            "  --depth D          octree depth limit (default automatic)\n"
            "  --bias B           cell edge >= 2^B x box extent (default 2)\n"
            "  --cubes            encode bounding cubes (the paper's choice) instead of boxes\n"
-           "  --check            also compare with the O(n^2) reference (small scenes)\n"
+           "  --check            also compare with the O(n^2) reference (at most 100000 boxes)\n"
+           "  --force            --check on more than 100000 boxes anyway (minutes to hours)\n"
            "Prints one JSON line: n, pairs, total_ms (median in-call time), stage_ms, entries, candidates.\n");
 }
 
@@ -42,12 +48,15 @@ static int same_pairs(const uint32_t *a, const uint32_t *b, size_t m)
 }
 
 typedef struct pairs_opts {
-    const char *path, *out_path;
+    const char *path, *out_path, *against;
     locd_engine_config cfg;
     size_t repeat;
     uint32_t flags; /* LOCD_FIND_* */
-    int want_f64, check;
+    int want_f64, check, force;
 } pairs_opts;
+
+/* --check runs the O(n^2) reference: past this many boxes it takes minutes. */
+#define PAIRS_CHECK_MAX 100000
 
 /* The stage times of every repeat, in locd_stats order; the summary prints their medians. */
 #define PAIRS_STAGES 7
@@ -70,6 +79,8 @@ static int parse_value_option(const char *o, const char *v, pairs_opts *p)
         p->cfg.level = LOCD_LEVEL_SERVICE;
     } else if (!strcmp(o, "--secret")) {
         p->cfg.service_secret = v;
+    } else if (!strcmp(o, "--against")) {
+        p->against = v;
     } else if (!strcmp(o, "--out")) {
         p->out_path = v;
     } else if (!strcmp(o, "--repeat")) {
@@ -96,6 +107,8 @@ static int parse_flag_option(const char *o, pairs_opts *p)
         p->flags |= LOCD_FIND_SORTED;
     else if (!strcmp(o, "--check"))
         p->check = 1;
+    else if (!strcmp(o, "--force"))
+        p->force = 1;
     else
         return 0;
     return 1;
@@ -117,7 +130,7 @@ static int parse_pairs_args(int argc, char **argv, pairs_opts *p)
             a++;
         } else if (parse_flag_option(o, p)) {
             continue;
-        } else if (o[0] == '-') {
+        } else if (o[0] == '-' && o[1]) {
             cli_die("pairs: unknown option '%s' (see locd pairs --help)", o);
         } else if (!p->path) {
             p->path = o;
@@ -175,16 +188,26 @@ static void times_record(pairs_times *t, size_t r, const locd_stats *st)
 
 /* Runs the engine `repeat` times; *st gets the last run's stats. 0, or 1
  * after reporting a failed call. */
-static int run_repeats(const pairs_opts *p, locd_engine *eng, const cli_scene *sc, locd_pairs *pairs,
-                       pairs_times *times, locd_stats *st)
+static int run_repeats(const pairs_opts *p, locd_engine *eng, const cli_scene *sc, const cli_scene *b,
+                       locd_pairs *pairs, pairs_times *times, locd_stats *st)
 {
     size_t r;
     for (r = 0; r < p->repeat; r++) {
-        locd_status s = sc->f64 ? locd_engine_find_pairs_f64(eng, sc->d, sc->n, p->flags, pairs)
-                                : locd_engine_find_pairs_f32(eng, sc->f, sc->n, p->flags, pairs);
+        locd_status s;
+        if (p->repeat > 1)
+            cli_progress("pairs: run", r, p->repeat);
+        if (b)
+            s = sc->f64 ? locd_engine_find_pairs_between_f64(eng, sc->d, sc->n, b->d, b->n, p->flags, pairs)
+                        : locd_engine_find_pairs_between_f32(eng, sc->f, sc->n, b->f, b->n, p->flags, pairs);
+        else
+            s = sc->f64 ? locd_engine_find_pairs_f64(eng, sc->d, sc->n, p->flags, pairs)
+                        : locd_engine_find_pairs_f32(eng, sc->f, sc->n, p->flags, pairs);
         if (s != LOCD_OK) {
             int64_t bad = locd_last_error_index();
-            if (bad >= 0)
+            if (bad >= 0 && b && (uint64_t)bad >= sc->n) /* the two-set call names box j of b as na + j */
+                fprintf(stderr, "locd: %s: box %lld is invalid: %s\n", p->against, (long long)(bad - (int64_t)sc->n),
+                        locd_status_string(s));
+            else if (bad >= 0)
                 fprintf(stderr, "locd: %s: box %lld is invalid: %s\n", p->path, (long long)bad, locd_status_string(s));
             else
                 fprintf(stderr, "locd: %s: %s\n", p->path, locd_last_error());
@@ -193,6 +216,50 @@ static int run_repeats(const pairs_opts *p, locd_engine *eng, const cli_scene *s
         locd_stats_init(st);
         locd_engine_stats(eng, st);
         times_record(times, r, st);
+    }
+    if (p->repeat > 1)
+        cli_progress("pairs: run", p->repeat, p->repeat);
+    return 0;
+}
+
+static const double *box_f64(const cli_scene *sc, size_t i, double tmp[6])
+{
+    int k;
+    if (sc->f64)
+        return sc->d + 6 * i;
+    for (k = 0; k < 6; k++)
+        tmp[k] = (double)sc->f[6 * i + k];
+    return tmp;
+}
+
+/* The two-set reference: every (i, j) with a's box i and b's box j
+ * overlapping, in (i, j) order, compared with the (sorted) pairs. 0 when
+ * they are the same, else 3. */
+static int check_between_reference(const cli_scene *a, const cli_scene *b, const locd_pairs *pairs)
+{
+    const uint32_t *got = locd_pairs_data(pairs);
+    size_t m = locd_pairs_count(pairs), k = 0, i, j, found = 0;
+    int same = 1;
+    for (i = 0; i < a->n; i++) {
+        double ta[6];
+        const double *x = box_f64(a, i, ta);
+        if ((i & 1023) == 0)
+            cli_progress("pairs: checking", i, a->n);
+        for (j = 0; j < b->n; j++) {
+            double tb[6];
+            const double *y = box_f64(b, j, tb);
+            if (x[0] <= y[3] && y[0] <= x[3] && x[1] <= y[4] && y[1] <= x[4] && x[2] <= y[5] && y[2] <= x[5]) {
+                if (k >= m || got[2 * k] != i || got[2 * k + 1] != j)
+                    same = 0;
+                k++;
+                found++;
+            }
+        }
+    }
+    cli_progress("pairs: checking", a->n, a->n);
+    if (!same || found != m) {
+        fprintf(stderr, "locd: CHECK FAILED: engine %zu pairs, reference %zu pairs\n", m, found);
+        return 3;
     }
     return 0;
 }
@@ -215,20 +282,57 @@ static int check_reference(const cli_scene *sc, const locd_pairs *pairs)
     return rc;
 }
 
-static void print_summary(const pairs_opts *p, const cli_scene *sc, locd_engine *eng, const locd_pairs *pairs,
-                          const locd_stats *st, pairs_times *t, int rc)
+static void print_summary(const pairs_opts *p, const cli_scene *sc, const cli_scene *b, locd_engine *eng,
+                          const locd_pairs *pairs, const locd_stats *st, pairs_times *t, int rc)
 {
     size_t m = p->repeat;
-    printf("{\"n\":%zu,\"pairs\":%zu,\"level\":%d,\"threads\":%u,\"precision\":\"%s\",\"repeat\":%zu,"
+    /* With the pairs on stdout, the summary goes to stderr. */
+    FILE *f = p->out_path && !strcmp(p->out_path, "-") ? stderr : stdout;
+    if (b)
+        fprintf(f, "{\"na\":%zu,\"nb\":%zu,", sc->n, b->n);
+    else
+        fputc('{', f);
+    fprintf(f, "\"n\":%zu,\"pairs\":%zu,\"level\":%d,\"threads\":%u,\"precision\":\"%s\",\"repeat\":%zu,"
            "\"total_ms\":%.3f,\"stage_ms\":{\"bounds\":%.3f,\"encode\":%.3f,\"sort\":%.3f,\"merge\":%.3f,"
            "\"sweep\":%.3f,\"order\":%.3f,\"transfer\":%.3f},\"entries\":%llu,\"candidates\":%llu,"
            "\"exact_tests\":%llu,\"depth\":%u%s}\n",
-           sc->n, locd_pairs_count(pairs), (int)locd_engine_level(eng), st->threads, sc->f64 ? "f64" : "f32", m,
+           b ? sc->n + b->n : sc->n, locd_pairs_count(pairs), (int)locd_engine_level(eng), st->threads,
+           sc->f64 ? "f64" : "f32", m,
            cli_median(t->total, m), cli_median(t->stage[0], m), cli_median(t->stage[1], m),
            cli_median(t->stage[2], m), cli_median(t->stage[3], m), cli_median(t->stage[4], m),
            cli_median(t->stage[5], m), cli_median(t->stage[6], m), (unsigned long long)st->entries,
            (unsigned long long)st->candidates, (unsigned long long)st->exact_tests, st->depth,
            p->check ? (rc ? ",\"check\":\"FAILED\"" : ",\"check\":\"ok\"") : "");
+}
+
+/* Loads SCENE (and --against's B; a float32 set meeting a float64 one is
+ * widened), refusing a --check the O(n^2) reference would take minutes
+ * over. 0, or 1 after a message. */
+static int load_inputs(pairs_opts *p, cli_scene *sc, cli_scene *b)
+{
+    memset(b, 0, sizeof *b);
+    if (p->against && !strcmp(p->path, "-") && !strcmp(p->against, "-"))
+        cli_die("pairs: only one of SCENE and --against can be stdin");
+    if (cli_load_scene(p->path, sc) != 0)
+        return 1;
+    if (p->against && cli_load_scene(p->against, b) != 0) {
+        cli_free_scene(sc);
+        return 1;
+    }
+    if (p->check && !p->force && sc->n + b->n > PAIRS_CHECK_MAX) {
+        fprintf(stderr,
+                "locd: pairs: --check compares with the O(n^2) reference, which takes minutes past %d boxes "
+                "(this scene has %zu); add --force to run it anyway\n",
+                PAIRS_CHECK_MAX, sc->n + b->n);
+        cli_free_scene(sc);
+        cli_free_scene(b);
+        return 1;
+    }
+    if ((p->want_f64 || (p->against && b->f64)) && !sc->f64)
+        scene_to_f64(sc);
+    if (p->against && sc->f64 && !b->f64)
+        scene_to_f64(b);
+    return 0;
 }
 
 int cmd_pairs(int argc, char **argv)
@@ -238,35 +342,40 @@ int cmd_pairs(int argc, char **argv)
     locd_engine *eng = NULL;
     locd_pairs *pairs = NULL;
     locd_stats st;
-    cli_scene sc;
+    cli_scene sc, b;
+    const cli_scene *bp;
     int rc;
 
     if (parse_pairs_args(argc, argv, &p))
         return 0;
-    if (cli_load_scene(p.path, &sc) != 0)
+    if (load_inputs(&p, &sc, &b) != 0)
         return 1;
-    if (p.want_f64 && !sc.f64)
-        scene_to_f64(&sc);
+    bp = p.against ? &b : NULL;
     if (locd_engine_create(&p.cfg, &eng) != LOCD_OK) {
         fprintf(stderr, "locd: cannot create the engine: %s\n", locd_last_error());
         cli_free_scene(&sc);
+        cli_free_scene(&b);
         return 1;
     }
     if (locd_pairs_create(NULL, &pairs) != LOCD_OK)
         cli_die("pairs: %s", locd_last_error());
     times_alloc(&times, p.repeat);
-    if ((rc = run_repeats(&p, eng, &sc, pairs, &times, &st)) == 0) {
+    if ((rc = run_repeats(&p, eng, &sc, bp, pairs, &times, &st)) == 0) {
         if (!(p.flags & LOCD_FIND_SORTED) && (p.out_path || p.check))
             locd_pairs_sort(pairs);
-        if (p.check)
-            rc = check_reference(&sc, pairs);
+        if (p.check) {
+            if (cli_stderr_is_terminal() && !bp)
+                fprintf(stderr, "locd: pairs: checking against the O(n^2) reference...\n");
+            rc = bp ? check_between_reference(&sc, bp, pairs) : check_reference(&sc, pairs);
+        }
         if (p.out_path && cli_write_pairs(p.out_path, locd_pairs_data(pairs), locd_pairs_count(pairs)) != 0)
             rc = 1;
-        print_summary(&p, &sc, eng, pairs, &st, &times, rc);
+        print_summary(&p, &sc, bp, eng, pairs, &st, &times, rc);
     }
     times_free(&times);
     locd_pairs_destroy(pairs);
     locd_engine_destroy(eng);
     cli_free_scene(&sc);
+    cli_free_scene(&b);
     return rc;
 }

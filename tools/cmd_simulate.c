@@ -17,6 +17,14 @@
 #ifndef LOCD_RENDER_SCRIPT
 #define LOCD_RENDER_SCRIPT "scripts/render_scene.py"
 #endif
+/* Where `meson install` puts the renderer: relative to the installed locd
+ * (bindir/../datadir/locd, so a moved prefix still finds it), and absolute. */
+#ifndef LOCD_RENDER_REL
+#define LOCD_RENDER_REL "../share/locd/render_scene.py"
+#endif
+#ifndef LOCD_RENDER_INSTALLED
+#define LOCD_RENDER_INSTALLED "/usr/local/share/locd/render_scene.py"
+#endif
 
 /* Objects drawn at most (the million-box scene is for statistics). */
 #define SIM_RENDER_MAX 5000
@@ -31,15 +39,16 @@ typedef struct sim_args {
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: locd simulate SCENE.json [--steps N] [--continuous on|off|auto] [--threads K]\n"
+    fprintf(f, "usage: locd simulate SCENE.json|- [--steps N] [--continuous on|off|auto] [--threads K]\n"
                "                     [--frames DIR | --gif FILE] [--every K] [--dump FILE] [--quiet]\n"
                "                     [--dt SECONDS] [--ladder]\n"
                "  Runs the scene through the pipeline; one JSON line per step on stdout (its 'stages'\n"
                "  object: calls, ms, pairs_in, pairs_out per stage), then a 'summary' line.\n"
                "  --frames/--gif record every K-th step (default 1) and render them with\n"
-               "  python3 + matplotlib (LOCD_PYTHON, LOCD_RENDER_SCRIPT override the defaults).\n"
+               "  python3 + matplotlib: render_scene.py as installed (PREFIX/share/locd), else the source\n"
+               "  tree's (LOCD_PYTHON, LOCD_RENDER_SCRIPT override them). SCENE - reads stdin.\n"
                "  --dump writes the recorded positions (JSON lines) without rendering.\n"
-               "  --quiet prints the summary line only. Scene format: docs/pipeline.md.\n"
+               "  --quiet prints the summary line only. Scene format: docs/formats.md.\n"
                "  --ladder also runs, on every step's state, the pipeline as boxes only, + convex\n"
                "  exact, + mesh exact, + swept, and reports pairs and time of each (docs/accuracy-pipeline.md).\n");
 }
@@ -94,7 +103,7 @@ static int parse_args(int argc, char **argv, sim_args *a)
             a->dump = argv[++i];
         } else if (!strcmp(o, "--continuous")) {
             a->continuous = parse_continuous(argv[++i]);
-        } else if (o[0] == '-') {
+        } else if (o[0] == '-' && o[1]) { /* "-" alone is the scene on stdin */
             cli_die("simulate: unknown option %s (see --help)", o);
         } else if (!a->scene) {
             a->scene = o;
@@ -271,14 +280,40 @@ static void write_positions(FILE *f, const sim_scene *s, int step)
     fputs("]}\n", f);
 }
 
+/* The renderer: $LOCD_RENDER_SCRIPT, else the installed one beside this
+ * executable (../share/locd/ from its directory), else the install
+ * prefix's, else the source tree's (an uninstalled build). */
+static const char *find_renderer(char *buf, size_t len)
+{
+    const char *env = getenv("LOCD_RENDER_SCRIPT");
+    ssize_t n;
+    char *slash;
+    if (env && *env)
+        return env;
+    n = readlink("/proc/self/exe", buf, len - 1);
+    if (n > 0) {
+        buf[n] = '\0';
+        if ((slash = strrchr(buf, '/')) != NULL && (size_t)(slash - buf) + 1 + sizeof LOCD_RENDER_REL <= len) {
+            memcpy(slash + 1, LOCD_RENDER_REL, sizeof LOCD_RENDER_REL);
+            if (access(buf, R_OK) == 0)
+                return buf;
+        }
+    }
+    if (access(LOCD_RENDER_INSTALLED, R_OK) == 0)
+        return LOCD_RENDER_INSTALLED;
+    return LOCD_RENDER_SCRIPT;
+}
+
 static int render(const char *dump, const sim_args *a)
 {
-    const char *py = getenv("LOCD_PYTHON"), *script = getenv("LOCD_RENDER_SCRIPT");
+    const char *py = getenv("LOCD_PYTHON");
+    char found[4096];
+    const char *script = find_renderer(found, sizeof found);
     char *argv[6];
     pid_t pid;
     int status;
     argv[0] = (char *)(py && *py ? py : "python3");
-    argv[1] = (char *)(script && *script ? script : LOCD_RENDER_SCRIPT);
+    argv[1] = (char *)script;
     argv[2] = (char *)dump;
     argv[3] = (char *)(a->gif ? "--gif" : "--frames");
     argv[4] = (char *)(a->gif ? a->gif : a->frames);
@@ -615,9 +650,13 @@ static int run_steps(sim_run *r, int steps)
     int step;
     locd_pipeline_stats_init(&r->total);
     t_start = cli_now_ms();
-    for (step = 1; step <= steps; step++)
+    for (step = 1; step <= steps; step++) {
+        if (steps >= 10 && step % 10 == 0)
+            cli_progress("simulate: step", (size_t)step, (size_t)steps + 1);
         if (run_step(r, step) != 0)
             return 1;
+    }
+    cli_progress("simulate: step", 1, 1);
     print_summary(&r->s, &r->st, &r->o, steps, &r->total, cli_now_ms() - t_start, r->a.ladder ? &r->ladder : NULL);
     return finish_recording(r);
 }

@@ -299,12 +299,48 @@ json_value *json_parse(const char *text, char *err, size_t errlen)
     return NULL;
 }
 
+/* All of stdin, NUL-terminated (malloc'd), or NULL. */
+static char *read_stdin(size_t *size)
+{
+    size_t cap = 1 << 16, len = 0, got;
+    char *text = malloc(cap + 1), *bigger;
+    while (text && (got = fread(text + len, 1, cap - len, stdin)) > 0) {
+        len += got;
+        if (len == cap) {
+            if (!(bigger = realloc(text, 2 * cap + 1))) {
+                free(text);
+                return NULL;
+            }
+            text = bigger;
+            cap *= 2;
+        }
+    }
+    if (text && ferror(stdin)) {
+        free(text);
+        return NULL;
+    }
+    *size = len;
+    return text;
+}
+
 json_value *json_parse_file(const char *path, char *err, size_t errlen)
 {
-    FILE *f = fopen(path, "rb");
+    FILE *f;
     char *text;
     long size;
     json_value *v;
+    if (!strcmp(path, "-")) { /* the scene on stdin */
+        size_t len = 0;
+        if (!(text = read_stdin(&len))) {
+            snprintf(err, errlen, "cannot read stdin");
+            return NULL;
+        }
+        text[len] = '\0';
+        v = json_parse(text, err, errlen);
+        free(text);
+        return v;
+    }
+    f = fopen(path, "rb");
     if (!f) {
         snprintf(err, errlen, "cannot open: %s", strerror(errno));
         return NULL;

@@ -19,7 +19,7 @@ typedef struct json_value {
 
 /* NULL on error, with a message "line L, column C: ..." in err. */
 json_value *json_parse(const char *text, char *err, size_t errlen);
-/* Reads and parses a file. */
+/* Reads and parses a file; path "-" reads stdin. */
 json_value *json_parse_file(const char *path, char *err, size_t errlen);
 void json_free(json_value *v);
 

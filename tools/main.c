@@ -12,11 +12,11 @@ typedef struct command {
 
 static const command commands[] = {
     {"gen", cmd_gen, "gen KIND N [--seed S] -o FILE.aabb    make a scene (kinds: uniform, clustered, mixed, lattice, far)"},
-    {"pairs", cmd_pairs, "pairs FILE.aabb [--threads K] [--out PAIRS.bin] [--repeat R] ...   find all overlapping pairs"},
+    {"pairs", cmd_pairs, "pairs SCENE [--against B] [--threads K] [--out PAIRS.bin|-] ...   find all overlapping pairs (.aabb, .aabb64, .npy, -)"},
     {"bench", cmd_bench, "bench [--sizes 1e6,2e6] [--repeat R] [--threads-max P]   the paper's Tables 1-2 on this machine"},
     {"serve", cmd_serve, "serve --listen unix:PATH|tcp:HOST:PORT   run the level-3 service"},
-    {"simulate", cmd_simulate, "simulate SCENE.json --steps N   run a scene through the filter pipeline"},
-    {"accuracy", cmd_accuracy, "accuracy [--out docs/accuracy.md]   what accuracy costs in time"},
+    {"simulate", cmd_simulate, "simulate SCENE.json|- --steps N   run a scene through the filter pipeline"},
+    {"accuracy", cmd_accuracy, "accuracy [--out accuracy.md]   what accuracy costs in time"},
 };
 
 static void usage(FILE *f)

@@ -219,6 +219,37 @@ public:
         return pairs_to_array(pairs_.p, wide);
     }
 
+    // The two-set query: (i in a, j in b). A float32 set meeting a float64
+    // one is widened to float64 (exact: every float is a double).
+    py::array find_pairs_between(py::handle a_obj, py::handle b_obj, bool sort, bool wide)
+    {
+        Boxes a = view_boxes(a_obj), b = view_boxes(b_obj);
+        if (a.f64 != b.f64) {
+            Boxes &narrow = a.f64 ? b : a;
+            narrow = view_boxes(narrow.array.attr("astype")(py::module_::import("numpy").attr("float64")));
+        }
+        uint32_t flags = sort ? LOCD_FIND_SORTED : 0u;
+        std::unique_lock<std::mutex> lock(mutex_, std::defer_lock);
+        locd_status st;
+        {
+            py::gil_scoped_release nogil;
+            lock.lock();
+            if (!engine_)
+                st = LOCD_ERR_INVALID_HANDLE;
+            else if (a.f64)
+                st = locd_engine_find_pairs_between_f64(engine_, static_cast<const double *>(a.data), a.n,
+                                                        static_cast<const double *>(b.data), b.n, flags, pairs_.p);
+            else
+                st = locd_engine_find_pairs_between_f32(engine_, static_cast<const float *>(a.data), a.n,
+                                                        static_cast<const float *>(b.data), b.n, flags, pairs_.p);
+        }
+        if (st == LOCD_ERR_INVALID_HANDLE && !engine_)
+            raise_closed();
+        if (st != LOCD_OK)
+            raise_status(st);
+        return pairs_to_array(pairs_.p, wide);
+    }
+
     py::dict stats()
     {
         locd_stats s;
@@ -483,6 +514,8 @@ PYBIND11_MODULE(_core, m)
              py::arg("level"), py::arg("threads"), py::arg("max_depth"), py::arg("cell_bias"), py::arg("cubes"),
              py::arg("service"), py::arg("secret"), py::arg("worker_path"))
         .def("find_pairs", &Engine::find_pairs, py::arg("boxes"), py::arg("sort"), py::arg("wide") = false)
+        .def("find_pairs_between", &Engine::find_pairs_between, py::arg("a"), py::arg("b"), py::arg("sort"),
+             py::arg("wide") = false)
         .def("stats", &Engine::stats)
         .def("close", &Engine::close)
         .def_property_readonly("closed", &Engine::closed)

@@ -252,6 +252,21 @@ LOCD_API locd_status locd_engine_find_pairs_f32(locd_engine *engine, const float
 LOCD_API locd_status locd_engine_find_pairs_f64(locd_engine *engine, const double *boxes, size_t n,
                                                 uint32_t flags, locd_pairs *out);
 
+/* Two-set query: every pair (i, j) with box i of a (6*na values) and box j of
+ * b (6*nb values) overlapping, each pair once, into *out (replacing its
+ * contents). i indexes a and j indexes b (two sets: i < j does not apply,
+ * and pairs within a or within b are never reported). The order is
+ * deterministic; LOCD_FIND_SORTED orders by (i, j). A bad box is reported
+ * through locd_last_error_index as its index in a, or as na + j for box j
+ * of b. na = 0 or nb = 0 give no pairs (the other set is still validated).
+ * Levels 1 and 2 (the same pairs in the same order); level 3 returns
+ * LOCD_ERR_UNSUPPORTED. On error *out is left unchanged. */
+LOCD_API locd_status locd_engine_find_pairs_between_f32(locd_engine *engine, const float *a, size_t na,
+                                                        const float *b, size_t nb, uint32_t flags, locd_pairs *out);
+LOCD_API locd_status locd_engine_find_pairs_between_f64(locd_engine *engine, const double *a, size_t na,
+                                                        const double *b, size_t nb, uint32_t flags,
+                                                        locd_pairs *out);
+
 /* The same into a caller buffer of `capacity` pairs (2*capacity uint32).
  * *count receives the number of pairs found. If it exceeds capacity, nothing
  * is copied, LOCD_ERR_BUFFER_TOO_SMALL is returned and the pairs stay

@@ -200,6 +200,68 @@ locd_status locd_engine_find_pairs_f64(locd_engine *engine, const double *boxes,
     return find_common(engine, boxes, n, 1, flags, out);
 }
 
+/* The two-set query: a and b are copied into one array (b after a), so
+ * the level builds one octree over both and its sweep keeps only the
+ * pairs across the two (lc_backend.find_between); a bad box of b is
+ * reported as na + its index. */
+static locd_status find_between_common(locd_engine *e, const void *a, size_t na, const void *b, size_t nb, int f64,
+                                       uint32_t flags, locd_pairs *out)
+{
+    const size_t row = 6 * (f64 ? sizeof(double) : sizeof(float));
+    locd_stats st_local;
+    locd_status st;
+    size_t bytes = 0;
+    void *boxes = NULL;
+    double t0;
+    if ((st = lc_engine_check(e)) != LOCD_OK || (st = lc_pairs_check(out)) != LOCD_OK)
+        return st;
+    if ((na && !a) || (nb && !b))
+        return lc_error(LOCD_ERR_NULL_POINTER, "%s is NULL", na && !a ? "a" : "b");
+    if (na > SIZE_MAX - nb)
+        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "na + nb overflows size_t");
+    if ((st = lc_check_request(e, a ? a : b, na + nb, flags)) != LOCD_OK)
+        return st;
+    if (!e->ops->find_between)
+        return lc_error(LOCD_ERR_UNSUPPORTED,
+                        "the two-set query runs at levels 1 and 2 only (this engine is level %d, %s)", (int)e->level,
+                        e->ops->name);
+    if (!lc_mul_size(na + nb, row, &bytes))
+        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu boxes overflow size_t", na + nb);
+    if (bytes && !(boxes = lc_alloc(&e->alloc, bytes)))
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate %zu bytes to hold both sets", bytes);
+    if (na)
+        memcpy(boxes, a, na * row);
+    if (nb)
+        memcpy((char *)boxes + na * row, b, nb * row);
+    if (!lc_engine_acquire(e)) {
+        lc_free(&e->alloc, boxes, bytes);
+        return lc_error(LOCD_ERR_BUSY, "the engine is running another call or job");
+    }
+    locd_stats_init(&st_local);
+    t0 = lc_now_ms();
+    st = e->ops->find_between(e, boxes, na + nb, na, f64, flags, out, &st_local);
+    st_local.ms_total = lc_now_ms() - t0;
+    if (!st) {
+        e->stats = st_local;
+        lc_clear_error();
+    }
+    lc_engine_release(e);
+    lc_free(&e->alloc, boxes, bytes);
+    return st;
+}
+
+locd_status locd_engine_find_pairs_between_f32(locd_engine *engine, const float *a, size_t na, const float *b,
+                                               size_t nb, uint32_t flags, locd_pairs *out)
+{
+    return find_between_common(engine, a, na, b, nb, 0, flags, out);
+}
+
+locd_status locd_engine_find_pairs_between_f64(locd_engine *engine, const double *a, size_t na, const double *b,
+                                               size_t nb, uint32_t flags, locd_pairs *out)
+{
+    return find_between_common(engine, a, na, b, nb, 1, flags, out);
+}
+
 static locd_status find_into(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags, uint32_t *pairs,
                              size_t capacity, size_t *count)
 {

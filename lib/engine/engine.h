@@ -24,6 +24,12 @@ typedef struct lc_backend {
      * the engine and run with find on a thread of its own. */
     locd_status (*submit)(struct locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
                           locd_job **out);
+    /* The two-set query on one array: objects [0, split) are set a, [split,
+     * n) set b; only pairs (i in a, j in b) are reported, as (i, j - split).
+     * Same contract as find otherwise. NULL: the level does not offer it
+     * (locd_engine_find_pairs_between_* returns LOCD_ERR_UNSUPPORTED). */
+    locd_status (*find_between)(struct locd_engine *e, const void *boxes, size_t n, size_t split, int f64,
+                                uint32_t flags, locd_pairs *out, locd_stats *stats);
 } lc_backend;
 
 extern const lc_backend lc_inproc_backend;  /* levels/inproc.c */

@@ -23,6 +23,7 @@ typedef struct lc_job_ctx {
     lc_inproc *ip;
     const void *boxes;
     size_t n;
+    size_t split; /* two-set query: first object of set b (0: one set) */
     int f64;
     double mark; /* lc_now_ms() when the last timed stage ended */
     locd_grid grid;
@@ -104,9 +105,14 @@ static void task_gather(void *arg, uint32_t t, uint32_t k)
 {
     lc_job_ctx *c = arg;
     const lc_sweep_out *o = &c->ip->sw[t];
+    uint32_t *dst = c->dst + 2 * c->pair_off[t];
+    size_t p;
     (void)k;
     if (o->count)
-        memcpy(c->dst + 2 * c->pair_off[t], o->pairs.data, o->count * 2 * sizeof(uint32_t));
+        memcpy(dst, o->pairs.data, o->count * 2 * sizeof(uint32_t));
+    if (c->split) /* two sets: the sweep wrote (i, split + j) */
+        for (p = 0; p < o->count; p++)
+            dst[2 * p + 1] -= (uint32_t)c->split;
 }
 
 static locd_status inproc_open(locd_engine *e)
@@ -290,6 +296,8 @@ static locd_status sweep(lc_job_ctx *c, locd_stats *stats, size_t *npairs)
     locd_status st = LOCD_OK;
     uint32_t t;
     lend_dead_entries(c);
+    for (t = 0; t < c->plan.k; t++)
+        c->ip->sw[t].split = (uint32_t)c->split;
     lc_pool_run(c->ip->pool, c->plan.k, task_sweep, c);
     *npairs = 0;
     for (t = 0; t < c->plan.k; t++) {
@@ -334,7 +342,7 @@ static locd_status hand_over(locd_engine *e, lc_job_ctx *c, uint32_t flags, size
     return LOCD_OK;
 }
 
-static lc_job_ctx *new_job(locd_engine *e, const void *boxes, size_t n, int f64)
+static lc_job_ctx *new_job(locd_engine *e, const void *boxes, size_t n, size_t split, int f64)
 {
     lc_job_ctx *c = lc_alloc(&e->alloc, sizeof *c);
     if (!c)
@@ -344,14 +352,39 @@ static lc_job_ctx *new_job(locd_engine *e, const void *boxes, size_t n, int f64)
     c->ip = e->backend;
     c->boxes = boxes;
     c->n = n;
+    c->split = split;
     c->f64 = f64;
     c->plan.k = n < LC_PARALLEL_MIN_OBJECTS ? 1 : e->threads;
     c->mark = lc_now_ms();
     return c;
 }
 
-static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
-                               locd_pairs *out, locd_stats *stats)
+/* Validates every box (k ways) where there is nothing to pair: one set of
+ * a two-set query is empty. */
+static locd_status validate_only(locd_engine *e, const void *boxes, size_t n, int f64, locd_pairs *out,
+                                 locd_stats *stats)
+{
+    lc_job_ctx *c;
+    lc_bounds all;
+    uint32_t t;
+    if (!(c = new_job(e, boxes, n, 0, f64)))
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the call state");
+    lc_pool_run(c->ip->pool, c->plan.k, task_bounds, c);
+    lc_bounds_init(&all);
+    for (t = 0; t < c->plan.k; t++)
+        lc_bounds_merge(&all, &c->bounds[t]);
+    stats->threads = c->plan.k;
+    lc_free(&e->alloc, c, sizeof *c);
+    if (all.bad >= 0)
+        return lc_error_box(all.bad_status, all.bad, "box %lld", (long long)all.bad);
+    out->count = 0;
+    return LOCD_OK;
+}
+
+/* One octree over all n objects; with split > 0 the sweep keeps only the
+ * pairs across [0, split) and [split, n) (lc_sweep_out.split). */
+static locd_status inproc_run(locd_engine *e, const void *boxes, size_t n, size_t split, int f64, uint32_t flags,
+                              locd_pairs *out, locd_stats *stats)
 {
     lc_job_ctx *c;
     locd_status st;
@@ -361,7 +394,7 @@ static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int 
     stats->objects = n;
     if (n < 2)
         return find_tiny(boxes, n, f64, ((const lc_inproc *)e->backend)->kernel, out, stats);
-    if (!(c = new_job(e, boxes, n, f64)))
+    if (!(c = new_job(e, boxes, n, split, f64)))
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the call state");
     stats->threads = c->plan.k;
     if ((st = fit_grid(c, stats)) == LOCD_OK && (st = encode_sort(e, c, stats)) == LOCD_OK) {
@@ -369,10 +402,29 @@ static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int 
         if ((st = sweep(c, stats, &npairs)) == LOCD_OK)
             st = hand_over(e, c, flags, npairs, out, stats);
     }
-    for (t = 0; t < c->plan.k; t++)
+    for (t = 0; t < c->plan.k; t++) {
         lc_sweep_out_lend(&c->ip->sw[t], NULL, 0);
+        c->ip->sw[t].split = 0;
+    }
     lc_free(&e->alloc, c, sizeof *c);
     return st;
 }
 
-const lc_backend lc_inproc_backend = {"in-process", inproc_open, inproc_close, inproc_find, NULL};
+static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
+                               locd_pairs *out, locd_stats *stats)
+{
+    return inproc_run(e, boxes, n, 0, f64, flags, out, stats);
+}
+
+static locd_status inproc_find_between(locd_engine *e, const void *boxes, size_t n, size_t split, int f64,
+                                       uint32_t flags, locd_pairs *out, locd_stats *stats)
+{
+    if (split == 0 || split >= n) {
+        stats->objects = n;
+        return n ? validate_only(e, boxes, n, f64, out, stats) : find_tiny(boxes, 0, f64, 0, out, stats);
+    }
+    return inproc_run(e, boxes, n, split, f64, flags, out, stats);
+}
+
+const lc_backend lc_inproc_backend = {"in-process", inproc_open, inproc_close, inproc_find, NULL,
+                                      inproc_find_between};

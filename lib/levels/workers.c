@@ -430,6 +430,7 @@ static locd_status ensure_data(lc_workers *w, size_t need)
 typedef struct lc_call {
     const void *boxes;
     size_t n;
+    size_t split; /* two-set query: first object of set b (0: one set) */
     int f64;
     locd_grid grid;
 } lc_call;
@@ -570,8 +571,8 @@ static locd_status sweep_and_give(lc_workers *w, const lc_call *c, const uint64_
     double t0 = lc_now_ms();
     locd_status st;
     locd_stats_init(&sw);
-    st = c->f64 ? lc_block_sweep_f64(&c->grid, c->boxes, c->n, sorted, total, &w->pairs, &sw, w->kernel)
-                : lc_block_sweep_f32(&c->grid, c->boxes, c->n, sorted, total, &w->pairs, &sw, w->kernel);
+    st = c->f64 ? lc_block_sweep_f64(&c->grid, c->boxes, c->n, sorted, total, c->split, &w->pairs, &sw, w->kernel)
+                : lc_block_sweep_f32(&c->grid, c->boxes, c->n, sorted, total, c->split, &w->pairs, &sw, w->kernel);
     if (st)
         return st;
     stats->pairs = sw.pairs;
@@ -583,8 +584,10 @@ static locd_status sweep_and_give(lc_workers *w, const lc_call *c, const uint64_
     return lc_pairs_give(&w->pairs, out);
 }
 
-static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
-                                locd_pairs *out, locd_stats *stats)
+/* One octree over all n objects; with split > 0 the sweep keeps only the
+ * pairs across [0, split) and [split, n) (the two-set query). */
+static locd_status workers_run(locd_engine *e, const void *boxes, size_t n, size_t split, int f64, uint32_t flags,
+                               locd_pairs *out, locd_stats *stats)
 {
     lc_workers *w = e->backend;
     lc_call c;
@@ -597,13 +600,14 @@ static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int
     t0 = lc_now_ms();
     c.boxes = boxes;
     c.n = n;
+    c.split = split;
     c.f64 = f64;
     /* The same validation and root cube as level 1 (the grid-fit building block). */
     st = f64 ? lc_block_grid_fit_f64(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &c.grid, w->kernel)
              : lc_block_grid_fit_f32(boxes, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, &c.grid, w->kernel);
     if (st)
         return st;
-    if (n < 2) {
+    if (n < 2 || (split && split >= n)) { /* no pair; every box was validated above */
         out->count = 0;
         stats->threads = 1;
         return LOCD_OK;
@@ -622,4 +626,18 @@ static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int
     return sweep_and_give(w, &c, sorted, r.total, flags, out, stats);
 }
 
-const lc_backend lc_workers_backend = {"worker processes", workers_open, workers_close, workers_find, NULL};
+static locd_status workers_find(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,
+                                locd_pairs *out, locd_stats *stats)
+{
+    return workers_run(e, boxes, n, 0, f64, flags, out, stats);
+}
+
+static locd_status workers_find_between(locd_engine *e, const void *boxes, size_t n, size_t split, int f64,
+                                        uint32_t flags, locd_pairs *out, locd_stats *stats)
+{
+    /* An empty set a (split 0) has no pair either: validate, as for an empty b. */
+    return workers_run(e, boxes, n, split ? split : n, f64, flags, out, stats);
+}
+
+const lc_backend lc_workers_backend = {"worker processes", workers_open, workers_close, workers_find, NULL,
+                                       workers_find_between};

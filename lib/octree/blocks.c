@@ -114,11 +114,11 @@ locd_status locd_merge_entries(const uint64_t *const *runs, const size_t *counts
 locd_status locd_sweep_f32(const locd_grid *grid, const float *boxes, size_t n, const uint64_t *entries, size_t count,
                            locd_pairs *out, locd_stats *stats)
 {
-    return lc_block_sweep_f32(grid, boxes, n, entries, count, out, stats, lc_kernel_choose());
+    return lc_block_sweep_f32(grid, boxes, n, entries, count, 0, out, stats, lc_kernel_choose());
 }
 
 locd_status locd_sweep_f64(const locd_grid *grid, const double *boxes, size_t n, const uint64_t *entries,
                            size_t count, locd_pairs *out, locd_stats *stats)
 {
-    return lc_block_sweep_f64(grid, boxes, n, entries, count, out, stats, lc_kernel_choose());
+    return lc_block_sweep_f64(grid, boxes, n, entries, count, 0, out, stats, lc_kernel_choose());
 }

@@ -51,7 +51,7 @@ locd_status LC_FN(lc_block_encode_)(const locd_grid *grid, const LC_T *boxes, si
 }
 
 locd_status LC_FN(lc_block_sweep_)(const locd_grid *grid, const LC_T *boxes, size_t n, const uint64_t *entries,
-                                   size_t count, locd_pairs *out, locd_stats *stats, int kernel)
+                                   size_t count, size_t split, locd_pairs *out, locd_stats *stats, int kernel)
 {
     lc_sweep_out o;
     locd_status st = lc_grid_check(grid);
@@ -70,12 +70,16 @@ locd_status LC_FN(lc_block_sweep_)(const locd_grid *grid, const LC_T *boxes, siz
         if ((entries[i] & ((1ull << grid->index_bits) - 1)) >= n)
             return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entry %zu names object >= n", i);
     lc_sweep_out_init(&o, &out->alloc, kernel);
+    o.split = (uint32_t)split;
     st = LC_FN(lc_sweep_range_)(grid, boxes, NULL, entries, count, 0, count, &o);
     if (!st)
         st = lc_pairs_reserve(out, o.count);
     if (!st) {
         if (o.count)
             memcpy(out->data, o.pairs.data, o.count * 2 * sizeof(uint32_t));
+        if (split) /* two sets: the sweep wrote (i, split + j) */
+            for (i = 0; i < o.count; i++)
+                out->data[2 * i + 1] -= (uint32_t)split;
         out->count = o.count;
         if (stats)
             sweep_stats_out(stats, n, count, &o);

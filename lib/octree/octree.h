@@ -127,6 +127,12 @@ typedef struct lc_sweep_out {
     lc_buf group;         /* uint64 per entry of the largest slab-ordered cell so far: slab and object */
     uint64_t candidates;
     uint64_t exact_tests;
+    /* Two-set query (locd_engine_find_pairs_between_*): 0 for one set;
+       otherwise objects below `split` form set a, the others set b, and a
+       candidate of the same set is dropped before any test, so only pairs
+       with one object of each are reported (as (a's index, b's index +
+       split)). Set between sweeps by the level that runs them. */
+    uint32_t split;
 } lc_sweep_out;
 /* kernel: the LC_KERNEL_* every sweep into o uses (lc_kernel_choose). */
 void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a, int kernel);
@@ -160,10 +166,12 @@ locd_status lc_block_encode_f32(const locd_grid *grid, const float *boxes, size_
                                 uint64_t *entries, size_t capacity, size_t *written, int kernel);
 locd_status lc_block_encode_f64(const locd_grid *grid, const double *boxes, size_t first, size_t count,
                                 uint64_t *entries, size_t capacity, size_t *written, int kernel);
+/* split: 0, or the two-set query's first object of set b (lc_sweep_out.split);
+ * the pairs then come out as (i, j - split). */
 locd_status lc_block_sweep_f32(const locd_grid *grid, const float *boxes, size_t n, const uint64_t *entries,
-                               size_t count, locd_pairs *out, locd_stats *stats, int kernel);
+                               size_t count, size_t split, locd_pairs *out, locd_stats *stats, int kernel);
 locd_status lc_block_sweep_f64(const locd_grid *grid, const double *boxes, size_t n, const uint64_t *entries,
-                               size_t count, locd_pairs *out, locd_stats *stats, int kernel);
+                               size_t count, size_t split, locd_pairs *out, locd_stats *stats, int kernel);
 
 /* ---- 3-D Morton (Z-order) interleaving of 21-bit coordinates ---- */
 static __inline__ uint64_t lc_morton_split3(uint32_t a)

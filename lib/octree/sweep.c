@@ -41,6 +41,7 @@ typedef struct lc_scan {
     int32_t cell[3];  /* the cell's integer coordinates at that level */
     const void *boxes;
     int f64;
+    uint32_t split; /* lc_sweep_out's: 0, or the first object of set b */
 } lc_scan;
 
 typedef size_t (*lc_scan_fn)(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np,
@@ -326,6 +327,8 @@ LC_INLINE size_t emit_if_canonical(const lc_scan *sc, size_t r, uint32_t *pairs,
     const int32_t m0 = l0 > sc->lo[0] ? l0 : sc->lo[0], m1 = l1 > sc->lo[1] ? l1 : sc->lo[1],
                   m2 = l2 > sc->lo[2] ? l2 : sc->lo[2];
     const uint32_t j = sc->c.idx[r];
+    if (sc->split && (j < sc->split) == (sc->idx < sc->split))
+        return np; /* two sets: both objects in the same one */
     if (((m0 >> sc->s) != sc->cell[0]) | ((m1 >> sc->s) != sc->cell[1]) | ((m2 >> sc->s) != sc->cell[2]))
         return np; /* reported in another cell */
     /* Strictly inside each other's quantized range: the quantization is
@@ -402,9 +405,14 @@ LC_AVX512 LC_INLINE size_t scan_avx512(const lc_scan *sc, size_t first, size_t e
         /* Independent compares (a chain of masked compares is one long
            dependency); blocks with no overlap at all, the common case, stop
            here. */
-        const __mmask16 ov = live & _mm512_cmple_epi32_mask(L0, hi0) & _mm512_cmpge_epi32_mask(H0, lo0) &
+        __mmask16 ov = live & _mm512_cmple_epi32_mask(L0, hi0) & _mm512_cmpge_epi32_mask(H0, lo0) &
                              _mm512_cmple_epi32_mask(L1, hi1) & _mm512_cmpge_epi32_mask(H1, lo1) &
                              _mm512_cmple_epi32_mask(L2, hi2) & _mm512_cmpge_epi32_mask(H2, lo2);
+        if (ov && sc->split) { /* two sets: keep the candidates of the other one */
+            const __mmask16 in_a =
+                _mm512_cmplt_epu32_mask(_mm512_loadu_si512(sc->c.idx + r), _mm512_set1_epi32((int)sc->split));
+            ov &= sc->idx < sc->split ? (__mmask16)~in_a : in_a;
+        }
         if (!ov)
             continue;
         /* Canonical cell: the intersection's low corner lies in this cell. */
@@ -504,6 +512,7 @@ static void sweep_ctx_init(lc_sweep_ctx *cx, lc_sweep_state *ss, const locd_grid
     ss->ncand = 0;
     ss->sc.boxes = boxes;
     ss->sc.f64 = f64;
+    ss->sc.split = o->split;
 }
 
 /* The end of the cell that starts at entry p: the next entry with another key. */

@@ -32,4 +32,4 @@ static locd_status service_find(locd_engine *e, const void *boxes, size_t n, int
     return LOCD_OK;
 }
 
-const lc_backend lc_service_backend = {"service", lc_svc_open, lc_svc_close, service_find, lc_svc_submit};
+const lc_backend lc_service_backend = {"service", lc_svc_open, lc_svc_close, service_find, lc_svc_submit, NULL};

@@ -58,6 +58,9 @@ namespace Locd.Tests
             h.Add("lifetime.finalizer_releases_native", FinalizerReleasesNative);
             h.Add("lifetime.10000_create_destroy_no_growth", CreateDestroyNoGrowth);
             h.Add("lifetime.reused_buffer_no_allocation", ReusedBufferNoAllocation);
+            // The two-set query (Between.cs)
+            h.Add("between.random_sets_match_brute_force", Between.RandomSetsMatchBruteForce);
+            h.Add("between.empty_sets_and_bad_box_index", Between.EmptySetsAndBadBoxIndex);
             // Levels 2 and 3
             h.Add("levels.workers_same_as_level1", Levels.Workers);
             h.Add("levels.service_same_as_level1_and_jobs", Levels.Service);

@@ -231,7 +231,8 @@ class Engine:
             raise ClosedError(STATUS["ERR_INVALID_HANDLE"], "the engine is closed")
 
     # -- work -----------------------------------------------------------------
-    def find_pairs(self, boxes: Any, *, sort: bool = False, index_dtype: Any = np.uint32) -> np.ndarray:
+    def find_pairs(self, boxes: Any, other: Any = None, *, sort: bool = False,
+                   index_dtype: Any = np.uint32) -> np.ndarray:
         """Every overlapping pair of ``boxes`` as an (m, 2) array, i < j.
 
         ``boxes``: (n, 6) float32 or float64 array (read in place when
@@ -239,8 +240,17 @@ class Engine:
         ``sort=True`` orders the pairs by (i, j); otherwise the order is
         deterministic but unspecified. ``index_dtype``: ``numpy.uint32``
         (default) or ``numpy.int64``.
+
+        With ``other`` (a second (nb, 6) array): the two-set query, every pair
+        (i, j) with ``boxes[i]`` and ``other[j]`` overlapping (i indexes
+        ``boxes``, j indexes ``other``; pairs within one set are not reported;
+        a bad box of ``other`` has ``InvalidBoxError.index`` n + j). Levels 1
+        and 2 (level 3 raises ``locd.UnsupportedError``).
         """
-        return self._core.find_pairs(boxes, bool(sort), _arrays.index_dtype(index_dtype))
+        wide = _arrays.index_dtype(index_dtype)
+        if other is not None:
+            return self._core.find_pairs_between(boxes, other, bool(sort), wide)
+        return self._core.find_pairs(boxes, bool(sort), wide)
 
     @property
     def stats(self) -> Stats:
@@ -406,7 +416,7 @@ def _engine_for(threads: Optional[int]) -> Engine:
     return engine
 
 
-def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False,
+def find_pairs(boxes: Any, other: Any = None, *, threads: Optional[int] = None, sort: bool = False,
                index_dtype: Any = np.uint32) -> np.ndarray:
     """Every overlapping pair of ``boxes`` as an (m, 2) array, i < j.
 
@@ -414,6 +424,12 @@ def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False,
         boxes: (n, 6) array, rows ``minx miny minz maxx maxy maxz``; float32
             (zero-copy when C-contiguous) or float64 (computed in float64);
             integer arrays and lists are converted to float64.
+        other: a second (nb, 6) array for the two-set query: then the result is
+            every pair (i, j) with ``boxes[i]`` and ``other[j]`` overlapping (i
+            indexes ``boxes``, j indexes ``other``, so i < j does not apply;
+            pairs within one set are not reported; a bad box of ``other`` has
+            ``InvalidBoxError.index`` n + j). A float32 set meeting a float64
+            one is computed in float64.
         threads: threads to use (None = one per core).
         sort: order the pairs by (i, j) (costs time); otherwise the order is
             deterministic (the same for every thread count and run).
@@ -430,7 +446,10 @@ def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False,
     from several threads run in parallel.
     """
     wide = _arrays.index_dtype(index_dtype)
-    return _engine_for(threads)._core.find_pairs(boxes, bool(sort), wide)
+    engine = _engine_for(threads)._core
+    if other is not None:
+        return engine.find_pairs_between(boxes, other, bool(sort), wide)
+    return engine.find_pairs(boxes, bool(sort), wide)
 
 
 def brute_force(boxes: Any, *, index_dtype: Any = np.uint32) -> np.ndarray:

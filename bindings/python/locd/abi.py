@@ -93,7 +93,7 @@ def _engine_for(threads: Optional[int]) -> _Engine:
     return engine
 
 
-def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False,
+def find_pairs(boxes: Any, other: Any = None, *, threads: Optional[int] = None, sort: bool = False,
                index_dtype: Any = np.uint32) -> np.ndarray:
     """Same contract as :func:`locd.find_pairs`, through cffi (the GIL is released during the call)."""
     arr = _as_boxes(boxes)
@@ -101,7 +101,19 @@ def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False,
     engine = _engine_for(threads)
     flags = CONSTANTS["LOCD_FIND_SORTED"] if sort else 0
     n = arr.shape[0]
-    if arr.dtype == np.float64:
+    if other is not None:  # two sets: a float32 set meeting a float64 one is widened
+        brr = _as_boxes(other)
+        if arr.dtype != brr.dtype:
+            arr, brr = arr.astype(np.float64), brr.astype(np.float64)
+        if arr.dtype == np.float64:
+            status = lib.locd_engine_find_pairs_between_f64(engine.engine, ffi.from_buffer("double[]", arr), n,
+                                                            ffi.from_buffer("double[]", brr), brr.shape[0], flags,
+                                                            engine.pairs)
+        else:
+            status = lib.locd_engine_find_pairs_between_f32(engine.engine, ffi.from_buffer("float[]", arr), n,
+                                                            ffi.from_buffer("float[]", brr), brr.shape[0], flags,
+                                                            engine.pairs)
+    elif arr.dtype == np.float64:
         status = lib.locd_engine_find_pairs_f64(engine.engine, ffi.from_buffer("double[]", arr), n, flags,
                                                 engine.pairs)
     else:

@@ -228,6 +228,49 @@ namespace Locd
             }
         }
 
+        /// <summary>The two-set query: every pair (i, j) with box i of a and box j of b
+        /// overlapping, as i0 j0 i1 j1 ... (i indexes a, j indexes b; pairs within one set are
+        /// not reported). A bad box of b is reported with BoxIndex a.Length / 6 + j. Levels 1
+        /// and 2; level 3 throws with Status.Unsupported.</summary>
+        public uint[] FindPairsBetween(float[] a, float[] b, FindFlags flags = FindFlags.None)
+        {
+            long na = RowCount(a, a == null ? 0 : a.Length), nb = RowCount(b, b == null ? 0 : b.Length);
+            fixed (float* pa = a)
+            fixed (float* pb = b)
+                return FindPairsBetweenArray(pa, pb, null, null, na, nb, flags);
+        }
+
+        public uint[] FindPairsBetween(double[] a, double[] b, FindFlags flags = FindFlags.None)
+        {
+            long na = RowCount(a, a == null ? 0 : a.Length), nb = RowCount(b, b == null ? 0 : b.Length);
+            fixed (double* pa = a)
+            fixed (double* pb = b)
+                return FindPairsBetweenArray(null, null, pa, pb, na, nb, flags);
+        }
+
+        uint[] FindPairsBetweenArray(float* fa, float* fb, double* da, double* db, long na, long nb, FindFlags flags)
+        {
+            lock (sync) {
+                bool added = false;
+                try {
+                    handle.DangerousAddRef(ref added);
+                    if (pairs == null)
+                        pairs = PairsHandle.Create();
+                    IntPtr e = handle.DangerousGetHandle(), p = pairs.DangerousGetHandle();
+                    int st = da == null && db == null
+                        ? Native.locd_engine_find_pairs_between_f32(e, fa, (UIntPtr)(ulong)na, fb, (UIntPtr)(ulong)nb,
+                                                                    (uint)flags, p)
+                        : Native.locd_engine_find_pairs_between_f64(e, da, (UIntPtr)(ulong)na, db, (UIntPtr)(ulong)nb,
+                                                                    (uint)flags, p);
+                    if (st != Native.LOCD_OK)
+                        throw LocdException.FromLastError(st);
+                    return CopyPairs(Native.locd_pairs_data(p), (long)(ulong)Native.locd_pairs_count(p));
+                } finally {
+                    if (added) handle.DangerousRelease();
+                }
+            }
+        }
+
         internal static uint[] CopyPairs(uint* src, long count)
         {
             var result = new uint[checked(2 * count)];

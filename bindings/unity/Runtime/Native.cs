@@ -189,6 +189,12 @@ namespace Locd
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_engine_find_pairs_f64(IntPtr engine, double* boxes, UIntPtr n, uint flags, IntPtr out_pairs);
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_engine_find_pairs_between_f32(IntPtr engine, float* a, UIntPtr na, float* b,
+                                                                    UIntPtr nb, uint flags, IntPtr out_pairs);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_engine_find_pairs_between_f64(IntPtr engine, double* a, UIntPtr na, double* b,
+                                                                    UIntPtr nb, uint flags, IntPtr out_pairs);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_engine_find_pairs_f32_into(IntPtr engine, float* boxes, UIntPtr n, uint flags,
                                                                  uint* pairs, UIntPtr capacity, UIntPtr* count);
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
