@@ -154,6 +154,14 @@ meson_subproject() {
   installed=$(meson introspect "$OUT/mc-build" --installed)
   echo "installed by the parent: $installed"
   [ "$installed" = "{}" ] || { echo "the subproject installs files unasked"; exit 1; }
+  # Asked, it installs the library, headers, pkg-config and CMake files.
+  PKG_CONFIG_LIBDIR="$OUT/empty-pkgconfig" meson setup --reconfigure "$OUT/mc-build" "$OUT/mc/meson" \
+    -Dlocd:install_as_subproject=true > "$OUT/mc-reconfigure.txt"
+  installed=$(meson introspect "$OUT/mc-build" --installed)
+  for f in liblocd.so liblocd_narrow.so include/locd/locd.h pkgconfig/locd.pc cmake/locd/locdConfig.cmake; do
+    echo "$installed" | grep "$f\"" >/dev/null || { echo "-Dlocd:install_as_subproject=true does not install $f"; exit 1; }
+  done
+  echo "with -Dlocd:install_as_subproject=true: $(echo "$installed" | grep -o '"/[^"]*":' | wc -l) files"
 }
 run_case meson-subproject meson_subproject
 
