@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# The ABI baseline of liblocd (docs/abi.md).
+# The ABI baselines of liblocd and liblocd_narrow (docs/abi.md).
 #   scripts/abi.sh build    builds build-ci/abi (debugoptimized, -g: abidw reads the DWARF)
-#   scripts/abi.sh update   builds, then writes the baseline abi/liblocd.abi
-#   scripts/abi.sh check    builds, then compares the library with the baseline:
+#   scripts/abi.sh update   builds, then writes the baselines abi/liblocd.abi, abi/liblocd_narrow.abi
+#   scripts/abi.sh check    builds, then compares each library with its baseline:
 #                           any incompatible change (removed or changed function,
 #                           changed layout of a public type) fails; added
 #                           functions (--no-added-syms) and fields appended to
@@ -12,7 +12,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 BUILD=${LOCD_ABI_BUILD:-build-ci/abi}
-BASELINE=abi/liblocd.abi
+LIBS=(liblocd liblocd_narrow)
 SUPPRESSIONS=abi/locd.abignore
 HEADERS=include/locd
 # Only what the public headers expose through exported functions: without
@@ -33,10 +33,10 @@ build() {
 }
 
 # The real file behind the soname link (liblocd.so.MAJOR -> liblocd.so.X.Y.Z).
-library() {
+library() { # NAME
   local lib
-  lib=$(readlink -f "$BUILD/lib/liblocd.so")
-  [ -f "$lib" ] || { echo "abi: no $BUILD/lib/liblocd.so" >&2; exit 1; }
+  lib=$(readlink -f "$BUILD/lib/$1.so")
+  [ -f "$lib" ] || { echo "abi: no $BUILD/lib/$1.so" >&2; exit 1; }
   echo "$lib"
 }
 
@@ -51,40 +51,51 @@ guard() {
 case "${1:-}" in
   build)
     build
-    library
+    for name in "${LIBS[@]}"; do library "$name"; done
     ;;
   update)
     build
-    lib=$(library)
     mkdir -p abi
-    abidw "${DUMP_OPTS[@]}" --out-file "$BASELINE" "$lib"
-    guard "$BASELINE"
-    echo "abi: wrote $BASELINE from $lib ($(grep -c '<function-decl' "$BASELINE") function declarations," \
-      "$(grep -o "soname='[^']*'" "$BASELINE" | head -1))"
+    for name in "${LIBS[@]}"; do
+      lib=$(library "$name")
+      baseline=abi/$name.abi
+      abidw "${DUMP_OPTS[@]}" --out-file "$baseline" "$lib"
+      guard "$baseline"
+      echo "abi: wrote $baseline from $lib ($(grep -c '<function-decl' "$baseline") function declarations," \
+        "$(grep -o "soname='[^']*'" "$baseline" | head -1))"
+    done
     ;;
   check)
-    [ -f "$BASELINE" ] || { echo "abi: no baseline $BASELINE (run scripts/abi.sh update)" >&2; exit 1; }
-    guard "$BASELINE"
+    for name in "${LIBS[@]}"; do
+      [ -f "abi/$name.abi" ] || { echo "abi: no baseline abi/$name.abi (run scripts/abi.sh update)" >&2; exit 1; }
+      guard "abi/$name.abi"
+    done
     build
-    lib=$(library)
-    # The library under test must have debug info too: dump it and guard.
     tmp=$(mktemp)
     trap 'rm -f "$tmp"' EXIT
-    abidw "${DUMP_OPTS[@]}" --out-file "$tmp" "$lib"
-    guard "$tmp"
-    # abidiff's exit status is a bit field (1 error, 2 usage, 4 change, 8
-    # incompatible change); with --no-added-syms only real breaks remain, so
-    # any non-zero status fails.
-    set +e
-    abidiff --no-added-syms --drop-private-types --exported-interfaces-only --suppressions "$SUPPRESSIONS" \
-      "$BASELINE" "$lib" --hd2 "$HEADERS"
-    rc=$?
-    set -e
-    if [ $rc -ne 0 ]; then
-      echo "abi: INCOMPATIBLE with $BASELINE (abidiff exit $rc). If the break is intended, follow docs/abi.md." >&2
-      exit 1
-    fi
-    echo "abi: $lib is compatible with $BASELINE"
+    failed=0
+    for name in "${LIBS[@]}"; do
+      lib=$(library "$name")
+      baseline=abi/$name.abi
+      # The library under test must have debug info too: dump it and guard.
+      abidw "${DUMP_OPTS[@]}" --out-file "$tmp" "$lib"
+      guard "$tmp"
+      # abidiff's exit status is a bit field (1 error, 2 usage, 4 change, 8
+      # incompatible change); with --no-added-syms only real breaks remain, so
+      # any non-zero status fails.
+      set +e
+      abidiff --no-added-syms --drop-private-types --exported-interfaces-only --suppressions "$SUPPRESSIONS" \
+        "$baseline" "$lib" --hd2 "$HEADERS"
+      rc=$?
+      set -e
+      if [ $rc -ne 0 ]; then
+        echo "abi: $lib INCOMPATIBLE with $baseline (abidiff exit $rc). If the break is intended, follow docs/abi.md." >&2
+        failed=1
+      else
+        echo "abi: $lib is compatible with $baseline"
+      fi
+    done
+    exit $failed
     ;;
   *)
     sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'

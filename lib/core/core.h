@@ -27,6 +27,21 @@ extern "C" {
 #define LC_PRINTF(a, b)
 #endif
 
+/* The few helpers liblocd_narrow (lib/narrow/, a library of its own) calls
+ * in liblocd: marked LC_SHARED, exported only in the private version node
+ * LOCD_PRIVATE_<version> of lib/locd.map.in, declared in no public header,
+ * no part of the ABI (docs/abi.md, "Two libraries"). The error helpers must
+ * be liblocd's own: the last error is liblocd's thread-local state. */
+#if defined(_WIN32) && defined(LOCD_SHARED_BUILD) && !defined(LOCD_NARROW_BUILD)
+#define LC_SHARED __declspec(dllexport)
+#elif defined(_WIN32)
+#define LC_SHARED
+#elif defined(__GNUC__)
+#define LC_SHARED __attribute__((visibility("default")))
+#else
+#define LC_SHARED
+#endif
+
 /* Handle kinds: the first field of every handle, checked on entry (and of
  * level 2's shared control block). One list, so that no two kinds share a
  * value and a handle of one kind passed as another is refused. "LOC" and a
@@ -62,22 +77,22 @@ enum lc_magic {
  * that returns a status >= 0. */
 
 /* ---- errors (error.c) ---- */
-locd_status lc_error(locd_status status, const char *fmt, ...) LC_PRINTF(2, 3);
-locd_status lc_error_box(locd_status status, int64_t index, const char *fmt, ...) LC_PRINTF(3, 4);
-void lc_clear_error(void);
+LC_SHARED locd_status lc_error(locd_status status, const char *fmt, ...) LC_PRINTF(2, 3);
+LC_SHARED locd_status lc_error_box(locd_status status, int64_t index, const char *fmt, ...) LC_PRINTF(3, 4);
+LC_SHARED void lc_clear_error(void);
 /* The detail of the calling thread's last error without the status text
  * that locd_last_error() puts in front ("" when none): what is passed on
  * when an error is raised again elsewhere (a job, the service's reply). */
-const char *lc_last_error_detail(void);
+LC_SHARED const char *lc_last_error_detail(void);
 /* Formats a message and hands it to a user log hook (nothing when log is NULL). */
 void lc_log_emit(locd_log_fn log, void *user, int32_t severity, const char *fmt, va_list ap);
 
 /* ---- memory (alloc.c) ---- */
-void lc_allocator_resolve(locd_allocator *dst, const locd_allocator *src);
-void *lc_alloc(const locd_allocator *a, size_t size);
-void lc_free(const locd_allocator *a, void *ptr, size_t size);
+LC_SHARED void lc_allocator_resolve(locd_allocator *dst, const locd_allocator *src);
+LC_SHARED void *lc_alloc(const locd_allocator *a, size_t size);
+LC_SHARED void lc_free(const locd_allocator *a, void *ptr, size_t size);
 /* size * count with overflow check; returns 0 on overflow. */
-int lc_mul_size(size_t a, size_t b, size_t *out);
+LC_SHARED int lc_mul_size(size_t a, size_t b, size_t *out);
 /* A growable array of `elem` sized items owned through an allocator. */
 typedef struct lc_buf {
     void *data;
@@ -85,21 +100,21 @@ typedef struct lc_buf {
 } lc_buf;
 /* The capacity a growing buffer of `cap` moves to when it needs `need`:
  * half as much again (amortized O(1) appends), or `need` if more. */
-size_t lc_grow_cap(size_t cap, size_t need);
-locd_status lc_buf_reserve(const locd_allocator *a, lc_buf *b, size_t elem, size_t count);
-void lc_buf_release(const locd_allocator *a, lc_buf *b, size_t elem);
+LC_SHARED size_t lc_grow_cap(size_t cap, size_t need);
+LC_SHARED locd_status lc_buf_reserve(const locd_allocator *a, lc_buf *b, size_t elem, size_t count);
+LC_SHARED void lc_buf_release(const locd_allocator *a, lc_buf *b, size_t elem);
 
 /* ---- versioned structs (versioned.c; docs/abi.md, "the size rules") ---- */
 /* Input: src (a public struct that leads with uint32_t size) must have
  * min_size <= size <= full_size; its first `size` bytes after `size` are
  * copied over dst, which holds the defaults (full_size bytes); dst->size is
  * kept. NULL src, or a size out of range, raise (what names the argument). */
-locd_status lc_struct_in(void *dst, size_t full_size, const void *src, size_t min_size, const char *what);
+LC_SHARED locd_status lc_struct_in(void *dst, size_t full_size, const void *src, size_t min_size, const char *what);
 /* A caller's struct (in or out) is not NULL and has min_size <= size <= full_size. */
-locd_status lc_struct_check(const void *dst, size_t full_size, size_t min_size, const char *what);
+LC_SHARED locd_status lc_struct_check(const void *dst, size_t full_size, size_t min_size, const char *what);
 /* Copies the library's full struct src into the caller's dst (checked by
  * lc_struct_check) no further than dst->size, and keeps dst->size. */
-void lc_struct_out(void *dst, const void *src);
+LC_SHARED void lc_struct_out(void *dst, const void *src);
 
 /* ---- SIMD kernels (kernel.c) ---- */
 enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512 };
@@ -115,7 +130,7 @@ int lc_kernel_choose(void);
 #endif
 
 /* ---- time ---- */
-double lc_now_ms(void);
+LC_SHARED double lc_now_ms(void);
 
 /* ---- shared-memory segment names (shm.c) ---- */
 #define LC_SHM_PREFIX "/locd-"

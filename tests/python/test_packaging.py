@@ -21,9 +21,10 @@ PKG_DIR = os.path.dirname(os.path.abspath(locd.__file__))
 def test_installed_package_not_the_source_tree():
     assert not PKG_DIR.startswith(os.path.join(REPO_ROOT, "bindings")), PKG_DIR
     names = os.listdir(PKG_DIR)
-    assert "liblocd.so" in names and "py.typed" in names
-    # Wheels hold no symlinks: exactly one, unversioned library.
-    assert not [n for n in names if n.startswith("liblocd.so.")]
+    assert "liblocd.so" in names and "liblocd_narrow.so" in names and "py.typed" in names
+    assert "LICENSE" in names
+    # Wheels hold no symlinks: unversioned libraries only.
+    assert not [n for n in names if re.match(r"liblocd(_narrow)?\.so\.", n)]
 
 
 IMPORT_WITHOUT_COMPILER = r"""
@@ -45,7 +46,9 @@ assert not any(m in sys.modules for m in ("setuptools", "distutils", "cffi.recom
 maps = open("/proc/self/maps").read()
 libs = sorted({line.split()[-1] for line in maps.splitlines() if "liblocd" in line})
 print(libs)
-assert libs == [os.path.join(os.path.dirname(locd.__file__), "liblocd.so")], libs
+# liblocd and the narrow phase's liblocd_narrow (locd.abi opens it), both from the package.
+pkg = os.path.dirname(locd.__file__)
+assert libs == [os.path.join(pkg, "liblocd.so"), os.path.join(pkg, "liblocd_narrow.so")], libs
 print("ok")
 """
 

@@ -1,6 +1,8 @@
 """locd through cffi's ABI mode: no compiler, no extension module.
 
-This module opens the shared library installed beside it with ``ffi.dlopen``
+This module opens the shared libraries installed beside it with ``ffi.dlopen``
+(liblocd_narrow, whose dependency liblocd comes with it: one handle finds
+the functions of both)
 and declares its functions from the public header (the declarations in
 ``locd._cdef`` are generated from include/locd/locd.h when the package is
 built). It is the path any FFI takes (C#, Julia, LuaJIT...), kept here as the

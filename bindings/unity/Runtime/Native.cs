@@ -63,8 +63,13 @@ namespace Locd
         // there the library is found in the main executable as "__Internal".
 #if (UNITY_IOS || UNITY_WEBGL) && !UNITY_EDITOR
         public const string Library = "__Internal";
+        public const string NarrowLibrary = "__Internal";
 #else
         public const string Library = "locd";
+        /// <summary>The functions of locd/pipeline.h (shapes, world, pipeline) live in
+        /// liblocd_narrow, beside liblocd (docs/abi.md, "Two libraries"): declare them
+        /// with [DllImport(NarrowLibrary)].</summary>
+        public const string NarrowLibrary = "locd_narrow";
 #endif
 
         public const int LOCD_OK = 0;

@@ -1,0 +1,168 @@
+#!/usr/bin/env bash
+# locd as its users get it (README, "Using locd from C, C++, CMake and
+# Meson"): install the library into a temporary prefix, then build and run,
+# against that installed copy only,
+#   - a C99 program (-std=c99 -Wall -Wextra -Wpedantic -Werror) with pkg-config's flags,
+#   - a C++17 program (-Wall -Wextra -Wpedantic -Werror) with pkg-config's flags,
+#   - a C99 program of the narrow phase with `pkg-config locd-narrow`,
+#   - a CMake project with find_package(locd) (the prefix moved elsewhere
+#     first: locdConfig.cmake must be relocatable),
+#   - a Meson project with locd as a subproject, whose `meson test --list`
+#     must show no locd test and which must install nothing.
+# "A machine where FCL is not installed" is simulated: PKG_CONFIG_LIBDIR is
+# restricted to the prefix's pkgconfig directory (to an empty one for the
+# Meson project), so no fcl.pc, ccd.pc, eigen3.pc or octomap.pc is visible;
+# and liblocd.so itself must NEED nothing but libc, libm (and libpthread/librt
+# on older glibc), checked with readelf and ldd. The narrow-phase program is
+# the one exception: liblocd_narrow links FCL by design (docs/abi.md).
+# Each consumer is one JUnit testcase: $LOCD_RESULTS/consumers-*.junit.xml.
+set -uo pipefail
+cd "$ROOT"
+OUT=$ROOT/build-ci/consumers
+rm -rf "$OUT"
+mkdir -p "$OUT/empty-pkgconfig"
+PREFIX=$OUT/prefix
+SRC=$ROOT/tests/consumers
+rc=0
+
+case_result() { # NAME passed|failed [MESSAGE]
+  python3 scripts/ci/junit.py case consumers "$1" "$2" "${3:-}" > "$LOCD_RESULTS/consumers-$1.junit.xml"
+}
+run_case() { # NAME FUNCTION: runs FUNCTION, keeps its output, records a testcase
+  local name=$1 log=$OUT/$1.log start
+  start=$(date +%s)
+  echo "== $name"
+  # Not inside an `if`: there errexit would be off in the function too.
+  ( set -euo pipefail; "$2" ) > "$log" 2>&1
+  if [ $? -eq 0 ]; then
+    cat "$log"
+    echo "   $name: passed ($(( $(date +%s) - start ))s)"
+    case_result "$name" passed
+  else
+    cat "$log"
+    echo "   $name: FAILED"
+    case_result "$name" failed "$(tail -n 40 "$log")"
+    rc=1
+  fi
+}
+
+install_locd() {
+  # The library only; the narrow phase is built when libccd and FCL are found.
+  meson setup "$OUT/build" --prefix="$PREFIX" --buildtype=release -Dpython=false -Dtests=disabled \
+    -Dtools=false -Dexamples=false -Dbench_peers=disabled -Dmpi=disabled
+  ninja -C "$OUT/build" -j "${JOBS:-2}"
+  meson install -C "$OUT/build" --quiet
+  find "$PREFIX" -type f -o -type l | sed "s|$PREFIX/||" | sort
+}
+run_case install install_locd
+[ $rc -eq 0 ] || exit 1
+LIBDIR=$(dirname "$(find "$PREFIX" -name liblocd.so | head -1)")
+export PKG_CONFIG_LIBDIR="$LIBDIR/pkgconfig"
+export PKG_CONFIG_PATH=
+echo "PKG_CONFIG_LIBDIR=$PKG_CONFIG_LIBDIR"
+
+core_needs() {
+  test -f "$LIBDIR/liblocd.so"
+  readelf -d "$LIBDIR/liblocd.so" | grep NEEDED
+  local stray
+  stray=$(readelf -d "$LIBDIR/liblocd.so" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p' |
+          grep -v -E '^(libc|libm|libpthread|librt|libdl)\.so\.[0-9]+$|^ld-linux' || true)
+  [ -z "$stray" ] || { echo "liblocd.so needs more than libc, libm and pthreads: $stray"; exit 1; }
+  ldd "$LIBDIR/liblocd.so"
+  if ldd "$LIBDIR/liblocd.so" | grep -E 'libfcl|libccd|liboctomap|libstdc\+\+'; then
+    echo "liblocd.so pulls in FCL, libccd, octomap or libstdc++"; exit 1
+  fi
+}
+run_case core-needs core_needs
+
+pkgconfig_flags() {
+  if pkg-config --exists fcl || pkg-config --exists ccd || pkg-config --exists eigen3; then
+    echo "fcl.pc, ccd.pc or eigen3.pc is visible: the simulation of a machine without FCL does not hold"; exit 1
+  fi
+  local cflags libs ncflags
+  # Word-split once to drop pkg-config's trailing blank.
+  cflags=$(echo $(pkg-config --cflags locd))
+  libs=$(echo $(pkg-config --libs locd))
+  ncflags=$(echo $(pkg-config --cflags locd-narrow))
+  echo "pkg-config --cflags locd:        $cflags"
+  echo "pkg-config --libs locd:          $libs"
+  echo "pkg-config --cflags locd-narrow: $ncflags"
+  echo "pkg-config --libs locd-narrow:   $(pkg-config --libs locd-narrow)"
+  [ "$cflags" = "-I$PREFIX/include" ] || { echo "--cflags locd is not just locd's include path"; exit 1; }
+  [ "$libs" = "-L$LIBDIR -llocd" ] || { echo "--libs locd is not -L<libdir> -llocd"; exit 1; }
+  if echo "$ncflags" | grep -E -e '-std=|eigen|fcl' >/dev/null; then echo "--cflags locd-narrow leaks FCL's flags"; exit 1; fi
+}
+run_case pkg-config pkgconfig_flags
+
+c99_program() {
+  # shellcheck disable=SC2046
+  cc -std=c99 -Wall -Wextra -Wpedantic -Werror -o "$OUT/c99" "$SRC/c/app.c" $(pkg-config --cflags --libs locd)
+  LD_LIBRARY_PATH="$LIBDIR" ldd "$OUT/c99" | grep "$LIBDIR/liblocd.so" >/dev/null
+  LD_LIBRARY_PATH="$LIBDIR" "$OUT/c99"
+}
+run_case c99 c99_program
+
+cxx17_program() {
+  # shellcheck disable=SC2046
+  c++ -std=c++17 -Wall -Wextra -Wpedantic -Werror -o "$OUT/cxx17" "$SRC/cpp/app.cpp" $(pkg-config --cflags --libs locd)
+  LD_LIBRARY_PATH="$LIBDIR" ldd "$OUT/cxx17" | grep "$LIBDIR/liblocd.so" >/dev/null
+  LD_LIBRARY_PATH="$LIBDIR" "$OUT/cxx17"
+}
+run_case cxx17 cxx17_program
+
+narrow_program() {
+  # liblocd_narrow needs FCL and libccd at link and run time (they are
+  # installed on the CI machine); its pkg-config flags still carry none of them.
+  # shellcheck disable=SC2046
+  cc -std=c99 -Wall -Wextra -Wpedantic -Werror -o "$OUT/narrow" "$SRC/c/narrow.c" $(pkg-config --cflags --libs locd-narrow)
+  local st=0
+  LD_LIBRARY_PATH="$LIBDIR" "$OUT/narrow" || st=$?
+  # 77: built without libccd/FCL (the stubs answer LOCD_ERR_UNSUPPORTED): linking is what is tested then.
+  [ $st -eq 0 ] || [ $st -eq 77 ]
+}
+run_case narrow-c99 narrow_program
+
+cmake_project() {
+  # Moved: the config files must find the library from their own location.
+  cp -a "$PREFIX" "$OUT/moved"
+  cmake -S "$SRC/cmake" -B "$OUT/cmake" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$OUT/moved" \
+    | tee "$OUT/cmake-configure.txt"
+  grep -q "from $OUT/moved/" "$OUT/cmake-configure.txt"
+  cmake --build "$OUT/cmake" -j "${JOBS:-2}"
+  ldd "$OUT/cmake/app" | grep liblocd
+  ldd "$OUT/cmake/app" | grep "$OUT/moved/.*liblocd.so" >/dev/null
+  "$OUT/cmake/app"
+  local st=0
+  "$OUT/cmake/narrow" || st=$?
+  [ $st -eq 0 ] || [ $st -eq 77 ]
+}
+run_case cmake cmake_project
+
+meson_subproject() {
+  # The consumer next to its sources; locd's tree in its subprojects/ (a
+  # symlink: what a project vendoring locd as a git submodule sees). No .pc
+  # file is visible at all, so the subproject also builds without libccd/FCL.
+  cp -r "$SRC" "$OUT/mc"
+  mkdir -p "$OUT/mc/meson/subprojects"
+  ln -s "$ROOT" "$OUT/mc/meson/subprojects/locd"
+  PKG_CONFIG_LIBDIR="$OUT/empty-pkgconfig" meson setup "$OUT/mc-build" "$OUT/mc/meson" --force-fallback-for=locd
+  meson test -C "$OUT/mc-build" --list 2>/dev/null | tee "$OUT/mc-tests.txt"
+  [ "$(grep -c . "$OUT/mc-tests.txt")" -eq 1 ] && grep -q 'consumer_app' "$OUT/mc-tests.txt" \
+    || { echo "meson test --list shows more than the consumer's own test"; exit 1; }
+  meson test -C "$OUT/mc-build" --print-errorlogs
+  local installed
+  installed=$(meson introspect "$OUT/mc-build" --installed)
+  echo "installed by the parent: $installed"
+  [ "$installed" = "{}" ] || { echo "the subproject installs files unasked"; exit 1; }
+  # Asked, it installs the library, headers, pkg-config and CMake files.
+  PKG_CONFIG_LIBDIR="$OUT/empty-pkgconfig" meson setup --reconfigure "$OUT/mc-build" "$OUT/mc/meson" \
+    -Dlocd:install_as_subproject=true > "$OUT/mc-reconfigure.txt"
+  installed=$(meson introspect "$OUT/mc-build" --installed)
+  for f in liblocd.so liblocd_narrow.so include/locd/locd.h pkgconfig/locd.pc cmake/locd/locdConfig.cmake; do
+    echo "$installed" | grep "$f\"" >/dev/null || { echo "-Dlocd:install_as_subproject=true does not install $f"; exit 1; }
+  done
+  echo "with -Dlocd:install_as_subproject=true: $(echo "$installed" | grep -o '"/[^"]*":' | wc -l) files"
+}
+run_case meson-subproject meson_subproject
+
+exit $rc
