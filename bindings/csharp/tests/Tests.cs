@@ -30,6 +30,8 @@ namespace Locd.Tests
             h.Add("layout.offsets_match_c_compiler", OffsetsMatchCCompiler);
             h.Add("status.every_code_known_to_c", EveryStatusKnownToC);
             h.Add("engine.defaults_and_options", DefaultsAndOptions);
+            h.Add("native.pipeline_spheres", NativeRaw.PipelineSpheres);
+            h.Add("native.service_create_destroy", NativeRaw.ServiceCreateDestroy);
             // Equality with the C library and a C# reference
             h.Add("equality.random_uniform_scenes", () => RandomScenes("uniform"));
             h.Add("equality.random_snapped_scenes", () => RandomScenes("snapped"));
@@ -93,6 +95,16 @@ namespace Locd.Tests
                 Assert.Equal(0, Native.locd_grid_fit_f32(b, (UIntPtr)10u, 0, 1, 0, &g), "grid fit status");
             Assert.Equal((uint)Marshal.SizeOf(typeof(Native.locd_grid)), g.size, "sizeof(locd_grid)");
             Assert.True(g.depth >= 1 && g.depth <= 21, "grid depth " + g.depth + " in 1..21 (offset of `depth`)");
+            Native.locd_service_config sc;
+            Native.locd_service_config_init(&sc);
+            Assert.Equal((uint)Marshal.SizeOf(typeof(Native.locd_service_config)), sc.size, "sizeof(locd_service_config)");
+            Native.locd_pipeline_options po;
+            Native.locd_pipeline_options_init(&po);
+            Assert.Equal((uint)Marshal.SizeOf(typeof(Native.locd_pipeline_options)), po.size, "sizeof(locd_pipeline_options)");
+            Assert.Equal((uint)sizeof(Native.locd_pipeline_options), po.size, "unmanaged sizeof(locd_pipeline_options)");
+            Native.locd_pipeline_stats ps;
+            Native.locd_pipeline_stats_init(&ps);
+            Assert.Equal((uint)Marshal.SizeOf(typeof(Native.locd_pipeline_stats)), ps.size, "sizeof(locd_pipeline_stats)");
         }
 
         static void OffsetsMatchCCompiler()
@@ -105,6 +117,10 @@ namespace Locd.Tests
                 { "locd_engine_config", typeof(Native.locd_engine_config) },
                 { "locd_stats", typeof(Native.locd_stats) },
                 { "locd_grid", typeof(Native.locd_grid) },
+                { "locd_service_config", typeof(Native.locd_service_config) },
+                { "locd_pipeline_options", typeof(Native.locd_pipeline_options) },
+                { "locd_stage_stats", typeof(Native.locd_stage_stats) },
+                { "locd_pipeline_stats", typeof(Native.locd_pipeline_stats) },
             };
             int checkedCount = 0;
             foreach (string line in File.ReadAllLines(path)) {
