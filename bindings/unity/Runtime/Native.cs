@@ -70,6 +70,12 @@ namespace Locd
 #else
         public const string Library = "locd";
 #endif
+        // The library exporting the narrow phase (pipeline.h: shapes, world,
+        // contacts). Today liblocd itself; if the narrow phase moves to a
+        // library of its own, this names it (the coverage check in CI,
+        // bindings/csharp/tests/native-coverage.sh, matches every declaration
+        // with the library that exports it).
+        public const string NarrowLibrary = Library;
 
         public const int LOCD_OK = 0;
         public const int LOCD_PENDING = 1;
@@ -343,69 +349,69 @@ namespace Locd
         public static extern void locd_service_destroy(IntPtr service);
 
         // ---- narrow phase: shapes (pipeline.h); LOCD_ERR_UNSUPPORTED without libccd/FCL ----
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_shape_sphere(double radius, IntPtr* out_shape);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_shape_box(double half_x, double half_y, double half_z, IntPtr* out_shape);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_shape_capsule(double radius, double half_length, IntPtr* out_shape);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_shape_convex(double* points, UIntPtr count, IntPtr* out_shape);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_shape_mesh(double* vertices, UIntPtr vertex_count, uint* triangles,
                                                  UIntPtr triangle_count, IntPtr* out_shape);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern void locd_shape_destroy(IntPtr shape);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_shape_kind(IntPtr shape);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_shape_aabb(IntPtr shape, double* pose, double* box);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_shape_collide(IntPtr a, double* pose_a, IntPtr b, double* pose_b, int route,
                                                     int contact_method, int* hit, double* contact);
 
         // ---- narrow phase: options, statistics, contacts, world (pipeline.h) ----
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern void locd_pipeline_options_init(locd_pipeline_options* options);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_pipeline_options_route(locd_pipeline_options* options, int kind_a, int kind_b, int route);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern void locd_pipeline_stats_init(locd_pipeline_stats* stats);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_contacts_create(IntPtr* out_contacts);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern void locd_contacts_destroy(IntPtr contacts);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern UIntPtr locd_contacts_count(IntPtr contacts);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern uint* locd_contacts_pairs(IntPtr contacts);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern double* locd_contacts_toi(IntPtr contacts);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern double* locd_contacts_depth(IntPtr contacts);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern double* locd_contacts_normal(IntPtr contacts);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern double* locd_contacts_point(IntPtr contacts);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_world_create(locd_engine_config* config, IntPtr* out_world);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern void locd_world_destroy(IntPtr world);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_world_add(IntPtr world, IntPtr shape, double* pose, double* velocity, uint* index);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern UIntPtr locd_world_count(IntPtr world);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_world_set_pose(IntPtr world, uint index, double* pose);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_world_set_velocity(IntPtr world, uint index, double* velocity);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_world_set_poses(IntPtr world, double* poses, UIntPtr count);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_world_set_velocities(IntPtr world, double* velocities, UIntPtr count);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_world_get_pose(IntPtr world, uint index, double* pose);
-        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_world_collide(IntPtr world, locd_pipeline_options* options, IntPtr contacts,
                                                     locd_pipeline_stats* stats);
     }

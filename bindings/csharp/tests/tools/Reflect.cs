@@ -1,6 +1,6 @@
 // Reads a compiled assembly by reflection for the CI checks (never shipped):
 //   mono Reflect.exe types   Locd.dll   every public top-level type: "namespace name arity"
-//   mono Reflect.exe pinvoke Locd.dll   every [DllImport] entry point, one per line
+//   mono Reflect.exe pinvoke Locd.dll   every [DllImport]: "library entrypoint", one per line
 // Loading an assembly this way runs none of its code and loads no native library.
 using System;
 using System.Linq;
@@ -33,7 +33,9 @@ static class Reflect
                 if ((m.Attributes & MethodAttributes.PinvokeImpl) == 0)
                     continue;
                 var d = (DllImportAttribute)m.GetCustomAttributes(typeof(DllImportAttribute), false).FirstOrDefault();
-                Console.WriteLine(d != null && !string.IsNullOrEmpty(d.EntryPoint) ? d.EntryPoint : m.Name);
+                if (d == null)
+                    throw new Exception("no DllImportAttribute on " + t.FullName + "." + m.Name);
+                Console.WriteLine("{0} {1}", d.Value, string.IsNullOrEmpty(d.EntryPoint) ? m.Name : d.EntryPoint);
             }
         return 0;
     }
