@@ -24,7 +24,7 @@ for where in "$@"; do
   if [ -d "$where" ]; then
     # Every locd library in the directory, each real file once.
     while IFS= read -r f; do libs+=("$f"); done < <(
-      find "$where" -maxdepth 1 \( -name 'liblocd*.so*' -o -name '*locd*.dll' \) \( -type f -o -type l \) \
+      find "$where" -maxdepth 1 \( -name 'liblocd*.so*' -o -name '*locd*.dll' \) ! -name '*.meta' \( -type f -o -type l \) \
         -exec readlink -f {} \; | sort -u)
   else
     libs+=("$where")
