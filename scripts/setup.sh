@@ -6,8 +6,11 @@ cd "$(dirname "$0")/.."
 
 APT_PKGS="build-essential pkg-config ninja-build libccd-dev libfcl-dev libeigen3-dev liboctomap-dev \
 libcmocka-dev abigail-tools mono-mcs valgrind libopenmpi-dev openmpi-bin \
-libbullet-dev libcgal-dev libgmp-dev libmpfr-dev python3-venv time \
-gcc-mingw-w64-x86-64-posix wine64"
+libbullet-dev libcgal-dev libgmp-dev libmpfr-dev python3-venv time"
+
+# Windows x86_64 plugin: the mingw-w64 cross compiler (posix threads:
+# winpthreads) and wine to run its C tests (CI step 35-windows).
+APT_PKGS="$APT_PKGS gcc-mingw-w64-x86-64-posix wine64"
 
 missing=""
 for p in $APT_PKGS; do
