@@ -28,12 +28,12 @@ LIBKIND=shared
 OPTS=(--buildtype=release -Dtests=disabled -Dexamples=false -Dtools=false
       -Dnarrow=disabled -Dmpi=disabled -Dbench_peers=disabled)
 
-configure() { # BUILD_DIR OPTIONS...
-  local dir=$1; shift
+configure() { # BUILD_DIR CROSS_FILE|"" OPTIONS...
+  local dir=$1 cross=$2; shift 2
   if [ -f "$dir/build.ninja" ]; then
     meson configure "$dir" "$@" >/dev/null
   else
-    meson setup "$dir" "$ROOT" "$@" >/dev/null
+    meson setup "$dir" "$ROOT" ${cross:+--cross-file "$cross"} "$@" >/dev/null
   fi
 }
 
@@ -53,7 +53,7 @@ install_plugin() { # BUILT_FILE DEST STRIP_TOOL
 for platform in $PLATFORMS; do
   case $platform in
     linux)
-      configure "$BUILD" "${OPTS[@]}" -Ddefault_library=$LIBKIND
+      configure "$BUILD" "" "${OPTS[@]}" -Ddefault_library=$LIBKIND
       ninja -C "$BUILD" -j "${JOBS:-2}" >/dev/null
       install_plugin "$BUILD/lib/liblocd.so" "$HERE/Plugins/Linux/x86_64/liblocd.so" strip
       if [ "$LIBKIND" = both ]; then
@@ -67,7 +67,7 @@ for platform in $PLATFORMS; do
       command -v x86_64-w64-mingw32-gcc-posix >/dev/null || {
         echo "x86_64-w64-mingw32-gcc-posix not found: run scripts/setup.sh (apt gcc-mingw-w64-x86-64), or PLATFORMS=linux"
         exit 1; }
-      configure "$BUILD-windows" --cross-file "$ROOT/scripts/cross/mingw64.ini" "${OPTS[@]}" -Ddefault_library=shared
+      configure "$BUILD-windows" "$ROOT/scripts/cross/mingw64.ini" "${OPTS[@]}" -Ddefault_library=shared
       ninja -C "$BUILD-windows" -j "${JOBS:-2}" >/dev/null
       dll=$(find "$BUILD-windows/lib" -maxdepth 1 -name 'liblocd*.dll' ! -name '*narrow*' | head -n 1)
       # [DllImport("locd")] looks for locd.dll on Windows.
