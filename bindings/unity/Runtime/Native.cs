@@ -67,15 +67,16 @@ namespace Locd
         // there the library is found in the main executable as "__Internal".
 #if (UNITY_IOS || UNITY_WEBGL) && !UNITY_EDITOR
         public const string Library = "__Internal";
+        public const string NarrowLibrary = "__Internal";
 #else
         public const string Library = "locd";
+        /// <summary>The library exporting the narrow phase (pipeline.h: shapes, world,
+        /// contacts): liblocd itself in this build. Should the narrow phase move to a
+        /// library of its own, this names it (CI's coverage check,
+        /// bindings/csharp/tests/native-coverage.sh, matches every declaration with
+        /// the library that exports it).</summary>
+        public const string NarrowLibrary = "locd";
 #endif
-        // The library exporting the narrow phase (pipeline.h: shapes, world,
-        // contacts). Today liblocd itself; if the narrow phase moves to a
-        // library of its own, this names it (the coverage check in CI,
-        // bindings/csharp/tests/native-coverage.sh, matches every declaration
-        // with the library that exports it).
-        public const string NarrowLibrary = Library;
 
         public const int LOCD_OK = 0;
         public const int LOCD_PENDING = 1;
