@@ -18,7 +18,12 @@ extern "C" {
 #define LC_UNLIKELY(x) __builtin_expect(!!(x), 0)
 #define LC_INLINE static __inline__ __attribute__((always_inline))
 #define LC_TLS __thread
+#if defined(__MINGW32__)
+/* mingw-w64, built with __USE_MINGW_ANSI_STDIO=1 (meson.build): C99 formats (%zu). */
+#define LC_PRINTF(a, b) __attribute__((format(gnu_printf, a, b)))
+#else
 #define LC_PRINTF(a, b) __attribute__((format(printf, a, b)))
+#endif
 #else
 #define LC_LIKELY(x) (x)
 #define LC_UNLIKELY(x) (x)

@@ -3,7 +3,11 @@
 #include "core/core.h"
 
 #include <pthread.h>
+#ifdef _WIN32
+#include <windows.h>
+#else
 #include <unistd.h>
+#endif
 
 struct lc_pool {
     locd_allocator alloc;
@@ -57,7 +61,12 @@ static void *worker_main(void *arg)
 
 uint32_t lc_cpu_count(void)
 {
+#ifdef _WIN32
+    /* mingw-w64 has no sysconf(_SC_NPROCESSORS_ONLN). */
+    long c = (long)GetActiveProcessorCount(ALL_PROCESSOR_GROUPS);
+#else
     long c = sysconf(_SC_NPROCESSORS_ONLN);
+#endif
     return c < 1 ? 1u : (c > 64 ? 64u : (uint32_t)c);
 }
 

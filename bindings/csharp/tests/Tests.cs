@@ -30,6 +30,8 @@ namespace Locd.Tests
             h.Add("layout.offsets_match_c_compiler", OffsetsMatchCCompiler);
             h.Add("status.every_code_known_to_c", EveryStatusKnownToC);
             h.Add("engine.defaults_and_options", DefaultsAndOptions);
+            h.Add("native.pipeline_spheres", NativeRaw.PipelineSpheres);
+            h.Add("native.service_create_destroy", NativeRaw.ServiceCreateDestroy);
             // Equality with the C library and a C# reference
             h.Add("equality.random_uniform_scenes", () => RandomScenes("uniform"));
             h.Add("equality.random_snapped_scenes", () => RandomScenes("snapped"));
@@ -96,6 +98,16 @@ namespace Locd.Tests
                 Assert.Equal(0, Native.locd_grid_fit_f32(b, (UIntPtr)10u, 0, 1, 0, &g), "grid fit status");
             Assert.Equal((uint)Marshal.SizeOf(typeof(Native.locd_grid)), g.size, "sizeof(locd_grid)");
             Assert.True(g.depth >= 1 && g.depth <= 21, "grid depth " + g.depth + " in 1..21 (offset of `depth`)");
+            Native.locd_service_config sc;
+            Native.locd_service_config_init(&sc);
+            Assert.Equal((uint)Marshal.SizeOf(typeof(Native.locd_service_config)), sc.size, "sizeof(locd_service_config)");
+            Native.locd_pipeline_options po;
+            Native.locd_pipeline_options_init(&po);
+            Assert.Equal((uint)Marshal.SizeOf(typeof(Native.locd_pipeline_options)), po.size, "sizeof(locd_pipeline_options)");
+            Assert.Equal((uint)sizeof(Native.locd_pipeline_options), po.size, "unmanaged sizeof(locd_pipeline_options)");
+            Native.locd_pipeline_stats ps;
+            Native.locd_pipeline_stats_init(&ps);
+            Assert.Equal((uint)Marshal.SizeOf(typeof(Native.locd_pipeline_stats)), ps.size, "sizeof(locd_pipeline_stats)");
         }
 
         static void OffsetsMatchCCompiler()
@@ -108,6 +120,10 @@ namespace Locd.Tests
                 { "locd_engine_config", typeof(Native.locd_engine_config) },
                 { "locd_stats", typeof(Native.locd_stats) },
                 { "locd_grid", typeof(Native.locd_grid) },
+                { "locd_service_config", typeof(Native.locd_service_config) },
+                { "locd_pipeline_options", typeof(Native.locd_pipeline_options) },
+                { "locd_stage_stats", typeof(Native.locd_stage_stats) },
+                { "locd_pipeline_stats", typeof(Native.locd_pipeline_stats) },
             };
             int checkedCount = 0;
             foreach (string line in File.ReadAllLines(path)) {
@@ -517,7 +533,7 @@ namespace Locd.Tests
                 { "level 7", new EngineOptions { Level = (Level)7 } },
                 { "service without address", new EngineOptions { Level = Level.Service } },
             };
-            long live = EngineHandle.Live;
+            long live = EngineSafeHandle.Live;
             foreach (var kv in cases) {
                 var ex = Assert.Throws<LocdException>(() => new Engine(kv.Value).Dispose(), kv.Key);
                 Assert.Equal(Status.InvalidArgument, ex.Status, kv.Key + " status");
@@ -525,7 +541,7 @@ namespace Locd.Tests
                 Assert.Equal(-1L, ex.BoxIndex, kv.Key + " has no box index");
             }
             Assert.Throws<ArgumentOutOfRangeException>(() => new Engine(-1), "negative threads");
-            Assert.Equal(live, EngineHandle.Live, "failed constructors leave no engine");
+            Assert.Equal(live, EngineSafeHandle.Live, "failed constructors leave no engine");
         }
 
         static void ManagedArgumentChecks()
@@ -612,15 +628,15 @@ namespace Locd.Tests
 
         static void DisposeTwiceAndUseAfter()
         {
-            long live = EngineHandle.Live;
+            long live = EngineSafeHandle.Live;
             var e = new Engine();
             var boxes = Scenes.Uniform(new Rng(1), 10, 10, 3);
             e.FindPairs(boxes);
-            Assert.Equal(live + 1, EngineHandle.Live, "one live engine");
+            Assert.Equal(live + 1, EngineSafeHandle.Live, "one live engine");
             e.Dispose();
             e.Dispose();
             Assert.True(e.IsDisposed, "IsDisposed");
-            Assert.Equal(live, EngineHandle.Live, "destroyed by Dispose");
+            Assert.Equal(live, EngineSafeHandle.Live, "destroyed by Dispose");
             Assert.Throws<ObjectDisposedException>(() => e.FindPairs(boxes), "FindPairs after Dispose");
             Assert.Throws<ObjectDisposedException>(() => e.FindPairs(boxes, 10, new uint[100]), "buffer FindPairs after Dispose");
             Assert.Throws<ObjectDisposedException>(() => { var s = e.Stats; }, "Stats after Dispose");
@@ -640,17 +656,17 @@ namespace Locd.Tests
         {
             var boxes = Scenes.Uniform(new Rng(1), 500, 30, 3);
             var before = ProcessProbe.Read();
-            long live = EngineHandle.Live;
+            long live = EngineSafeHandle.Live;
             AbandonEngines(100, boxes);
-            Assert.True(EngineHandle.Live >= live + 1, "abandoned engines are still alive before a GC");
+            Assert.True(EngineSafeHandle.Live >= live + 1, "abandoned engines are still alive before a GC");
             var during = new Probe { Threads = Process.GetCurrentProcess().Threads.Count };
-            for (int k = 0; k < 3 && EngineHandle.Live != live; k++) {
+            for (int k = 0; k < 3 && EngineSafeHandle.Live != live; k++) {
                 GC.Collect();
                 GC.WaitForPendingFinalizers();
             }
             var after = ProcessProbe.Read();
             Console.WriteLine("         finalizers: before {0}; after {1}; threads while abandoned {2}", before, after, during.Threads);
-            Assert.Equal(live, EngineHandle.Live, "every abandoned engine was finalized");
+            Assert.Equal(live, EngineSafeHandle.Live, "every abandoned engine was finalized");
             if (ProcessProbe.OnLinux) {
                 // Each 2-thread engine owns a pool thread: they must all be joined again.
                 Assert.True(after.Threads <= before.Threads, "threads back to " + before.Threads + " (now " + after.Threads + ")");
@@ -829,28 +845,28 @@ namespace Locd.Tests
             var e = new Engine();
             var job = SubmitOrSkip(e, boxes, FindFlags.Sorted);
             e.Dispose(); // the job holds a reference: the native engine must outlive it
-            liveDuring = EngineHandle.Live;
+            liveDuring = EngineSafeHandle.Live;
             return job;
         }
 
         static void JobKeepsEngineAlive()
         {
             var boxes = Scenes.Uniform(new Rng(24), 20000, 200, 4);
-            long engines = EngineHandle.Live, jobs = JobHandle.Live, during;
+            long engines = EngineSafeHandle.Live, jobs = JobSafeHandle.Live, during;
             var job = SubmitOnAbandonedEngine(boxes, out during);
             Assert.Equal(engines + 1, during, "engine kept alive by its job after Dispose");
             Assert.Equal(Scenes.Brute(boxes).Length, job.Result.Length, "job result after its engine's Dispose");
             job.Dispose();
-            Assert.Equal(engines, EngineHandle.Live, "engine destroyed with its last job");
-            Assert.Equal(jobs, JobHandle.Live, "job released");
+            Assert.Equal(engines, EngineSafeHandle.Live, "engine destroyed with its last job");
+            Assert.Equal(jobs, JobSafeHandle.Live, "job released");
             // Abandoned jobs (and their engines) are finalized too.
             AbandonJobs(boxes);
-            for (int k = 0; k < 3 && (JobHandle.Live != jobs || EngineHandle.Live != engines); k++) {
+            for (int k = 0; k < 3 && (JobSafeHandle.Live != jobs || EngineSafeHandle.Live != engines); k++) {
                 GC.Collect();
                 GC.WaitForPendingFinalizers();
             }
-            Assert.Equal(jobs, JobHandle.Live, "abandoned jobs finalized");
-            Assert.Equal(engines, EngineHandle.Live, "their engines finalized after them");
+            Assert.Equal(jobs, JobSafeHandle.Live, "abandoned jobs finalized");
+            Assert.Equal(engines, EngineSafeHandle.Live, "their engines finalized after them");
         }
 
         [MethodImpl(MethodImplOptions.NoInlining)]

@@ -63,5 +63,49 @@ int main(void)
     OFFN(locd_grid, origin, "origin2", 2 * sizeof(double));
     OFF(locd_grid, scale_a);
     OFF(locd_grid, scale_b);
+
+    SIZE(locd_service_config);
+    OFF(locd_service_config, size);
+    OFF(locd_service_config, listen);
+    OFF(locd_service_config, secret);
+    OFF(locd_service_config, threads);
+    OFF(locd_service_config, engine_threads);
+    OFF(locd_service_config, max_message);
+    OFF(locd_service_config, max_clients);
+    OFF(locd_service_config, max_jobs);
+    OFF(locd_service_config, log);
+    OFF(locd_service_config, log_user);
+
+    SIZE(locd_pipeline_options);
+    OFF(locd_pipeline_options, size);
+    OFF(locd_pipeline_options, stages);
+    OFF(locd_pipeline_options, swept);
+    OFF(locd_pipeline_options, contact_method);
+    OFF(locd_pipeline_options, dt);
+    OFF(locd_pipeline_options, swept_threshold);
+    OFF(locd_pipeline_options, find_flags);
+    OFF(locd_pipeline_options, reserved);
+    OFF(locd_pipeline_options, route);
+
+    SIZE(locd_stage_stats);
+    OFF(locd_stage_stats, calls);
+    OFF(locd_stage_stats, pairs_in);
+    OFF(locd_stage_stats, pairs_out);
+    OFF(locd_stage_stats, tests);
+    OFF(locd_stage_stats, ms);
+
+    SIZE(locd_pipeline_stats);
+    OFF(locd_pipeline_stats, size);
+    OFF(locd_pipeline_stats, objects);
+    OFF(locd_pipeline_stats, swept_objects);
+    OFF(locd_pipeline_stats, reserved);
+    OFF(locd_pipeline_stats, broad);
+    OFF(locd_pipeline_stats, shape);
+    OFF(locd_pipeline_stats, swept);
+    OFF(locd_pipeline_stats, contact);
+    OFF(locd_pipeline_stats, tests_closed);
+    OFF(locd_pipeline_stats, tests_ccd);
+    OFF(locd_pipeline_stats, tests_fcl);
+    OFF(locd_pipeline_stats, ms_total);
     return 0;
 }

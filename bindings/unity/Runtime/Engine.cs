@@ -71,9 +71,9 @@ namespace Locd
     /// </summary>
     public sealed unsafe class Engine : IDisposable
     {
-        readonly EngineHandle handle = new EngineHandle();
+        readonly EngineSafeHandle handle = new EngineSafeHandle();
         readonly object sync = new object();
-        PairsHandle pairs; // reused by the uint[]-returning overloads
+        PairsSafeHandle pairs; // reused by the uint[]-returning overloads
 
         /// <summary>The defaults: level 1, one thread per core.</summary>
         public Engine() : this(null) { }
@@ -129,7 +129,7 @@ namespace Locd
         /// <summary>The native handle (for the raw layer, e.g. from Burst). Valid until Dispose.</summary>
         public IntPtr NativeHandle { get { return handle.DangerousGetHandle(); } }
 
-        public EngineHandle SafeHandle { get { return handle; } }
+        public EngineSafeHandle SafeHandle { get { return handle; } }
 
         public bool IsDisposed { get { return handle.IsClosed; } }
 
@@ -214,7 +214,7 @@ namespace Locd
                 try {
                     handle.DangerousAddRef(ref added);
                     if (pairs == null)
-                        pairs = PairsHandle.Create();
+                        pairs = PairsSafeHandle.Create();
                     IntPtr e = handle.DangerousGetHandle(), p = pairs.DangerousGetHandle();
                     int st = f != null || d == null
                         ? Native.locd_engine_find_pairs_f32(e, f, (UIntPtr)(ulong)n, (uint)flags, p)
@@ -454,10 +454,10 @@ namespace Locd
 
         Job SubmitRaw(float* f, double* d, long n, FindFlags flags)
         {
-            var jh = new JobHandle();
+            var jh = new JobSafeHandle();
             bool added = false;
             try {
-                // This reference belongs to the job from here on (JobHandle.ReleaseHandle).
+                // This reference belongs to the job from here on (JobSafeHandle.ReleaseHandle).
                 handle.DangerousAddRef(ref added);
                 IntPtr e = handle.DangerousGetHandle(), j;
                 int st = f != null || d == null
@@ -481,7 +481,7 @@ namespace Locd
         /// <summary>The C library's O(n^2) reference (locd_brute_force_f32), sorted by (i, j).</summary>
         public static uint[] BruteForce(float[] boxes)
         {
-            using (var p = PairsHandle.Create())
+            using (var p = PairsSafeHandle.Create())
             fixed (float* b = boxes) {
                 IntPtr h = p.DangerousGetHandle();
                 LocdException.Check(Native.locd_brute_force_f32(b, (UIntPtr)(ulong)RowCount(boxes, boxes == null ? 0 : boxes.Length), h));
@@ -491,7 +491,7 @@ namespace Locd
 
         public static uint[] BruteForce(double[] boxes)
         {
-            using (var p = PairsHandle.Create())
+            using (var p = PairsSafeHandle.Create())
             fixed (double* b = boxes) {
                 IntPtr h = p.DangerousGetHandle();
                 LocdException.Check(Native.locd_brute_force_f64(b, (UIntPtr)(ulong)RowCount(boxes, boxes == null ? 0 : boxes.Length), h));

@@ -8,14 +8,14 @@ using System.Threading;
 namespace Locd
 {
     /// <summary>Owns a locd_engine *.</summary>
-    public sealed class EngineHandle : SafeHandle
+    public sealed class EngineSafeHandle : SafeHandle
     {
         static long live;
 
         /// <summary>Engines created and not yet destroyed (all threads).</summary>
         public static long Live { get { return Interlocked.Read(ref live); } }
 
-        public EngineHandle() : base(IntPtr.Zero, true) { }
+        public EngineSafeHandle() : base(IntPtr.Zero, true) { }
 
         public override bool IsInvalid { get { return handle == IntPtr.Zero; } }
 
@@ -48,16 +48,16 @@ namespace Locd
     }
 
     /// <summary>Owns a locd_pairs * (a growable native pairs buffer).</summary>
-    public sealed class PairsHandle : SafeHandle
+    public sealed class PairsSafeHandle : SafeHandle
     {
-        public PairsHandle() : base(IntPtr.Zero, true) { }
+        public PairsSafeHandle() : base(IntPtr.Zero, true) { }
 
         public override bool IsInvalid { get { return handle == IntPtr.Zero; } }
 
         /// <summary>Creates an empty buffer (malloc/free).</summary>
-        public static unsafe PairsHandle Create()
+        public static unsafe PairsSafeHandle Create()
         {
-            var h = new PairsHandle();
+            var h = new PairsSafeHandle();
             IntPtr p;
             LocdException.Check(Native.locd_pairs_create(null, &p));
             h.SetHandle(p);
@@ -72,22 +72,22 @@ namespace Locd
     }
 
     /// <summary>Owns a locd_job * and keeps its engine alive until the job is released.</summary>
-    public sealed class JobHandle : SafeHandle
+    public sealed class JobSafeHandle : SafeHandle
     {
         static long live;
-        EngineHandle engine;
+        EngineSafeHandle engine;
 
         /// <summary>Jobs submitted and not yet released (all threads).</summary>
         public static long Live { get { return Interlocked.Read(ref live); } }
 
-        public JobHandle() : base(IntPtr.Zero, true) { }
+        public JobSafeHandle() : base(IntPtr.Zero, true) { }
 
         public override bool IsInvalid { get { return handle == IntPtr.Zero; } }
 
         // The caller holds a reference on `owner` (DangerousAddRef) taken for
         // this job; it is given back in ReleaseHandle, after locd_job_release,
         // so the engine is destroyed last even when both are finalized together.
-        internal void Own(IntPtr job, EngineHandle owner)
+        internal void Own(IntPtr job, EngineSafeHandle owner)
         {
             engine = owner;
             SetHandle(job);

@@ -6,15 +6,15 @@ namespace Locd
 {
     public sealed unsafe class Job : IDisposable
     {
-        readonly JobHandle handle;
+        readonly JobSafeHandle handle;
         readonly object sync = new object();
         LocdException failure; // the job's error, captured on the thread that saw it
         bool finished;
         uint[] result;
 
-        internal Job(JobHandle h) { handle = h; }
+        internal Job(JobSafeHandle h) { handle = h; }
 
-        public JobHandle SafeHandle { get { return handle; } }
+        public JobSafeHandle SafeHandle { get { return handle; } }
 
         /// <summary>True once the job has finished, successfully or not (Result then
         /// returns the pairs or throws the job's error). Never blocks.</summary>
@@ -75,7 +75,7 @@ namespace Locd
                 lock (sync) {
                     if (result == null) {
                         Wait(-1);
-                        using (var p = PairsHandle.Create()) {
+                        using (var p = PairsSafeHandle.Create()) {
                             IntPtr ph = p.DangerousGetHandle();
                             bool added = false;
                             try {

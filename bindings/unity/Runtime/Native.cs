@@ -1,4 +1,7 @@
-// Raw layer over the public C ABI of locd (include/locd/locd.h).
+// Raw layer over the public C ABI of locd: every function exported by the
+// library (include/locd/locd.h, service.h, pipeline.h, scene.h) has its
+// DllImport here; CI compares the entry points with the library's exports
+// (bindings/csharp/tests/native-coverage.sh).
 //
 // Everything here is blittable: handles are IntPtr, size_t is UIntPtr,
 // buffers are plain pointers, structs mirror the C structs field for field.
@@ -56,7 +59,8 @@ namespace Locd
         Sorted = 0x1,
     }
 
-    /// <summary>P/Invoke declarations for liblocd, one per exported function.</summary>
+    /// <summary>P/Invoke declarations for liblocd, one per exported function
+    /// (checked against the library's export table in CI).</summary>
     public static unsafe class Native
     {
         // iOS (and WebGL) link native plugins statically into the player:
@@ -146,6 +150,85 @@ namespace Locd
             public double origin2;
             public double scale_a;
             public double scale_b;
+        }
+
+        /// <summary>locd_service_config (service.h); initialize with locd_service_config_init.</summary>
+        [StructLayout(LayoutKind.Sequential)]
+        public struct locd_service_config
+        {
+            public uint size;
+            public IntPtr listen;      // const char *
+            public IntPtr secret;      // const char *
+            public uint threads;
+            public uint engine_threads;
+            public ulong max_message;
+            public uint max_clients;
+            public uint max_jobs;
+            public IntPtr log;         // locd_log_fn
+            public IntPtr log_user;
+        }
+
+        public const int LOCD_SHAPE_SPHERE = 1;
+        public const int LOCD_SHAPE_BOX = 2;
+        public const int LOCD_SHAPE_CAPSULE = 3;
+        public const int LOCD_SHAPE_CONVEX = 4;
+        public const int LOCD_SHAPE_MESH = 5;
+        public const int LOCD_SHAPE_KINDS = 8;
+        public const uint LOCD_STAGE_SHAPE = 0x1;
+        public const uint LOCD_STAGE_CONTACT = 0x2;
+        public const int LOCD_SWEPT_OFF = 0;
+        public const int LOCD_SWEPT_ON = 1;
+        public const int LOCD_SWEPT_AUTO = 2;
+        public const int LOCD_ROUTE_AUTO = 0;
+        public const int LOCD_ROUTE_BOX = 1;
+        public const int LOCD_ROUTE_CLOSED = 2;
+        public const int LOCD_ROUTE_CCD = 3;
+        public const int LOCD_ROUTE_FCL = 4;
+        public const int LOCD_CONTACT_EPA = 0;
+        public const int LOCD_CONTACT_MPR = 1;
+
+        /// <summary>locd_pipeline_options (pipeline.h); initialize with locd_pipeline_options_init.</summary>
+        [StructLayout(LayoutKind.Sequential)]
+        public struct locd_pipeline_options
+        {
+            public uint size;
+            public uint stages;
+            public int swept;
+            public int contact_method;
+            public double dt;
+            public double swept_threshold;
+            public uint find_flags;
+            public uint reserved;
+            public fixed byte route[LOCD_SHAPE_KINDS * LOCD_SHAPE_KINDS]; // route[a * LOCD_SHAPE_KINDS + b]
+        }
+
+        /// <summary>locd_stage_stats (pipeline.h), one per stage of locd_pipeline_stats.</summary>
+        [StructLayout(LayoutKind.Sequential)]
+        public struct locd_stage_stats
+        {
+            public ulong calls;
+            public ulong pairs_in;
+            public ulong pairs_out;
+            public ulong tests;
+            public double ms;
+        }
+
+        /// <summary>locd_pipeline_stats (pipeline.h); initialize with locd_pipeline_stats_init.</summary>
+        [StructLayout(LayoutKind.Sequential)]
+        public struct locd_pipeline_stats
+        {
+            public uint size;
+            public uint objects;
+            public uint swept_objects;
+            public uint reserved;
+            public locd_stage_stats broad;
+            public locd_stage_stats shape;
+            public locd_stage_stats swept;
+            public locd_stage_stats contact;
+            public ulong tests_closed;
+            public ulong tests_ccd;
+            public ulong tests_fcl;
+            public double ms_total;
         }
 
         // ---- version and errors ----
@@ -255,5 +338,86 @@ namespace Locd
         public static extern int locd_brute_force_f32(float* boxes, UIntPtr n, IntPtr out_pairs);
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_brute_force_f64(double* boxes, UIntPtr n, IntPtr out_pairs);
+
+        // ---- the level-3 service (service.h); LOCD_ERR_UNSUPPORTED on Windows ----
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_service_config_init(locd_service_config* config);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_service_create(locd_service_config* config, IntPtr* out_service);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern IntPtr locd_service_address(IntPtr service);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_service_run(IntPtr service);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_service_stop(IntPtr service);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_service_destroy(IntPtr service);
+
+        // ---- narrow phase: shapes (pipeline.h); LOCD_ERR_UNSUPPORTED without libccd/FCL ----
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_shape_sphere(double radius, IntPtr* out_shape);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_shape_box(double half_x, double half_y, double half_z, IntPtr* out_shape);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_shape_capsule(double radius, double half_length, IntPtr* out_shape);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_shape_convex(double* points, UIntPtr count, IntPtr* out_shape);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_shape_mesh(double* vertices, UIntPtr vertex_count, uint* triangles,
+                                                 UIntPtr triangle_count, IntPtr* out_shape);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_shape_destroy(IntPtr shape);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_shape_kind(IntPtr shape);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_shape_aabb(IntPtr shape, double* pose, double* box);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_shape_collide(IntPtr a, double* pose_a, IntPtr b, double* pose_b, int route,
+                                                    int contact_method, int* hit, double* contact);
+
+        // ---- narrow phase: options, statistics, contacts, world (pipeline.h) ----
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_pipeline_options_init(locd_pipeline_options* options);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_pipeline_options_route(locd_pipeline_options* options, int kind_a, int kind_b, int route);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_pipeline_stats_init(locd_pipeline_stats* stats);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_contacts_create(IntPtr* out_contacts);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_contacts_destroy(IntPtr contacts);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern UIntPtr locd_contacts_count(IntPtr contacts);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern uint* locd_contacts_pairs(IntPtr contacts);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern double* locd_contacts_toi(IntPtr contacts);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern double* locd_contacts_depth(IntPtr contacts);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern double* locd_contacts_normal(IntPtr contacts);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern double* locd_contacts_point(IntPtr contacts);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_world_create(locd_engine_config* config, IntPtr* out_world);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_world_destroy(IntPtr world);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_world_add(IntPtr world, IntPtr shape, double* pose, double* velocity, uint* index);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern UIntPtr locd_world_count(IntPtr world);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_world_set_pose(IntPtr world, uint index, double* pose);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_world_set_velocity(IntPtr world, uint index, double* velocity);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_world_set_poses(IntPtr world, double* poses, UIntPtr count);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_world_set_velocities(IntPtr world, double* velocities, UIntPtr count);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_world_get_pose(IntPtr world, uint index, double* pose);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_world_collide(IntPtr world, locd_pipeline_options* options, IntPtr contacts,
+                                                    locd_pipeline_stats* stats);
     }
 }

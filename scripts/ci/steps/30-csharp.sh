@@ -44,13 +44,42 @@ $MCS -target:library -r:"$OUT/Locd.dll" -r:"$OUT/UnityEngine.dll" -out:"$OUT/Loc
 cc -std=c99 -Wall -Wextra -Werror -I include -o "$OUT/layout" bindings/csharp/tests/layout.c
 "$OUT/layout" > "$OUT/layout.txt"
 
-# The Unity package's Linux plugin: built without optional dependencies, it
-# must need nothing but glibc (checked with ldd), and the tests run on it too.
+# The Unity package's plugins (Linux, and Windows cross-built with mingw-w64):
+# built without optional dependencies, the Linux one must need nothing but
+# glibc (checked with ldd), the Windows one nothing but KERNEL32 and msvcrt;
+# the tests run on the Linux one too (the Windows one's C tests: step 35).
 bash bindings/unity/build-plugin.sh "$ROOT/$OUT/plugin" > "$OUT/plugin.log"
-PLUGIN=bindings/unity/Plugins/x86_64/liblocd.so
+PLUGIN=bindings/unity/Plugins/Linux/x86_64/liblocd.so
+WINPLUGIN=bindings/unity/Plugins/Windows/x86_64/locd.dll
 if ldd "$PLUGIN" | grep -v -E 'linux-vdso|libc\.so|libm\.so|ld-linux' | grep -q '=>'; then
   echo "the plugin needs more than glibc:"; ldd "$PLUGIN"; exit 1
 fi
+if x86_64-w64-mingw32-objdump -p "$WINPLUGIN" | grep 'DLL Name' | grep -v -i -E 'KERNEL32\.dll|msvcrt\.dll'; then
+  echo "the Windows plugin needs more than KERNEL32.dll and msvcrt.dll"; exit 1
+fi
+
+# Package checks, one JUnit case each (a failure fails the step at the end):
+# no public Locd type name clashes with UnityEngine / Unity.Collections /
+# Unity.Jobs / Unity.Mathematics; Native declares exactly the exported
+# functions of the CI library, of the Linux plugin and of the Windows DLL;
+# every asset has its .meta (unique, stable GUIDs), LICENSE.md = LICENSE.
+checks_rc=0
+check() { # NAME COMMAND...
+  local name=$1 rc=0; shift
+  echo "---- check: $name ----"
+  "$@" > "$OUT/check-$name.log" 2>&1 || rc=$?
+  cat "$OUT/check-$name.log"
+  python3 scripts/ci/junit.py case csharp "$name" "$([ $rc -eq 0 ] && echo passed || echo failed)" \
+    "$(tail -n 20 "$OUT/check-$name.log")" > "$LOCD_RESULTS/csharp-check-$name.junit.xml"
+  [ $rc -eq 0 ] || checks_rc=1
+}
+check unity_names_no_clash bash bindings/csharp/tests/unity-names.sh "$OUT/Locd.dll" "$OUT/names"
+check native_covers_library_exports bash bindings/csharp/tests/native-coverage.sh "$OUT/Locd.dll" "$OUT/cov" "$LIBDIR"
+check native_covers_linux_plugin_exports bash bindings/csharp/tests/native-coverage.sh "$OUT/Locd.dll" \
+  "$OUT/cov-linux" "$(dirname "$PLUGIN")"
+check native_covers_windows_dll_exports bash bindings/csharp/tests/native-coverage.sh "$OUT/Locd.dll" \
+  "$OUT/cov-windows" "$WINPLUGIN"
+check unity_package_meta_license python3 scripts/unity_package.py check
 
 run_tests() { # LIBDIR JUNIT
   local log="$OUT/$(basename "$2" .xml).log" rc=0
@@ -69,10 +98,11 @@ rc=0
 run_tests "$LIBDIR" "$LOCD_RESULTS/csharp.junit.xml" || rc=$?
 echo "---- again on the Unity plugin build ($PLUGIN) ----"
 prc=0
-run_tests "$ROOT/bindings/unity/Plugins/x86_64" "$OUT/csharp-plugin.junit.xml" || prc=$?
+run_tests "$ROOT/$(dirname "$PLUGIN")" "$OUT/csharp-plugin.junit.xml" || prc=$?
 # One JUnit case for the second run (its tests are the same ones).
 python3 scripts/ci/junit.py case csharp "unity_plugin_build_passes_the_suite" \
   "$([ $prc -eq 0 ] && echo passed || echo failed)" "see $OUT/csharp-plugin.junit.log" \
   > "$LOCD_RESULTS/csharp-plugin.junit.xml"
 [ $prc -eq 0 ] || rc=$prc
+[ $checks_rc -eq 0 ] || rc=1
 exit $rc
