@@ -25,7 +25,7 @@ fi
 command -v meson >/dev/null || { echo "meson not found: run scripts/setup.sh first (it installs Meson into .venv)"; exit 1; }
 LIBKIND=shared
 [ "${STATIC:-0}" = 1 ] && LIBKIND=both
-OPTS=(--buildtype=release -Dtests=disabled -Dexamples=false -Dtools=false
+OPTS=(--buildtype=release -Dplugin=true -Dtests=disabled -Dexamples=false -Dtools=false
       -Dnarrow=disabled -Dmpi=disabled -Dbench_peers=disabled)
 
 configure() { # BUILD_DIR CROSS_FILE|"" OPTIONS...
@@ -56,6 +56,7 @@ for platform in $PLATFORMS; do
       configure "$BUILD" "" "${OPTS[@]}" -Ddefault_library=$LIBKIND
       ninja -C "$BUILD" -j "${JOBS:-2}" >/dev/null
       install_plugin "$BUILD/lib/liblocd.so" "$HERE/Plugins/Linux/x86_64/liblocd.so" strip
+      install_plugin "$BUILD/lib/liblocd_narrow.so" "$HERE/Plugins/Linux/x86_64/liblocd_narrow.so" strip
       if [ "$LIBKIND" = both ]; then
         # A host (Linux) archive: shows the static build works. An iOS player
         # needs the same build cross-compiled for arm64 (README.md, "iOS").
@@ -69,10 +70,11 @@ for platform in $PLATFORMS; do
         exit 1; }
       configure "$BUILD-windows" "$ROOT/scripts/cross/mingw64.ini" "${OPTS[@]}" -Ddefault_library=shared
       ninja -C "$BUILD-windows" -j "${JOBS:-2}" >/dev/null
-      dll=$(find "$BUILD-windows/lib" -maxdepth 1 -name 'liblocd*.dll' ! -name '*narrow*' | head -n 1)
-      # [DllImport("locd")] looks for locd.dll on Windows.
-      install_plugin "$dll" "$HERE/Plugins/Windows/x86_64/locd.dll" x86_64-w64-mingw32-strip
-      x86_64-w64-mingw32-objdump -p "$HERE/Plugins/Windows/x86_64/locd.dll" | grep 'DLL Name' | sed 's/^\s*/  needs /'
+      # -Dplugin=true names them as [DllImport("locd")] and ("locd_narrow") look for them.
+      for name in locd locd_narrow; do
+        install_plugin "$BUILD-windows/lib/$name.dll" "$HERE/Plugins/Windows/x86_64/$name.dll" x86_64-w64-mingw32-strip
+        x86_64-w64-mingw32-objdump -p "$HERE/Plugins/Windows/x86_64/$name.dll" | grep 'DLL Name' | sed 's/^\s*/  needs /'
+      done
       ;;
     *) echo "unknown platform $platform (linux, windows)"; exit 1 ;;
   esac

@@ -78,7 +78,7 @@ check native_covers_library_exports bash bindings/csharp/tests/native-coverage.s
 check native_covers_linux_plugin_exports bash bindings/csharp/tests/native-coverage.sh "$OUT/Locd.dll" \
   "$OUT/cov-linux" "$(dirname "$PLUGIN")"
 check native_covers_windows_dll_exports bash bindings/csharp/tests/native-coverage.sh "$OUT/Locd.dll" \
-  "$OUT/cov-windows" "$WINPLUGIN"
+  "$OUT/cov-windows" "$(dirname "$WINPLUGIN")"
 check unity_package_meta_license python3 scripts/unity_package.py check
 
 run_tests() { # LIBDIR JUNIT
