@@ -255,7 +255,7 @@ namespace Locd
                 try {
                     handle.DangerousAddRef(ref added);
                     if (pairs == null)
-                        pairs = PairsHandle.Create();
+                        pairs = PairsSafeHandle.Create();
                     IntPtr e = handle.DangerousGetHandle(), p = pairs.DangerousGetHandle();
                     int st = da == null && db == null
                         ? Native.locd_engine_find_pairs_between_f32(e, fa, (UIntPtr)(ulong)na, fb, (UIntPtr)(ulong)nb,
