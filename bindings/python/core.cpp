@@ -419,6 +419,9 @@ py::array_t<uint32_t> brute_force(py::handle boxes_obj)
 
 } // namespace
 
+// locd.Scene's extension class (scene.cpp).
+void locd_bind_scene(py::module_ &m);
+
 PYBIND11_MODULE(_core, m)
 {
     m.doc() = "Compiled core of locd (pybind11). Use the `locd` package, not this module.";
@@ -459,4 +462,6 @@ PYBIND11_MODULE(_core, m)
         .def("stats", &Job::stats)
         .def("cancel", &Job::cancel)
         .def("release", &Job::release);
+
+    locd_bind_scene(m);
 }

@@ -354,3 +354,9 @@ def find_pairs(boxes: Any, *, threads: Optional[int] = None, sort: bool = False)
 def brute_force(boxes: Any) -> np.ndarray:
     """The O(n^2) C reference: every overlapping pair, sorted by (i, j). For tests and tiny scenes."""
     return _core.brute_force(boxes)
+
+
+# -- the persistent scene (locd/scene.py) -----------------------------------------
+from .scene import DuplicateIdError, Scene, SceneUpdate, StaleIdError  # noqa: E402
+
+__all__ += ["Scene", "SceneUpdate", "StaleIdError", "DuplicateIdError"]
