@@ -359,7 +359,7 @@ def test_readme_example():
     assert r.pairs.shape == (0, 2) and r.lost.tolist() == [[ids[0], ids[1]]]
     assert scene.query_point([5, 5, 5]).tolist() == [ids[2]]
     hit, t = scene.raycast([1.5, 0.5, 0.5], [1, 1, 1], 10.0)
-    assert hit.tolist() == [ids[1], ids[2]] and t.tolist() == [0.0, 3.5]
+    assert hit.tolist() == [ids[1], ids[2]] and t.tolist() == [0.0, 4.5]
 
 
 def test_ids_never_reused():
@@ -394,12 +394,14 @@ def test_attribute_forms_and_dtypes():
     ids = scene.add(box, category=np.array([1, 2, 4], np.int8), mask=[big, ALL, np.uint16(7)],
                     group=np.uint32(0), user=[big, 0, ALL])
     assert scene.user(ids).tolist() == [big, 0, ALL]
-    # 1 & big != 0 and 2 & ALL != 0: 0-1 pair; 0-2: 4 & big == 4 & 0b...101 != 0 and 1 & 7 != 0.
-    assert scene.update().pairs.tolist() == sorted([[ids[0], ids[1]], [ids[0], ids[2]], [ids[1], ids[2]]])
+    # big has bits 63, 2 and 0: 0-1 fails (2 & big == 0); 0-2 (1 & 7, 4 & big) and 1-2 (2 & 7, 4 & ALL) pair.
+    assert scene.update().pairs.tolist() == [[ids[0], ids[2]], [ids[1], ids[2]]]
     scene.set_filter(ids, group=5)
     assert scene.update().pairs.shape == (0, 2)
-    scene.set_filter(ids[1:], group=[0, 6], category=np.int64(1))
-    assert scene.update().pairs.tolist() == [[ids[1], ids[2]]]
+    scene.set_filter(ids[1:], group=[0, 6], category=np.int64(1))  # groups 5, 0, 6; categories 1, 1, 1
+    assert scene.update().pairs.tolist() == [[ids[0], ids[1]], [ids[0], ids[2]], [ids[1], ids[2]]]
+    scene.set_filter(ids[:2], group=6)  # groups 6, 6, 6
+    assert scene.update().pairs.shape == (0, 2)
     with pytest.raises(ValueError, match=r"category\[1\] = -2 is negative"):
         scene.add(box, category=np.array([1, -2, 3]))
     with pytest.raises(ValueError, match="outside"):
@@ -492,7 +494,7 @@ def test_constructor_and_close():
 def test_same_results_for_every_thread_count():
     rng = np.random.default_rng(3)
     lo = rng.random((3000, 3), dtype=np.float32) * 50
-    boxes = np.hstack([lo, lo + rng.random((3000, 3), dtype=np.float32)])
+    boxes = np.hstack([lo, lo + 4 * rng.random((3000, 3), dtype=np.float32)])
     results = []
     for threads in (1, 2):
         scene = locd.Scene(threads=threads)
@@ -503,7 +505,7 @@ def test_same_results_for_every_thread_count():
         results.append(scene.update())
     for name in ("pairs", "created", "lost"):
         np.testing.assert_array_equal(getattr(results[0], name), getattr(results[1], name))
-    assert len(results[0].pairs) > 1000
+    assert len(results[0].pairs) > 500 and len(results[0].created) and len(results[0].lost)
 
 
 def test_threads_share_a_scene():

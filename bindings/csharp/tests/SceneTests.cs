@@ -430,7 +430,7 @@ namespace Locd.Tests
                 double[] t;
                 SameIds(new[] { ids[1], ids[2] }, scene.Raycast(new float[] { 1.5f, 0.5f, 0.5f }, new float[] { 1, 1, 1 }, 10, out t), "ray");
                 Assert.Equal(0.0, t[0], "t inside");
-                Assert.Equal(3.5, t[1], "t entering");
+                Assert.Equal(4.5, t[1], "t entering (the last slab entered: y and z at 4.5)");
                 Assert.Equal(2L, scene.Count, "count");
             }
         }

@@ -93,6 +93,12 @@ def _u64_array(name: str, values: Any, n: Optional[int] = None) -> np.ndarray:
     Negative or too large values raise ValueError naming the index; other
     dtypes raise TypeError. Zero-copy for a C-contiguous native uint64 array."""
     arr = values if isinstance(values, np.ndarray) else np.asarray(values)
+    if not isinstance(values, np.ndarray) and arr.dtype.kind not in "iub":
+        # A list mixing ints below and above 2**63 becomes float64 in numpy:
+        # take the Python ints one by one instead (floats are refused there).
+        arr = np.empty(len(values), dtype=object) if np.ndim(values) == 1 else arr
+        if arr.dtype == object and arr.ndim == 1:
+            arr[:] = list(values)
     if arr.ndim == 0:
         arr = arr.reshape(1)
     if arr.ndim != 1:
@@ -107,13 +113,11 @@ def _u64_array(name: str, values: Any, n: Optional[int] = None) -> np.ndarray:
         if len(neg):
             raise ValueError("%s[%d] = %d is negative" % (name, neg[0], arr[neg[0]]))
         return np.ascontiguousarray(arr, dtype=np.uint64)
-    if kind == "O" or (kind == "V" and len(arr) == 0):  # Python ints past int64
+    if kind == "O":  # Python ints past int64
         out = np.empty(len(arr), dtype=np.uint64)
         for k, v in enumerate(arr):
             out[k] = _u64_scalar("%s[%d]" % (name, k), v)
         return out
-    if len(arr) == 0 and kind == "f":  # np.asarray([]) is float64
-        return np.empty(0, dtype=np.uint64)
     raise TypeError("%s must hold integers, got dtype %s" % (name, arr.dtype))
 
 
