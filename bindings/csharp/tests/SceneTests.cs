@@ -235,11 +235,11 @@ namespace Locd.Tests
         {
             var r = new Rng(f64 ? 0x5CE4E64UL : 0x5CE4E32UL);
             long steps = 0, updates = 0, errors = 0;
-            for (int run = 0; run < 12; run++) {
+            for (int run = 0; run < 24; run++) {
                 double scale = new[] { 1.0, 0.25, 1024.0 }[run % 3];
                 var model = new Model();
                 using (var scene = new Scene(1 + run % 2)) {
-                    for (int step = 0; step < 120; step++, steps++) {
+                    for (int step = 0; step < 200; step++, steps++) {
                         int op = r.Below(12);
                         string at = "run " + run + " step " + step + " op " + op + ": ";
                         try {
