@@ -530,3 +530,30 @@ def test_threads_share_a_scene():
     for t in threads:
         t.join()
     assert not errors and len(scene) == 0
+
+
+def test_cffi_declares_the_scene():
+    """locd.abi (cffi, declarations generated from every public header) drives the same scene API."""
+    import locd.abi
+
+    ffi, lib = locd.abi.ffi, locd.abi.lib
+    cfg = ffi.new("locd_engine_config *")
+    lib.locd_engine_config_init(cfg)
+    engine, scene = ffi.new("locd_engine **"), ffi.new("locd_scene **")
+    assert lib.locd_engine_create(cfg, engine) == 0
+    try:
+        assert lib.locd_scene_create(engine[0], ffi.NULL, scene) == 0
+        boxes = np.array([[0, 0, 0, 1, 1, 1], [1, 1, 1, 2, 2, 2]], np.float64)
+        ids = np.zeros(2, np.uint64)
+        assert lib.locd_scene_add_f64(scene[0], ffi.from_buffer("double[]", boxes), 2, ffi.NULL,
+                                      ffi.from_buffer("locd_id[]", ids)) == 0
+        assert lib.locd_scene_update(scene[0], locd.abi.CONSTANTS["LOCD_SCENE_UPDATE_PAIRS"]) == 0
+        data, count = ffi.new("const locd_id **"), ffi.new("size_t *")
+        assert lib.locd_scene_pairs(scene[0], data, count) == 0
+        assert count[0] == 1 and [data[0][0], data[0][1]] == ids.tolist()
+        stale = ffi.new("locd_id[]", [int(ids[0]) + 12345])
+        assert lib.locd_scene_remove(scene[0], stale, 1) == locd.abi.CONSTANTS["LOCD_ERR_STALE_ID"]
+        assert lib.locd_last_error_index() == 0
+    finally:
+        lib.locd_scene_destroy(scene[0])
+        lib.locd_engine_destroy(engine[0])
