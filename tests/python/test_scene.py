@@ -557,3 +557,19 @@ def test_cffi_declares_the_scene():
     finally:
         lib.locd_scene_destroy(scene[0])
         lib.locd_engine_destroy(engine[0])
+
+
+def test_scene_calls_release_the_gil():
+    """Another Python thread keeps running during add and update (test_runtime.py's detector,
+    whose negative control shows it sees a call that holds the GIL)."""
+    from conftest import uniform_scene
+    from test_runtime import progress_during
+
+    boxes = uniform_scene(300_000, seed=5)
+    with locd.Scene(threads=1) as scene:
+        ids = []
+        duration, gap = progress_during(lambda: ids.append(scene.add(boxes)))
+        assert gap < 0.5 * duration or duration < 0.02, "add: no progress for %.3f of %.3f s" % (gap, duration)
+        duration, gap = progress_during(scene.update)
+        assert duration > 0.02, "the update is too short to tell (%.3f s)" % duration
+        assert gap < 0.5 * duration, "update: no Python progress for %.3f s of a %.3f s call" % (gap, duration)
