@@ -128,6 +128,8 @@ static void same_rows(const char *what, const locd_id *want, size_t nwant, const
                     (unsigned long long)want[2 * k + 1]);
 }
 
+static unsigned g_updates, g_incremental;
+
 /* Updates the scene and checks pairs, created and lost against the model. */
 static void check_update(locd_scene *s, model *m)
 {
@@ -149,6 +151,13 @@ static void check_update(locd_scene *s, model *m)
     m->pairs = want;
     m->npairs = nw;
     TEST_ASSERT_EQUAL_UINT64(m->n, locd_scene_count(s));
+    {
+        locd_scene_stats st;
+        locd_scene_stats_init(&st);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
+        g_updates++;
+        g_incremental += st.rebuilt == 0;
+    }
 }
 
 /* ---- queries against the model ---- */
@@ -489,7 +498,11 @@ static void random_sequences(void)
         run_opts ro = {1, 1500, 60, 0, 2, 0};
         ro.shape = shape;
         ro.seed = 100 + (uint64_t)shape;
+        g_updates = g_incremental = 0;
         run_sequence(&ro);
+        LT_PRINT("shape %d: %u of %u updates incremental\n", shape, g_incremental, g_updates);
+        /* the incremental path is what is under test */
+        TEST_ASSERT_TRUE(g_incremental * 2 > g_updates);
     }
 }
 
