@@ -140,9 +140,9 @@ locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g)
             }
             n++;
         }
-    if (n) { /* a margin of an eighth of the extent each side: room to move before a rebuild */
+    if (n) { /* a margin of 1/32 of the extent each side: room to move before a rebuild */
         for (a = 0; a < 3; a++) {
-            double m = (b.hi[a] * 0.5 - b.lo[a] * 0.5) * 0.25;
+            double m = (b.hi[a] * 0.5 - b.lo[a] * 0.5) * 0.0625;
             double lo = b.lo[a] - m, hi = b.hi[a] + m;
             if (isfinite(lo))
                 b.lo[a] = lo;
@@ -150,12 +150,13 @@ locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g)
                 b.hi[a] = hi;
         }
     }
-    /* Index bits for twice the slots: adds rarely force a new grid. */
+    /* Index bits for the slots (one more costs a level of depth: a
+       scene that outgrows them rebuilds). */
     st = lc_grid_from_bounds(&b, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, g);
     if (st)
         return st;
     {
-        size_t room = 2 * (s->nslots ? s->nslots : 1);
+        size_t room = s->nslots ? s->nslots : 1;
         uint32_t ib = 1;
         while (ib < 32 && ((size_t)1 << ib) < room)
             ib++;
