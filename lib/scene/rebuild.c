@@ -49,9 +49,21 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     return st;
 }
 
-/* Every live object's cells on grid g into cells/qbox (slot-indexed arrays
+void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *h)
+{
+    memset(h, 0, sizeof *h);
+    h->qlo = qbox[0];
+    h->qhi = qbox[1];
+    h->cat = s->cat[k];
+    h->mask = s->mask[k];
+    h->group = s->group[k];
+    h->id = s->id[k];
+    h->flags = s->flags[k] & LC_SLOT_STATIC;
+}
+
+/* Every live object's cells on grid g into cells/hot (slot-indexed arrays
  * of the caller), and the two entry lists, sorted. */
-locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint64_t *qbox, lc_tree *dyn,
+locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, lc_hot *hot, lc_tree *dyn,
                                  lc_tree *sta)
 {
     const locd_allocator *a = s->alloc;
@@ -60,9 +72,11 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
     locd_status st = LOCD_OK;
     for (k = 0; k < s->nslots; k++) {
         uint32_t n;
+        uint64_t qb[2];
         if (!(s->flags[k] & LC_SLOT_LIVE))
             continue;
-        lc_cells_of(g, s->box + 6 * k, &cells[k], (uint32_t *)(qbox + 2 * k));
+        lc_cells_of(g, s->box + 6 * k, &cells[k], qb);
+        lc_hot_fill(s, k, qb, &hot[k]);
         n = (1u + (cells[k].span & 1u)) * (1u + ((cells[k].span >> 1) & 1u)) * (1u + ((cells[k].span >> 2) & 1u));
         if (s->flags[k] & LC_SLOT_STATIC)
             ns += n;

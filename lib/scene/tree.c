@@ -13,14 +13,20 @@
 #include <math.h>
 #include <stdlib.h>
 
-void lc_scene_tree_fini(locd_scene *s)
+void lc_tree_release(const locd_allocator *a, lc_tree *t)
 {
-    lc_buf_release(s->alloc, &s->dyn.ent, sizeof(uint64_t));
-    lc_buf_release(s->alloc, &s->sta.ent, sizeof(uint64_t));
-    s->dyn.count = s->sta.count = 0;
+    lc_buf_release(a, &t->ent, sizeof(uint64_t));
+    lc_buf_release(a, &t->ovf, sizeof(uint64_t));
+    t->count = t->novf = t->dead = 0;
 }
 
-void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint32_t qlo[3])
+void lc_scene_tree_fini(locd_scene *s)
+{
+    lc_tree_release(s->alloc, &s->dyn);
+    lc_tree_release(s->alloc, &s->sta);
+}
+
+void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t qbox[2])
 {
     int32_t lo[3], hi[3];
     uint32_t ext = 0, sh, a;
@@ -29,8 +35,8 @@ void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint32_t qlo[
         hi[a] = lc_quantize(g, (int)a, b[a + 3]);
         if ((uint32_t)(hi[a] - lo[a]) > ext)
             ext = (uint32_t)(hi[a] - lo[a]);
-        qlo[a] = (uint32_t)lo[a] >> LC_SDROP;
     }
+    lc_pack_qbox(lo, hi, qbox);
     if (g->flags & LOCD_CONFIG_CUBES)
         for (a = 0; a < 3; a++) {
             int64_t h = (int64_t)lo[a] + ext;
@@ -85,41 +91,159 @@ void lc_tree_count_levels(const locd_grid *g, lc_tree *t)
     const uint64_t *e = t->ent.data;
     memset(t->per_level, 0, sizeof t->per_level);
     for (k = 0; k < t->count; k++)
+        if (!LC_IS_TOMB(g, e[k]))
+            t->per_level[(e[k] >> g->index_bits) & 31u]++;
+    e = t->ovf.data;
+    for (k = 0; k < t->novf; k++)
         t->per_level[(e[k] >> g->index_bits) & 31u]++;
 }
 
-locd_status lc_tree_repair(const locd_allocator *a, const locd_grid *g, const lc_tree *t, const uint64_t *del,
-                           size_t ndel, const uint64_t *add, size_t nadd, lc_tree *out)
+/* The position of entry v in t's main array, or (size_t)-1 (then it is in
+ * the overflow). Equal keys are few: one binary search, a short scan. */
+static size_t find_main(const locd_grid *g, const lc_tree *t, uint64_t v)
 {
     const uint64_t *e = t->ent.data;
-    uint64_t *o;
-    size_t i = 0, d = 0, j = 0, w = 0, n = t->count - ndel + nadd;
-    uint32_t ib = g->index_bits;
-    memset(out, 0, sizeof *out);
-    if (lc_buf_reserve(a, &out->ent, sizeof(uint64_t), n ? n : 1) != LOCD_OK)
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the repaired entry list");
-    o = out->ent.data;
-    memcpy(out->per_level, t->per_level, sizeof out->per_level);
-    /* One merge pass: entries of t not in del, interleaved with add. */
-    while (i < t->count) {
-        uint64_t v = e[i];
+    const uint32_t ib = g->index_bits;
+    size_t i = lc_lower_bound(e, t->count, (v >> ib) << ib);
+    for (; i < t->count && (e[i] >> ib) == (v >> ib); i++)
+        if (e[i] == v)
+            return i;
+    return (size_t)-1;
+}
+
+/* out[0, *n) = sorted merge of a (without the entries in del) and b. */
+static size_t merge_minus(const locd_grid *g, const uint64_t *a, size_t na, const uint64_t *del, size_t ndel,
+                          const uint64_t *b, size_t nb, uint64_t *out)
+{
+    size_t i = 0, d = 0, j = 0, w = 0;
+    for (; i < na; i++) {
+        uint64_t v = a[i];
+        if (LC_IS_TOMB(g, v))
+            continue;
+        while (d < ndel && del[d] < v)
+            d++;
         if (d < ndel && del[d] == v) {
-            d++, i++;
+            d++;
             continue;
         }
-        while (j < nadd && add[j] < v)
-            o[w++] = add[j++];
-        o[w++] = v;
-        i++;
+        while (j < nb && b[j] < v)
+            out[w++] = b[j++];
+        out[w++] = v;
     }
-    while (j < nadd)
-        o[w++] = add[j++];
-    for (i = 0; i < ndel; i++)
-        out->per_level[(del[i] >> ib) & 31u]--;
-    for (i = 0; i < nadd; i++)
-        out->per_level[(add[i] >> ib) & 31u]++;
-    out->count = w;
-    return w == n ? LOCD_OK : lc_error(LOCD_ERR_INTERNAL, "entry list repair lost entries (%zu of %zu)", w, n);
+    while (j < nb)
+        out[w++] = b[j++];
+    return w;
+}
+
+locd_status lc_tree_edit_apply(const locd_allocator *a, const locd_grid *g, lc_tree *t, const uint64_t *del,
+                               size_t ndel, const uint64_t *add, size_t nadd, lc_tree_edit *e)
+{
+    const uint32_t ib = g->index_bits;
+    size_t k, live = t->count - t->dead + t->novf;
+    memset(e, 0, sizeof *e);
+    memcpy(e->out.per_level, t->per_level, sizeof e->out.per_level);
+    for (k = 0; k < ndel; k++)
+        e->out.per_level[(del[k] >> ib) & 31u]--;
+    for (k = 0; k < nadd; k++)
+        e->out.per_level[(add[k] >> ib) & 31u]++;
+    if (!ndel && !nadd) {
+        e->out.novf = (size_t)-1; /* nothing changes: keep t's overflow */
+        return LOCD_OK;
+    }
+    /* Compact when the overflow and the tombstones would pass 1/16 of the
+       main array: amortized, each change is merged once. */
+    if (16 * (t->novf + nadd + t->dead + ndel) > t->count) {
+        size_t n = live - ndel + nadd, w;
+        uint64_t *tmp = NULL;
+        size_t ntmp = t->novf + nadd;
+        if (lc_buf_reserve(a, &e->out.ent, sizeof(uint64_t), n ? n : 1) != LOCD_OK ||
+            !(tmp = lc_alloc(a, (ntmp ? ntmp : 1) * sizeof *tmp))) {
+            lc_buf_release(a, &e->out.ent, sizeof(uint64_t));
+            return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the compacted entry list");
+        }
+        /* overflow minus del, merged with add; then main minus del merged with that */
+        w = merge_minus(g, t->ovf.data, t->novf, del, ndel, add, nadd, tmp);
+        e->out.count = merge_minus(g, t->ent.data, t->count, del, ndel, tmp, w, e->out.ent.data);
+        lc_free(a, tmp, (ntmp ? ntmp : 1) * sizeof *tmp);
+        e->compacted = 1;
+        if (e->out.count != n) {
+            lc_buf_release(a, &e->out.ent, sizeof(uint64_t));
+            return lc_error(LOCD_ERR_INTERNAL, "entry list compaction lost entries (%zu of %zu)", e->out.count, n);
+        }
+        return LOCD_OK;
+    }
+    /* Tombstones in place for the deleted entries of main (positions kept
+       for undo); the overflow merged anew with its deleted entries out. */
+    e->pos_cap = ndel ? ndel : 1;
+    if (lc_buf_reserve(a, &e->out.ovf, sizeof(uint64_t), t->novf + nadd + 1) != LOCD_OK ||
+        !(e->pos = lc_alloc(a, e->pos_cap * sizeof *e->pos)) || !(e->old = lc_alloc(a, e->pos_cap * sizeof *e->old)))
+        goto nomem;
+    {
+        uint64_t *ovf_del = lc_alloc(a, (ndel ? ndel : 1) * sizeof *ovf_del);
+        size_t nod = 0;
+        uint64_t *m = t->ent.data;
+        if (!ovf_del)
+            goto nomem;
+        for (k = 0; k < ndel; k++) {
+            size_t p = find_main(g, t, del[k]);
+            if (p == (size_t)-1) {
+                ovf_del[nod++] = del[k];
+            } else {
+                e->old[e->npos] = m[p];
+                e->pos[e->npos++] = p;
+                m[p] = LC_TOMB(g, m[p]);
+            }
+        }
+        e->out.novf = merge_minus(g, t->ovf.data, t->novf, ovf_del, nod, add, nadd, e->out.ovf.data);
+        lc_free(a, ovf_del, (ndel ? ndel : 1) * sizeof *ovf_del);
+        if (e->out.novf != t->novf - nod + nadd) {
+            lc_tree_edit_undo(t, e);
+            lc_tree_edit_free(a, e);
+            return lc_error(LOCD_ERR_INTERNAL, "entry overflow lost entries");
+        }
+    }
+    return LOCD_OK;
+nomem:
+    lc_tree_edit_free(a, e);
+    return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the entry list's edit");
+}
+
+void lc_tree_edit_undo(lc_tree *t, lc_tree_edit *e)
+{
+    uint64_t *m = t->ent.data;
+    size_t k;
+    for (k = e->npos; k-- > 0;)
+        m[e->pos[k]] = e->old[k];
+    e->npos = 0;
+}
+
+void lc_tree_edit_commit(const locd_allocator *a, lc_tree *t, lc_tree_edit *e)
+{
+    if (e->compacted) {
+        lc_tree_release(a, t);
+        t->ent = e->out.ent;
+        t->count = e->out.count;
+        t->dead = 0;
+        t->novf = 0;
+        memset(&e->out.ent, 0, sizeof e->out.ent);
+    } else if (e->out.novf != (size_t)-1) {
+        lc_buf tmp = t->ovf;
+        t->ovf = e->out.ovf;
+        t->novf = e->out.novf;
+        e->out.ovf = tmp; /* freed by lc_tree_edit_free */
+        t->dead += e->npos;
+    }
+    memcpy(t->per_level, e->out.per_level, sizeof t->per_level);
+}
+
+void lc_tree_edit_free(const locd_allocator *a, lc_tree_edit *e)
+{
+    lc_buf_release(a, &e->out.ent, sizeof(uint64_t));
+    lc_buf_release(a, &e->out.ovf, sizeof(uint64_t));
+    lc_free(a, e->pos, e->pos_cap * sizeof *e->pos);
+    lc_free(a, e->old, e->pos_cap * sizeof *e->old);
+    e->pos = NULL;
+    e->old = NULL;
 }
 
 locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g)
@@ -156,7 +280,7 @@ locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g)
     if (st)
         return st;
     {
-        size_t room = s->nslots ? s->nslots : 1;
+        size_t room = s->nslots + 1; /* the all-ones slot is the tombstone */
         uint32_t ib = 1;
         while (ib < 32 && ((size_t)1 << ib) < room)
             ib++;

@@ -23,14 +23,15 @@ typedef struct upd {
     lc_tree dyn, sta;   /* the new lists */
     lc_plist next, cr, lo;
     lc_cells *cells;    /* rebuild: new per-slot cells (slot_cap) */
-    uint64_t *qbox;     /* rebuild: new per-slot sweep corners (2 * slot_cap) */
+    lc_hot *hot;        /* rebuild: new per-slot hot records (slot_cap) */
     locd_grid grid;     /* rebuild: the new grid */
     /* incremental: undo of the per-slot cells written early */
     uint32_t *undo_slot;
     lc_cells *undo_cells;
-    uint64_t *undo_q;
+    lc_hot *undo_hot;
     uint8_t *undo_flags;
     size_t nundo, undo_cap;
+    lc_tree_edit edit[2]; /* incremental: of the dynamic and the static list */
     uint64_t *buf; /* del/add/query entries */
     size_t buf_cap;
     uint64_t candidates, moved, reencoded;
@@ -55,21 +56,24 @@ static void swap_tree(lc_tree *a, lc_tree *b)
 static void upd_free(upd *u)
 {
     const locd_allocator *a = u->s->alloc;
-    lc_buf_release(a, &u->dyn.ent, sizeof(uint64_t));
-    lc_buf_release(a, &u->sta.ent, sizeof(uint64_t));
+    lc_tree_release(a, &u->dyn);
+    lc_tree_release(a, &u->sta);
+    lc_tree_edit_free(a, &u->edit[0]);
+    lc_tree_edit_free(a, &u->edit[1]);
     lc_plist_fini(a, &u->next);
     lc_plist_fini(a, &u->cr);
     lc_plist_fini(a, &u->lo);
     lc_free(a, u->cells, u->s->slot_cap * sizeof *u->cells);
-    lc_free(a, u->qbox, u->s->slot_cap * 2 * sizeof *u->qbox);
+    lc_free(a, u->hot, u->s->slot_cap * sizeof *u->hot);
     lc_free(a, u->undo_slot, u->undo_cap * sizeof *u->undo_slot);
     lc_free(a, u->undo_cells, u->undo_cap * sizeof *u->undo_cells);
-    lc_free(a, u->undo_q, u->undo_cap * 2 * sizeof *u->undo_q);
+    lc_free(a, u->undo_hot, u->undo_cap * sizeof *u->undo_hot);
     lc_free(a, u->undo_flags, u->undo_cap * sizeof *u->undo_flags);
     lc_free(a, u->buf, u->buf_cap * sizeof *u->buf);
 }
 
-/* Puts back the cells written early by a failed incremental update. */
+/* Puts back what a failed incremental update wrote early: the cells and
+ * hot records of the moved objects, the tombstones. */
 static void undo(upd *u)
 {
     locd_scene *s = u->s;
@@ -77,11 +81,12 @@ static void undo(upd *u)
     for (k = u->nundo; k-- > 0;) {
         uint32_t slot = u->undo_slot[k];
         s->cell[slot] = u->undo_cells[k];
-        s->qbox[2 * (size_t)slot] = u->undo_q[2 * k];
-        s->qbox[2 * (size_t)slot + 1] = u->undo_q[2 * k + 1];
+        s->hot[slot] = u->undo_hot[k];
         s->flags[slot] = u->undo_flags[k];
     }
     u->nundo = 0;
+    lc_tree_edit_undo(&s->dyn, &u->edit[0]);
+    lc_tree_edit_undo(&s->sta, &u->edit[1]);
 }
 
 /* 1 when this update should start from scratch. */
@@ -91,7 +96,7 @@ static int want_rebuild(const locd_scene *s, size_t moved)
     const uint32_t *d = s->dirty.data;
     if (!s->have_tree)
         return 1;
-    if (s->nslots > ((size_t)1 << s->grid.index_bits))
+    if (s->nslots >= ((size_t)1 << s->grid.index_bits) - 1) /* the all-ones slot is the tombstone */
         return 1;
     if ((double)moved > LC_REBUILD_FRACTION * (double)s->live && moved > 64)
         return 1;
@@ -121,13 +126,13 @@ static locd_status rebuild(upd *u)
     double t0 = lc_now_ms(), t1;
     u->rebuilt = 1;
     u->cells = lc_alloc(a, s->slot_cap * sizeof *u->cells);
-    u->qbox = lc_alloc(a, s->slot_cap * 2 * sizeof *u->qbox);
-    if (!u->cells || !u->qbox)
+    u->hot = lc_alloc(a, s->slot_cap * sizeof *u->hot);
+    if (!u->cells || !u->hot)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's cells");
     memset(u->cells, 0, s->slot_cap * sizeof *u->cells);
-    memset(u->qbox, 0, s->slot_cap * 2 * sizeof *u->qbox);
+    memset(u->hot, 0, s->slot_cap * sizeof *u->hot);
     if ((st = lc_scene_fit_grid(s, &u->grid)) != LOCD_OK ||
-        (st = lc_scene_build_trees(s, &u->grid, u->cells, u->qbox, &u->dyn, &u->sta)) != LOCD_OK)
+        (st = lc_scene_build_trees(s, &u->grid, u->cells, u->hot, &u->dyn, &u->sta)) != LOCD_OK)
         return st;
     t1 = lc_now_ms();
     u->ms_encode = t1 - t0;
@@ -140,6 +145,20 @@ static locd_status rebuild(upd *u)
         return st;
     u->ms_events = lc_now_ms() - t1;
     return LOCD_OK;
+}
+
+/* What the lists will be after edit e of t, without copying: a view. */
+static void view_tree(const lc_tree *t, const lc_tree_edit *e, lc_tree *v)
+{
+    if (e->compacted) {
+        *v = e->out;
+        v->ovf.data = NULL, v->novf = 0;
+    } else {
+        *v = *t;
+        if (e->out.novf != (size_t)-1)
+            v->ovf = e->out.ovf, v->novf = e->out.novf;
+    }
+    memcpy(v->per_level, e->out.per_level, sizeof v->per_level);
 }
 
 /* Room for n more entries in u->buf at *len. */
@@ -213,9 +232,9 @@ static locd_status incremental(upd *u)
     u->undo_cap = s->ndirty ? s->ndirty : 1;
     u->undo_slot = lc_alloc(a, u->undo_cap * sizeof *u->undo_slot);
     u->undo_cells = lc_alloc(a, u->undo_cap * sizeof *u->undo_cells);
-    u->undo_q = lc_alloc(a, u->undo_cap * 2 * sizeof *u->undo_q);
+    u->undo_hot = lc_alloc(a, u->undo_cap * sizeof *u->undo_hot);
     u->undo_flags = lc_alloc(a, u->undo_cap * sizeof *u->undo_flags);
-    if (!u->undo_slot || !u->undo_cells || !u->undo_q || !u->undo_flags)
+    if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the update's undo list");
     /* Pass 1: count the deltas (deleted and added per list, queries). */
     for (k = 0; k < s->nremoved; k++)
@@ -226,7 +245,7 @@ static locd_status incremental(upd *u)
         uint8_t f = s->flags[slot];
         int t = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        uint32_t q[3];
+        uint64_t q[2];
         if (!(f & LC_SLOT_LIVE))
             continue;
         u->moved++;
@@ -258,14 +277,13 @@ static locd_status incremental(upd *u)
         uint8_t f = s->flags[slot];
         int t = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        uint32_t q[3];
+        uint64_t q[2];
         if (!(f & LC_SLOT_LIVE))
             continue;
         lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
         u->undo_slot[u->nundo] = slot;
         u->undo_cells[u->nundo] = s->cell[slot];
-        u->undo_q[2 * u->nundo] = s->qbox[2 * (size_t)slot];
-        u->undo_q[2 * u->nundo + 1] = s->qbox[2 * (size_t)slot + 1];
+        u->undo_hot[u->nundo] = s->hot[slot];
         u->undo_flags[u->nundo] = f;
         u->nundo++;
         cnt = lc_cells_entries(g, &c, slot, u->buf + off_q + nq);
@@ -278,7 +296,8 @@ static locd_status incremental(upd *u)
         }
         nq += cnt;
         s->cell[slot] = c;
-        memcpy(s->qbox + 2 * (size_t)slot, q, sizeof q);
+        lc_hot_fill(s, slot, q, &s->hot[slot]);
+        s->hot[slot].flags |= LC_SLOT_DIRTY;
         s->flags[slot] |= LC_SLOT_INTREE;
     }
     for (k = 0; k < 2; k++) {
@@ -289,15 +308,20 @@ static locd_status incremental(upd *u)
     t1 = lc_now_ms();
     u->ms_encode = t1 - t0;
     t0 = t1;
-    if ((st = lc_tree_repair(a, g, &s->dyn, u->buf + off_del[0], ndel[0], u->buf + off_add[0], nadd[0], &u->dyn)) !=
-            LOCD_OK ||
-        (st = lc_tree_repair(a, g, &s->sta, u->buf + off_del[1], ndel[1], u->buf + off_add[1], nadd[1], &u->sta)) !=
-            LOCD_OK)
+    if ((st = lc_tree_edit_apply(a, g, &s->dyn, u->buf + off_del[0], ndel[0], u->buf + off_add[0], nadd[0],
+                                 &u->edit[0])) != LOCD_OK ||
+        (st = lc_tree_edit_apply(a, g, &s->sta, u->buf + off_del[1], ndel[1], u->buf + off_add[1], nadd[1],
+                                 &u->edit[1])) != LOCD_OK)
         return st;
+    /* The search sees the lists as they will be: a view of each. */
+    view_tree(&s->dyn, &u->edit[0], &u->dyn);
+    view_tree(&s->sta, &u->edit[1], &u->sta);
     t1 = lc_now_ms();
     u->ms_merge = t1 - t0;
     t0 = t1;
     st = lc_scene_find_moved(s, &u->dyn, &u->sta, u->buf + off_q, nq, &n, &u->candidates);
+    memset(&u->dyn, 0, sizeof u->dyn); /* views: not ours to free */
+    memset(&u->sta, 0, sizeof u->sta);
     t1 = lc_now_ms();
     u->ms_sweep = t1 - t0;
     t0 = t1;
@@ -331,12 +355,12 @@ static void clear_changes(locd_scene *s)
 static void commit(upd *u)
 {
     locd_scene *s = u->s;
+    size_t k;
     if (u->rebuilt) {
         lc_cells *c = s->cell;
-        uint64_t *q = s->qbox;
-        size_t k;
+        lc_hot *h = s->hot;
         s->cell = u->cells, u->cells = c;
-        s->qbox = u->qbox, u->qbox = q;
+        s->hot = u->hot, u->hot = h;
         s->grid = u->grid;
         s->have_tree = 1;
         for (k = 0; k < s->nslots; k++)
@@ -345,9 +369,15 @@ static void commit(upd *u)
         u->moved = 0;
         for (k = 0; k < s->ndirty; k++)
             u->moved += (s->flags[((const uint32_t *)s->dirty.data)[k]] & LC_SLOT_LIVE) != 0;
+        swap_tree(&s->dyn, &u->dyn);
+        swap_tree(&s->sta, &u->sta);
+    } else {
+        lc_tree_edit_commit(s->alloc, &s->dyn, &u->edit[0]);
+        lc_tree_edit_commit(s->alloc, &s->sta, &u->edit[1]);
+        for (k = 0; k < u->nundo; k++)
+            s->hot[u->undo_slot[k]].flags &= ~(uint32_t)LC_SLOT_DIRTY;
+        u->nundo = 0;
     }
-    swap_tree(&s->dyn, &u->dyn);
-    swap_tree(&s->sta, &u->sta);
     swap_plist(&s->pairs, &u->next);
     swap_plist(&s->created, &u->cr);
     swap_plist(&s->lost, &u->lo);
