@@ -20,6 +20,7 @@ namespace Locd.Tests
             h.Add("scene.failed_batches_change_nothing", FailedBatchesChangeNothing);
             h.Add("scene.overloads_agree", OverloadsAgree);
             h.Add("scene.statics_and_filters", StaticsAndFilters);
+            h.Add("scene.float_and_double_calls_mix", FloatAndDoubleMix);
             h.Add("scene.lifetime_and_engine_sharing", Lifetime);
             h.Add("scene.update_reused_buffers_no_allocation", NoAllocation);
         }
@@ -562,6 +563,21 @@ namespace Locd.Tests
                 Assert.Equal(4, scene.Update().Pairs.Length, "same nonzero group: no pair");
                 Assert.Equal(0, scene.QueryPoint(new float[] { 0, 0, 0 }, 2).Length, "mask 2 matches no category 1");
                 Assert.Equal(5, scene.QueryPoint(new float[] { 0, 0, 0 }, 1).Length, "mask 1 matches all five");
+            }
+        }
+
+        static void FloatAndDoubleMix()
+        {
+            using (var scene = new Scene()) {
+                double tiny = Math.Pow(2, -40); // lost in float: the scene must keep doubles
+                ulong[] a = scene.Add(new float[] { 0, 0, 0, 1, 1, 1 });
+                ulong[] b = scene.Add(new double[] { 1 + tiny, 0, 0, 2, 1, 1 });
+                Assert.Equal(0, scene.Update().Pairs.Length, "1 + 2^-40 does not touch 1");
+                Assert.Equal(0, scene.QueryPoint(new double[] { 1 + tiny / 2, 0.5, 0.5 }).Length, "point between them");
+                scene.Move(b, new float[] { 1, 0, 0, 2, 1, 1 });
+                SameIds(new[] { a[0], b[0] }, scene.Update().Pairs, "touching after a float move");
+                scene.Move(a, new double[] { 0, 0, 0, 1 - tiny, 1, 1 });
+                Assert.Equal(2, scene.Update().Lost.Length, "apart again after a double move");
             }
         }
 
