@@ -383,6 +383,8 @@ def test_statics_never_pair_with_each_other():
     assert scene.update().pairs.shape == (0, 2)
     d = scene.add(box[:1])
     assert scene.update().pairs.tolist() == [[int(a), int(d[0])] for a in s]
+    stats = scene.stats
+    assert stats["objects"] == 5 and stats["static_objects"] == 4 and stats["pairs"] == 4 and stats["created"] == 4
     scene.move(s[:1], box[:1] + 10)  # statics may move
     assert len(scene.update().lost) == 1
 
