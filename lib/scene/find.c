@@ -7,7 +7,8 @@
  * (static-static, category/mask, group: filtered pairs are never tested
  * further), the quantized boxes (conservative: they overlap whenever the
  * boxes do), the canonical cell pair, the exact box test. Everything but
- * the exact test reads one cache line of o (lc_hot).
+ * the exact test reads o's record (lc_hot), and the records of one cell's
+ * objects are neighbours (dense indices, scene.h).
  *
  * The canonical cell pair makes each pair come out once however many cells
  * the two objects share paths in: the point p = max(lo_m, lo_o) (sweep
@@ -55,7 +56,7 @@ static void consider(find_ctx *c, uint32_t t, uint64_t eq, const lc_hot *hm, uin
     ho = &s->hot[o];
     c->cand[t]++;
     /* both moved: the one with the smaller id reports the pair */
-    if ((ho->flags & LC_SLOT_DIRTY) && ho->id < hm->id)
+    if ((ho->flags & LC_SLOT_DIRTY) && s->id[ho->slot] < s->id[hm->slot])
         return;
     /* the filter, before any box test */
     if ((hm->flags & ho->flags & LC_SLOT_STATIC) || !(hm->cat & ho->mask) || !(ho->cat & hm->mask) ||
@@ -71,7 +72,7 @@ static void consider(find_ctx *c, uint32_t t, uint64_t eq, const lc_hot *hm, uin
     if (lm >= lo ? !cell_holds(g, eq >> (ib + LC_LEVEL_BITS), lm, p)
                  : !cell_holds(g, eo >> (ib + LC_LEVEL_BITS), lo, p))
         return;
-    if (!lc_box_overlap(s->box + 6 * (size_t)m, s->box + 6 * (size_t)o))
+    if (!lc_box_overlap(s->box + 6 * (size_t)hm->slot, s->box + 6 * (size_t)ho->slot))
         return;
     if (c->st[t] == LOCD_OK &&
         lc_buf_reserve(s->alloc, &c->rows[t], 2 * sizeof(locd_id), c->count[t] + 1) != LOCD_OK) {
@@ -81,8 +82,11 @@ static void consider(find_ctx *c, uint32_t t, uint64_t eq, const lc_hot *hm, uin
     if (c->st[t] != LOCD_OK)
         return;
     row = (locd_id *)c->rows[t].data + 2 * c->count[t]++;
-    row[0] = hm->id < ho->id ? hm->id : ho->id;
-    row[1] = hm->id < ho->id ? ho->id : hm->id;
+    {
+        locd_id im = s->id[hm->slot], io = s->id[ho->slot];
+        row[0] = im < io ? im : io;
+        row[1] = im < io ? io : im;
+    }
 }
 
 /* Every entry of e[0, n) on a common path with the cell of entry eq. */

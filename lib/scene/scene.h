@@ -38,15 +38,17 @@ typedef struct lc_cells {
     uint8_t level, span, pad[2];
 } lc_cells;
 
-/* What the search reads of a candidate, in one cache line: the packed
- * sweep box (lc_pack_qbox), the filter, the id and the flags. Written for
- * every live object by a rebuild and for the moved ones by an update. */
+/* What the search reads of a candidate, 48 bytes: the packed sweep box
+ * (lc_pack_qbox), the filter, the slot and the flags. The records are
+ * indexed by a dense index that the entries carry instead of the slot:
+ * a rebuild numbers the objects in the order of the sorted entry lists,
+ * so the objects of one cell have neighbouring records and a search reads
+ * them in a few cache lines. Objects added later take the next indices. */
 typedef struct lc_hot {
     uint64_t qlo, qhi;
     uint64_t cat, mask, group;
-    locd_id id;
+    uint32_t slot;
     uint32_t flags; /* LC_SLOT_STATIC; LC_SLOT_DIRTY while an update runs */
-    uint32_t pad[3];
 } lc_hot;
 
 /* An entry list: a main array sorted by entry, in which a deleted entry is
@@ -91,7 +93,9 @@ struct locd_scene {
     uint32_t *stamp;     /* duplicate check of a batch */
     uint32_t stamp_now;
     lc_cells *cell;      /* per slot, valid with LC_SLOT_INTREE */
-    lc_hot *hot;         /* per slot, valid with LC_SLOT_INTREE */
+    uint32_t *dense;     /* per slot: its dense index, valid with LC_SLOT_INTREE */
+    lc_hot *hot;         /* per dense index (hot_cap of them; ndense issued since the last rebuild) */
+    size_t hot_cap, ndense;
     lc_buf free_slots;   /* uint32 stack */
     size_t nfree;
     uint32_t serial;     /* serials issued */
@@ -204,9 +208,13 @@ int lc_grid_holds(const locd_grid *g, const double *b);
  * lists dyn and sta, into *out (sorted); adds to *candidates. */
 locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q,
                                 size_t nq, lc_plist *out, uint64_t *candidates);
-/* Every live object's cells on g into cells/hot and both entry lists, sorted. */
-locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, lc_hot *hot, lc_tree *dyn,
-                                 lc_tree *sta);
+/* Every live object's cells on g into cells, its dense index into dense
+ * and its record into hot (numbered in entry order; *ndense receives the
+ * count), and both entry lists, sorted by key. */
+locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint32_t *dense, lc_hot *hot,
+                                 size_t *ndense, lc_tree *dyn, lc_tree *sta);
+/* The dense indices a rebuild of n slots makes room for. */
+size_t lc_scene_dense_room(size_t nslots);
 /* The hot record of slot k from its slot arrays and packed box. */
 void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *h);
 /* Computes the pairs of the live objects from scratch into *out (sorted). */

@@ -3,11 +3,15 @@
  * is (octree key << index_bits) | slot, exactly as octree/encode.c writes
  * it, so the order is the pre-order of the cells (docs/encoding.md).
  *
- * An object's entries are a function of its cells (lc_cells), so a moved
- * object whose cells did not change keeps its entries, and the old entries
- * of one whose cells changed are written again from its old cells to be
- * deleted. The lists are repaired by one merge pass with the sorted deltas
- * (deleted, added): no full sort. */
+ * An object's entries are a function of its cells (lc_cells) and its dense
+ * index, so a moved object whose cells did not change keeps its entries,
+ * and the old entries of one whose cells changed are written again from
+ * its old cells to be deleted. The main array is sorted by key (the entry
+ * without its index bits); within one key the order is free, because the
+ * searches probe keys only (key << index_bits) and a deletion scans the
+ * few entries of its key. Deleted entries become tombstones in place, new
+ * ones go to the sorted overflow; a compaction merges them by key: no full
+ * sort after a rebuild. */
 #include "scene/scene.h"
 
 #include <math.h>
@@ -111,15 +115,14 @@ static size_t find_main(const locd_grid *g, const lc_tree *t, uint64_t v)
     return (size_t)-1;
 }
 
-/* out[0, *n) = sorted merge of a (without the entries in del) and b. */
-static size_t merge_minus(const locd_grid *g, const uint64_t *a, size_t na, const uint64_t *del, size_t ndel,
-                          const uint64_t *b, size_t nb, uint64_t *out)
+/* out = the sorted overflow a without the entries in del, merged with b
+ * (all three sorted by value). Returns the count. */
+static size_t merge_minus(const uint64_t *a, size_t na, const uint64_t *del, size_t ndel, const uint64_t *b,
+                          size_t nb, uint64_t *out)
 {
     size_t i = 0, d = 0, j = 0, w = 0;
     for (; i < na; i++) {
         uint64_t v = a[i];
-        if (LC_IS_TOMB(g, v))
-            continue;
         while (d < ndel && del[d] < v)
             d++;
         if (d < ndel && del[d] == v) {
@@ -135,11 +138,32 @@ static size_t merge_minus(const locd_grid *g, const uint64_t *a, size_t na, cons
     return w;
 }
 
+/* out = main without its tombstones merged with b by key (main is sorted by
+ * key only, b by value). Returns the count. */
+static size_t merge_by_key(const locd_grid *g, const uint64_t *m, size_t nm, const uint64_t *b, size_t nb,
+                           uint64_t *out)
+{
+    const uint32_t ib = g->index_bits;
+    size_t i, j = 0, w = 0;
+    for (i = 0; i < nm; i++) {
+        uint64_t v = m[i];
+        if (LC_IS_TOMB(g, v))
+            continue;
+        while (j < nb && (b[j] >> ib) < (v >> ib))
+            out[w++] = b[j++];
+        out[w++] = v;
+    }
+    while (j < nb)
+        out[w++] = b[j++];
+    return w;
+}
+
 locd_status lc_tree_edit_apply(const locd_allocator *a, const locd_grid *g, lc_tree *t, const uint64_t *del,
                                size_t ndel, const uint64_t *add, size_t nadd, lc_tree_edit *e)
 {
     const uint32_t ib = g->index_bits;
-    size_t k, live = t->count - t->dead + t->novf;
+    size_t k, nod = 0, live;
+    uint64_t *ovf_del = NULL, *m = t->ent.data;
     memset(e, 0, sizeof *e);
     memcpy(e->out.per_level, t->per_level, sizeof e->out.per_level);
     for (k = 0; k < ndel; k++)
@@ -150,60 +174,54 @@ locd_status lc_tree_edit_apply(const locd_allocator *a, const locd_grid *g, lc_t
         e->out.novf = (size_t)-1; /* nothing changes: keep t's overflow */
         return LOCD_OK;
     }
-    /* Compact when the overflow and the tombstones would pass 1/16 of the
-       main array: amortized, each change is merged once. */
-    if (16 * (t->novf + nadd + t->dead + ndel) > t->count) {
-        size_t n = live - ndel + nadd, w;
-        uint64_t *tmp = NULL;
-        size_t ntmp = t->novf + nadd;
-        if (lc_buf_reserve(a, &e->out.ent, sizeof(uint64_t), n ? n : 1) != LOCD_OK ||
-            !(tmp = lc_alloc(a, (ntmp ? ntmp : 1) * sizeof *tmp))) {
-            lc_buf_release(a, &e->out.ent, sizeof(uint64_t));
-            return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the compacted entry list");
-        }
-        /* overflow minus del, merged with add; then main minus del merged with that */
-        w = merge_minus(g, t->ovf.data, t->novf, del, ndel, add, nadd, tmp);
-        e->out.count = merge_minus(g, t->ent.data, t->count, del, ndel, tmp, w, e->out.ent.data);
-        lc_free(a, tmp, (ntmp ? ntmp : 1) * sizeof *tmp);
-        e->compacted = 1;
-        if (e->out.count != n) {
-            lc_buf_release(a, &e->out.ent, sizeof(uint64_t));
-            return lc_error(LOCD_ERR_INTERNAL, "entry list compaction lost entries (%zu of %zu)", e->out.count, n);
-        }
-        return LOCD_OK;
-    }
-    /* Tombstones in place for the deleted entries of main (positions kept
-       for undo); the overflow merged anew with its deleted entries out. */
     e->pos_cap = ndel ? ndel : 1;
     if (lc_buf_reserve(a, &e->out.ovf, sizeof(uint64_t), t->novf + nadd + 1) != LOCD_OK ||
-        !(e->pos = lc_alloc(a, e->pos_cap * sizeof *e->pos)) || !(e->old = lc_alloc(a, e->pos_cap * sizeof *e->old)))
+        !(e->pos = lc_alloc(a, e->pos_cap * sizeof *e->pos)) ||
+        !(e->old = lc_alloc(a, e->pos_cap * sizeof *e->old)) ||
+        !(ovf_del = lc_alloc(a, e->pos_cap * sizeof *ovf_del)))
         goto nomem;
-    {
-        uint64_t *ovf_del = lc_alloc(a, (ndel ? ndel : 1) * sizeof *ovf_del);
-        size_t nod = 0;
-        uint64_t *m = t->ent.data;
-        if (!ovf_del)
-            goto nomem;
-        for (k = 0; k < ndel; k++) {
-            size_t p = find_main(g, t, del[k]);
-            if (p == (size_t)-1) {
-                ovf_del[nod++] = del[k];
-            } else {
-                e->old[e->npos] = m[p];
-                e->pos[e->npos++] = p;
-                m[p] = LC_TOMB(g, m[p]);
-            }
+    /* Tombstones in place for the deleted entries of main (positions and
+       old values kept for undo); the others are in the overflow. */
+    for (k = 0; k < ndel; k++) {
+        size_t p = find_main(g, t, del[k]);
+        if (p == (size_t)-1) {
+            ovf_del[nod++] = del[k];
+        } else {
+            e->old[e->npos] = m[p];
+            e->pos[e->npos++] = p;
+            m[p] = LC_TOMB(g, m[p]);
         }
-        e->out.novf = merge_minus(g, t->ovf.data, t->novf, ovf_del, nod, add, nadd, e->out.ovf.data);
-        lc_free(a, ovf_del, (ndel ? ndel : 1) * sizeof *ovf_del);
-        if (e->out.novf != t->novf - nod + nadd) {
+    }
+    e->out.novf = merge_minus(t->ovf.data, t->novf, ovf_del, nod, add, nadd, e->out.ovf.data);
+    lc_free(a, ovf_del, e->pos_cap * sizeof *ovf_del);
+    ovf_del = NULL;
+    if (e->out.novf != t->novf - nod + nadd) {
+        lc_tree_edit_undo(t, e);
+        lc_tree_edit_free(a, e);
+        return lc_error(LOCD_ERR_INTERNAL, "entry overflow lost entries");
+    }
+    /* Compact when the overflow and the tombstones pass 1/16 of the main
+       array: amortized, each change is merged once. */
+    live = t->count - t->dead - e->npos + e->out.novf;
+    if (16 * (e->out.novf + t->dead + e->npos) > t->count) {
+        lc_buf ent = {NULL, 0};
+        if (lc_buf_reserve(a, &ent, sizeof(uint64_t), live ? live : 1) != LOCD_OK)
+            goto nomem;
+        e->out.count = merge_by_key(g, m, t->count, e->out.ovf.data, e->out.novf, ent.data);
+        e->out.ent = ent;
+        lc_buf_release(a, &e->out.ovf, sizeof(uint64_t));
+        e->out.novf = 0;
+        e->compacted = 1;
+        if (e->out.count != live) {
             lc_tree_edit_undo(t, e);
             lc_tree_edit_free(a, e);
-            return lc_error(LOCD_ERR_INTERNAL, "entry overflow lost entries");
+            return lc_error(LOCD_ERR_INTERNAL, "entry list compaction lost entries (%zu of %zu)", e->out.count, live);
         }
     }
     return LOCD_OK;
 nomem:
+    lc_free(a, ovf_del, e->pos_cap * sizeof *ovf_del);
+    lc_tree_edit_undo(t, e);
     lc_tree_edit_free(a, e);
     return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the entry list's edit");
 }
@@ -280,7 +298,7 @@ locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g)
     if (st)
         return st;
     {
-        size_t room = s->nslots + 1; /* the all-ones slot is the tombstone */
+        size_t room = lc_scene_dense_room(s->nslots) + 1; /* the all-ones index is the tombstone */
         uint32_t ib = 1;
         while (ib < 32 && ((size_t)1 << ib) < room)
             ib++;
@@ -295,6 +313,11 @@ locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g)
         lc_grid_tune_depth_f64(g, s->box, s->nslots);
     (void)n;
     return LOCD_OK;
+}
+
+size_t lc_scene_dense_room(size_t nslots)
+{
+    return nslots + nslots / 4 + 64;
 }
 
 int lc_grid_holds(const locd_grid *g, const double *b)

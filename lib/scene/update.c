@@ -23,12 +23,16 @@ typedef struct upd {
     lc_tree dyn, sta;   /* the new lists */
     lc_plist next, cr, lo;
     lc_cells *cells;    /* rebuild: new per-slot cells (slot_cap) */
-    lc_hot *hot;        /* rebuild: new per-slot hot records (slot_cap) */
+    lc_hot *hot;        /* rebuild: new records (hot_cap) */
+    size_t hot_cap, ndense;
+    uint32_t *dense;    /* rebuild: new per-slot dense indices (slot_cap) */
     locd_grid grid;     /* rebuild: the new grid */
     /* incremental: undo of the per-slot cells written early */
     uint32_t *undo_slot;
     lc_cells *undo_cells;
     lc_hot *undo_hot;
+    uint32_t *undo_dense;
+    size_t ndense_before;
     uint8_t *undo_flags;
     size_t nundo, undo_cap;
     lc_tree_edit edit[2]; /* incremental: of the dynamic and the static list */
@@ -64,10 +68,12 @@ static void upd_free(upd *u)
     lc_plist_fini(a, &u->cr);
     lc_plist_fini(a, &u->lo);
     lc_free(a, u->cells, u->s->slot_cap * sizeof *u->cells);
-    lc_free(a, u->hot, u->s->slot_cap * sizeof *u->hot);
+    lc_free(a, u->hot, u->hot_cap * sizeof *u->hot);
+    lc_free(a, u->dense, u->s->slot_cap * sizeof *u->dense);
     lc_free(a, u->undo_slot, u->undo_cap * sizeof *u->undo_slot);
     lc_free(a, u->undo_cells, u->undo_cap * sizeof *u->undo_cells);
     lc_free(a, u->undo_hot, u->undo_cap * sizeof *u->undo_hot);
+    lc_free(a, u->undo_dense, u->undo_cap * sizeof *u->undo_dense);
     lc_free(a, u->undo_flags, u->undo_cap * sizeof *u->undo_flags);
     lc_free(a, u->buf, u->buf_cap * sizeof *u->buf);
 }
@@ -80,10 +86,14 @@ static void undo(upd *u)
     size_t k;
     for (k = u->nundo; k-- > 0;) {
         uint32_t slot = u->undo_slot[k];
+        uint32_t di = (u->undo_flags[k] & LC_SLOT_INTREE) ? u->undo_dense[k] : s->dense[slot];
+        s->hot[di] = u->undo_hot[k];
         s->cell[slot] = u->undo_cells[k];
-        s->hot[slot] = u->undo_hot[k];
+        s->dense[slot] = u->undo_dense[k];
         s->flags[slot] = u->undo_flags[k];
     }
+    if (u->nundo)
+        s->ndense = u->ndense_before;
     u->nundo = 0;
     lc_tree_edit_undo(&s->dyn, &u->edit[0]);
     lc_tree_edit_undo(&s->sta, &u->edit[1]);
@@ -96,8 +106,13 @@ static int want_rebuild(const locd_scene *s, size_t moved)
     const uint32_t *d = s->dirty.data;
     if (!s->have_tree)
         return 1;
-    if (s->nslots >= ((size_t)1 << s->grid.index_bits) - 1) /* the all-ones slot is the tombstone */
-        return 1;
+    {
+        size_t fresh = 0; /* objects new to the lists: each takes a dense index */
+        for (k = 0; k < s->ndirty; k++)
+            fresh += (s->flags[d[k]] & (LC_SLOT_LIVE | LC_SLOT_INTREE)) == LC_SLOT_LIVE;
+        if (s->ndense + fresh > s->hot_cap)
+            return 1;
+    }
     if ((double)moved > LC_REBUILD_FRACTION * (double)s->live && moved > 64)
         return 1;
     for (k = 0; k < s->ndirty; k++)
@@ -126,13 +141,15 @@ static locd_status rebuild(upd *u)
     double t0 = lc_now_ms(), t1;
     u->rebuilt = 1;
     u->cells = lc_alloc(a, s->slot_cap * sizeof *u->cells);
-    u->hot = lc_alloc(a, s->slot_cap * sizeof *u->hot);
-    if (!u->cells || !u->hot)
+    u->hot_cap = lc_scene_dense_room(s->nslots);
+    u->hot = lc_alloc(a, u->hot_cap * sizeof *u->hot);
+    u->dense = lc_alloc(a, s->slot_cap * sizeof *u->dense);
+    if (!u->cells || !u->hot || !u->dense)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's cells");
     memset(u->cells, 0, s->slot_cap * sizeof *u->cells);
-    memset(u->hot, 0, s->slot_cap * sizeof *u->hot);
     if ((st = lc_scene_fit_grid(s, &u->grid)) != LOCD_OK ||
-        (st = lc_scene_build_trees(s, &u->grid, u->cells, u->hot, &u->dyn, &u->sta)) != LOCD_OK)
+        (st = lc_scene_build_trees(s, &u->grid, u->cells, u->dense, u->hot, &u->ndense, &u->dyn, &u->sta)) !=
+            LOCD_OK)
         return st;
     t1 = lc_now_ms();
     u->ms_encode = t1 - t0;
@@ -233,13 +250,15 @@ static locd_status incremental(upd *u)
     u->undo_slot = lc_alloc(a, u->undo_cap * sizeof *u->undo_slot);
     u->undo_cells = lc_alloc(a, u->undo_cap * sizeof *u->undo_cells);
     u->undo_hot = lc_alloc(a, u->undo_cap * sizeof *u->undo_hot);
+    u->undo_dense = lc_alloc(a, u->undo_cap * sizeof *u->undo_dense);
+    u->ndense_before = s->ndense;
     u->undo_flags = lc_alloc(a, u->undo_cap * sizeof *u->undo_flags);
-    if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags)
+    if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags || !u->undo_dense)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the update's undo list");
     /* Pass 1: count the deltas (deleted and added per list, queries). */
     for (k = 0; k < s->nremoved; k++)
         if (s->flags[r[k]] & LC_SLOT_INTREE)
-            ndel[(s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0] += lc_cells_entries(g, &s->cell[r[k]], r[k], tmp);
+            ndel[(s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0] += lc_cells_entries(g, &s->cell[r[k]], 0, tmp);
     for (k = 0; k < s->ndirty; k++) {
         uint32_t slot = d[k], cnt;
         uint8_t f = s->flags[slot];
@@ -250,12 +269,12 @@ static locd_status incremental(upd *u)
             continue;
         u->moved++;
         lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
-        cnt = lc_cells_entries(g, &c, slot, tmp);
+        cnt = lc_cells_entries(g, &c, 0, tmp);
         nq += cnt;
         if ((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))
             continue;
         if (f & LC_SLOT_INTREE)
-            ndel[t] += lc_cells_entries(g, &s->cell[slot], slot, tmp);
+            ndel[t] += lc_cells_entries(g, &s->cell[slot], 0, tmp);
         nadd[t] += cnt;
     }
     off_del[0] = 0, off_del[1] = ndel[0];
@@ -270,7 +289,7 @@ static locd_status incremental(upd *u)
     for (k = 0; k < s->nremoved; k++)
         if (s->flags[r[k]] & LC_SLOT_INTREE) {
             int t = (s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0;
-            ndel[t] += lc_cells_entries(g, &s->cell[r[k]], r[k], u->buf + off_del[t] + ndel[t]);
+            ndel[t] += lc_cells_entries(g, &s->cell[r[k]], s->dense[r[k]], u->buf + off_del[t] + ndel[t]);
         }
     for (k = 0; k < s->ndirty; k++) {
         uint32_t slot = d[k], cnt;
@@ -278,26 +297,31 @@ static locd_status incremental(upd *u)
         int t = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
         uint64_t q[2];
+        uint32_t di;
         if (!(f & LC_SLOT_LIVE))
             continue;
         lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
+        /* an object new to the lists takes the next dense index */
+        di = (f & LC_SLOT_INTREE) ? s->dense[slot] : (uint32_t)s->ndense++;
         u->undo_slot[u->nundo] = slot;
         u->undo_cells[u->nundo] = s->cell[slot];
-        u->undo_hot[u->nundo] = s->hot[slot];
+        u->undo_dense[u->nundo] = s->dense[slot];
+        u->undo_hot[u->nundo] = s->hot[di];
         u->undo_flags[u->nundo] = f;
         u->nundo++;
-        cnt = lc_cells_entries(g, &c, slot, u->buf + off_q + nq);
+        cnt = lc_cells_entries(g, &c, di, u->buf + off_q + nq);
         if (!((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))) {
             if (f & LC_SLOT_INTREE)
-                ndel[t] += lc_cells_entries(g, &s->cell[slot], slot, u->buf + off_del[t] + ndel[t]);
+                ndel[t] += lc_cells_entries(g, &s->cell[slot], di, u->buf + off_del[t] + ndel[t]);
             memcpy(u->buf + off_add[t] + nadd[t], u->buf + off_q + nq, cnt * sizeof(uint64_t));
             nadd[t] += cnt;
             u->reencoded++;
         }
         nq += cnt;
         s->cell[slot] = c;
-        lc_hot_fill(s, slot, q, &s->hot[slot]);
-        s->hot[slot].flags |= LC_SLOT_DIRTY;
+        s->dense[slot] = di;
+        lc_hot_fill(s, slot, q, &s->hot[di]);
+        s->hot[di].flags |= LC_SLOT_DIRTY;
         s->flags[slot] |= LC_SLOT_INTREE;
     }
     for (k = 0; k < 2; k++) {
@@ -359,8 +383,13 @@ static void commit(upd *u)
     if (u->rebuilt) {
         lc_cells *c = s->cell;
         lc_hot *h = s->hot;
+        uint32_t *dn = s->dense;
+        size_t hc = s->hot_cap;
         s->cell = u->cells, u->cells = c;
         s->hot = u->hot, u->hot = h;
+        s->hot_cap = u->hot_cap, u->hot_cap = hc;
+        s->dense = u->dense, u->dense = dn;
+        s->ndense = u->ndense;
         s->grid = u->grid;
         s->have_tree = 1;
         for (k = 0; k < s->nslots; k++)
@@ -375,7 +404,7 @@ static void commit(upd *u)
         lc_tree_edit_commit(s->alloc, &s->dyn, &u->edit[0]);
         lc_tree_edit_commit(s->alloc, &s->sta, &u->edit[1]);
         for (k = 0; k < u->nundo; k++)
-            s->hot[u->undo_slot[k]].flags &= ~(uint32_t)LC_SLOT_DIRTY;
+            s->hot[s->dense[u->undo_slot[k]]].flags &= ~(uint32_t)LC_SLOT_DIRTY;
         u->nundo = 0;
     }
     swap_plist(&s->pairs, &u->next);
