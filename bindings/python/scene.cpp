@@ -124,9 +124,12 @@ public:
 
     size_t count()
     {
-        py::gil_scoped_release nogil;
-        std::lock_guard<std::mutex> lock(mutex_);
-        return scene_ ? locd_scene_count(scene_) : 0;
+        size_t n = 0;
+        run([&]() {
+            n = locd_scene_count(scene_);
+            return LOCD_OK;
+        });
+        return n;
     }
 
     py::array_t<uint64_t> add(const py::array &boxes, bool is_static, uint64_t category, uint64_t mask,

@@ -491,6 +491,8 @@ def test_constructor_and_close():
     assert scene.closed and "closed" in repr(scene)
     with pytest.raises(ValueError, match="closed"):
         scene.update()
+    with pytest.raises(ValueError, match="closed"):
+        len(scene)
 
 
 def test_same_results_for_every_thread_count():
