@@ -62,7 +62,8 @@ static void consider(find_ctx *c, uint32_t t, uint64_t eq, const lc_hot *hm, uin
     if ((hm->flags & ho->flags & LC_SLOT_STATIC) || !(hm->cat & ho->mask) || !(ho->cat & hm->mask) ||
         (hm->group == ho->group && hm->group != 0))
         return;
-    /* the quantized boxes (conservative), then the canonical cell pair */
+    /* the quantized boxes (conservative: they overlap whenever the boxes do),
+       then the canonical cell pair */
     for (a = 0; a < 3; a++) {
         uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(ho->qlo, a);
         if (ml > FIELD(ho->qhi, a) || ol > FIELD(hm->qhi, a))

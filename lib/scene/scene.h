@@ -176,6 +176,8 @@ int lc_cells_same(const lc_cells *a, const lc_cells *b);
 /* Writes the object's entries (1 to 8) from its cells; returns how many. */
 uint32_t lc_cells_entries(const locd_grid *g, const lc_cells *c, uint32_t slot, uint64_t *out);
 void lc_sort_u64(uint64_t *v, size_t n);
+/* The same with a radix sort past a few hundred values (scratch allocated). */
+locd_status lc_sort_u64_radix(const locd_allocator *a, uint64_t *v, size_t n);
 /* Counts t's entries per level. */
 void lc_tree_count_levels(const locd_grid *g, lc_tree *t);
 void lc_tree_release(const locd_allocator *a, lc_tree *t);

@@ -89,6 +89,22 @@ void lc_sort_u64(uint64_t *v, size_t n)
     qsort(v, n, sizeof *v, cmp_u64);
 }
 
+locd_status lc_sort_u64_radix(const locd_allocator *a, uint64_t *v, size_t n)
+{
+    uint64_t *scratch, *r;
+    if (n < 256) {
+        lc_sort_u64(v, n);
+        return LOCD_OK;
+    }
+    if (!(scratch = lc_alloc(a, n * sizeof *scratch)))
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate a sort's scratch");
+    r = lc_radix_sort(v, scratch, n, 0);
+    if (r != v)
+        memcpy(v, r, n * sizeof *v);
+    lc_free(a, scratch, n * sizeof *scratch);
+    return LOCD_OK;
+}
+
 void lc_tree_count_levels(const locd_grid *g, lc_tree *t)
 {
     size_t k;
@@ -294,7 +310,11 @@ locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g)
     }
     /* Index bits for the slots (one more costs a level of depth: a
        scene that outgrows them rebuilds). */
-    st = lc_grid_from_bounds(&b, n, e->cfg.max_depth, e->cfg.cell_bias, e->cfg.flags, g);
+    /* One step finer cells than the engine's (bias - 1): a moved object's
+       search then meets about a third of the candidates, for about 1.5 times
+       the entries (bench_scene on 10^6 uniform cubes). */
+    st = lc_grid_from_bounds(&b, n, e->cfg.max_depth, e->cfg.cell_bias > 0 ? e->cfg.cell_bias - 1 : 0, e->cfg.flags,
+                             g);
     if (st)
         return st;
     {

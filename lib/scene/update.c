@@ -196,42 +196,127 @@ static locd_status buf_room(upd *u, size_t len, size_t n)
     return LOCD_OK;
 }
 
+/* The carry pass, split over the pool: thread t takes rows [b[t], b[t+1])
+ * of the previous set and the new rows whose keys fall in its key range,
+ * counts (pass 1) then writes (pass 2) its kept rows merged with those new
+ * rows, and its dropped rows, at offsets the counts give. */
+typedef struct carry_ctx {
+    const locd_scene *s;
+    const uint64_t *changed; /* bitmap of changed slots */
+    const locd_id *p;        /* previous rows */
+    const locd_id *n;        /* new rows */
+    size_t pb[LC_MAX_THREADS + 1], nb[LC_MAX_THREADS + 1]; /* row ranges */
+    size_t ndrop[LC_MAX_THREADS], out_off[LC_MAX_THREADS], drop_off[LC_MAX_THREADS];
+    locd_id *out, *drop;
+    int pass;
+} carry_ctx;
+
+LC_INLINE int row_changed(const uint64_t *bits, const locd_id *r)
+{
+    uint32_t a = LC_ID_SLOT(r[0]), b = LC_ID_SLOT(r[1]);
+    return (int)(((bits[a >> 6] >> (a & 63)) | (bits[b >> 6] >> (b & 63))) & 1u);
+}
+
+static void task_carry(void *arg, uint32_t t, uint32_t k)
+{
+    carry_ctx *c = arg;
+    size_t i, j = c->nb[t], w = c->out_off[t], dw = c->drop_off[t];
+    (void)k;
+    if (c->pass == 1) {
+        size_t nd = 0;
+        for (i = c->pb[t]; i < c->pb[t + 1]; i++)
+            nd += (size_t)row_changed(c->changed, c->p + 2 * i);
+        c->ndrop[t] = nd;
+        return;
+    }
+    for (i = c->pb[t]; i < c->pb[t + 1]; i++) {
+        const locd_id *r = c->p + 2 * i;
+        uint64_t key;
+        if (row_changed(c->changed, r)) {
+            c->drop[2 * dw] = r[0], c->drop[2 * dw + 1] = r[1], dw++;
+            continue;
+        }
+        key = lc_pair_key(r);
+        while (j < c->nb[t + 1] && lc_pair_key(c->n + 2 * j) < key) {
+            c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1], w++, j++;
+        }
+        c->out[2 * w] = r[0], c->out[2 * w + 1] = r[1], w++;
+    }
+    for (; j < c->nb[t + 1]; j++)
+        c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1], w++;
+}
+
+/* The first row of sorted rows[0, n) whose key is >= key. */
+static size_t rows_lower_bound(const locd_id *rows, size_t n, uint64_t key)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (lc_pair_key(rows + 2 * mid) < key)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
 /* The rows of the previous set that neither end changed (kept), the others
  * (dropped, into *dropped), merged with the new rows n. */
 static locd_status carry(upd *u, const lc_plist *n, lc_plist *dropped)
 {
     locd_scene *s = u->s;
-    const locd_id *p = s->pairs.rows.data;
-    locd_id *out, *dr;
-    size_t i, j = 0, w = 0, nd = 0;
-    locd_status st;
-    if ((st = lc_plist_reserve(s->alloc, &u->next, s->pairs.count + n->count + 1)) != LOCD_OK ||
-        (st = lc_plist_reserve(s->alloc, dropped, s->pairs.count + 1)) != LOCD_OK)
-        return st;
-    out = u->next.rows.data;
-    dr = dropped->rows.data;
-    for (i = 0; i < s->pairs.count; i++) {
-        const locd_id *r = p + 2 * i;
-        if ((s->flags[LC_ID_SLOT(r[0])] | s->flags[LC_ID_SLOT(r[1])]) & (LC_SLOT_DIRTY | LC_SLOT_REMOVED)) {
-            dr[2 * nd] = r[0], dr[2 * nd + 1] = r[1], nd++;
-            continue;
-        }
-        {
-            uint64_t k = lc_pair_key(r);
-            const locd_id *nr = n->rows.data;
-            while (j < n->count && lc_pair_key(nr + 2 * j) < k) {
-                out[2 * w] = nr[2 * j], out[2 * w + 1] = nr[2 * j + 1], w++, j++;
-            }
-        }
-        out[2 * w] = r[0], out[2 * w + 1] = r[1], w++;
+    const locd_allocator *a = s->alloc;
+    const uint32_t *d = s->dirty.data, *r = s->removed.data;
+    size_t words = (s->nslots + 63) / 64 + 1, np = s->pairs.count, k, nd = 0;
+    uint32_t kk = s->threads ? s->threads : 1, t;
+    carry_ctx *c = lc_alloc(a, sizeof *c);
+    uint64_t *bits = lc_alloc(a, words * sizeof *bits);
+    locd_status st = LOCD_OK;
+    if (!c || !bits) {
+        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the carry pass");
+        goto done;
     }
-    for (; j < n->count; j++) {
-        const locd_id *nr = n->rows.data;
-        out[2 * w] = nr[2 * j], out[2 * w + 1] = nr[2 * j + 1], w++;
+    memset(c, 0, sizeof *c);
+    memset(bits, 0, words * sizeof *bits);
+    for (k = 0; k < s->ndirty; k++)
+        bits[d[k] >> 6] |= (uint64_t)1 << (d[k] & 63);
+    for (k = 0; k < s->nremoved; k++)
+        bits[r[k] >> 6] |= (uint64_t)1 << (r[k] & 63);
+    if (np < 65536)
+        kk = 1;
+    c->s = s, c->changed = bits, c->p = s->pairs.rows.data, c->n = n->rows.data;
+    for (t = 0; t <= kk; t++) {
+        c->pb[t] = np * t / kk;
+        c->nb[t] = t == 0 ? 0 : t == kk ? n->count : rows_lower_bound(n->rows.data, n->count, lc_pair_key(c->p + 2 * c->pb[t]));
     }
-    u->next.count = w;
+    c->pass = 1;
+    if (kk > 1)
+        lc_pool_run(s->pool, kk, task_carry, c);
+    else
+        task_carry(c, 0, 1);
+    for (t = 0; t < kk; t++) {
+        c->drop_off[t] = nd;
+        nd += c->ndrop[t];
+    }
+    for (t = 0, k = 0; t < kk; t++) {
+        c->out_off[t] = k;
+        k += (c->pb[t + 1] - c->pb[t]) - c->ndrop[t] + (c->nb[t + 1] - c->nb[t]);
+    }
+    if ((st = lc_plist_reserve(a, &u->next, k + 1)) != LOCD_OK || (st = lc_plist_reserve(a, dropped, nd + 1)) != LOCD_OK)
+        goto done;
+    c->out = u->next.rows.data;
+    c->drop = dropped->rows.data;
+    c->pass = 2;
+    if (kk > 1)
+        lc_pool_run(s->pool, kk, task_carry, c);
+    else
+        task_carry(c, 0, 1);
+    u->next.count = k;
     dropped->count = nd;
-    return LOCD_OK;
+done:
+    lc_free(a, c, sizeof *c);
+    lc_free(a, bits, words * sizeof *bits);
+    return st;
 }
 
 static locd_status incremental(upd *u)
@@ -324,11 +409,12 @@ static locd_status incremental(upd *u)
         s->hot[di].flags |= LC_SLOT_DIRTY;
         s->flags[slot] |= LC_SLOT_INTREE;
     }
-    for (k = 0; k < 2; k++) {
-        lc_sort_u64(u->buf + off_del[k], ndel[k]);
-        lc_sort_u64(u->buf + off_add[k], nadd[k]);
-    }
-    lc_sort_u64(u->buf + off_q, nq);
+    for (k = 0; k < 2; k++)
+        if ((st = lc_sort_u64_radix(a, u->buf + off_del[k], ndel[k])) != LOCD_OK ||
+            (st = lc_sort_u64_radix(a, u->buf + off_add[k], nadd[k])) != LOCD_OK)
+            return st;
+    if ((st = lc_sort_u64_radix(a, u->buf + off_q, nq)) != LOCD_OK)
+        return st;
     t1 = lc_now_ms();
     u->ms_encode = t1 - t0;
     t0 = t1;
