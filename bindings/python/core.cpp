@@ -496,6 +496,9 @@ py::array brute_force(py::handle boxes_obj, bool wide)
 
 } // namespace
 
+// locd.Scene's extension class (scene.cpp).
+void locd_bind_scene(py::module_ &m);
+
 PYBIND11_MODULE(_core, m)
 {
     m.doc() = "Compiled core of locd (pybind11). Use the `locd` package, not this module.";
@@ -538,4 +541,6 @@ PYBIND11_MODULE(_core, m)
         .def("stats", &Job::stats)
         .def("cancel", &Job::cancel)
         .def("release", &Job::release);
+
+    locd_bind_scene(m);
 }

@@ -115,6 +115,13 @@ static void task_gather(void *arg, uint32_t t, uint32_t k)
             dst[2 * p + 1] -= (uint32_t)c->split;
 }
 
+lc_pool *lc_inproc_pool(locd_engine *e, int *kernel)
+{
+    lc_inproc *ip = e->backend;
+    *kernel = ip->kernel;
+    return ip->pool;
+}
+
 static locd_status inproc_open(locd_engine *e)
 {
     lc_inproc *ip = lc_alloc(&e->alloc, sizeof *ip);

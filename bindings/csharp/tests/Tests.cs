@@ -71,6 +71,8 @@ namespace Locd.Tests
             h.Add("jobs.isdone_polling_and_wait_timeout", JobPollingAndTimeout);
             h.Add("jobs.error_mapping", JobErrorMapping);
             h.Add("jobs.keep_engine_alive_and_release", JobKeepsEngineAlive);
+            // Scene (SceneTests.cs)
+            SceneTests.Register(h);
             return h.Run(junit, filter);
         }
 
@@ -124,6 +126,9 @@ namespace Locd.Tests
                 { "locd_pipeline_options", typeof(Native.locd_pipeline_options) },
                 { "locd_stage_stats", typeof(Native.locd_stage_stats) },
                 { "locd_pipeline_stats", typeof(Native.locd_pipeline_stats) },
+                { "locd_scene_config", typeof(Native.locd_scene_config) },
+                { "locd_scene_add_options", typeof(Native.locd_scene_add_options) },
+                { "locd_scene_stats", typeof(Native.locd_scene_stats) },
             };
             int checkedCount = 0;
             foreach (string line in File.ReadAllLines(path)) {

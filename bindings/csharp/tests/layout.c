@@ -3,6 +3,7 @@
  * runner compares them with Marshal.SizeOf / Marshal.OffsetOf of the structs
  * mirrored in Native.cs. */
 #include <locd/locd.h>
+#include <locd/scene.h>
 
 #include <stddef.h>
 #include <stdio.h>
@@ -107,5 +108,42 @@ int main(void)
     OFF(locd_pipeline_stats, tests_ccd);
     OFF(locd_pipeline_stats, tests_fcl);
     OFF(locd_pipeline_stats, ms_total);
+
+    SIZE(locd_scene_config);
+    OFF(locd_scene_config, size);
+    OFF(locd_scene_config, flags);
+    OFF(locd_scene_config, capacity_hint);
+
+    SIZE(locd_scene_add_options);
+    OFF(locd_scene_add_options, size);
+    OFF(locd_scene_add_options, flags);
+    OFF(locd_scene_add_options, category);
+    OFF(locd_scene_add_options, mask);
+    OFF(locd_scene_add_options, group);
+    OFF(locd_scene_add_options, user);
+    OFF(locd_scene_add_options, categories);
+    OFF(locd_scene_add_options, masks);
+    OFF(locd_scene_add_options, groups);
+    OFF(locd_scene_add_options, users);
+
+    SIZE(locd_scene_stats);
+    OFF(locd_scene_stats, size);
+    OFF(locd_scene_stats, threads);
+    OFF(locd_scene_stats, objects);
+    OFF(locd_scene_stats, static_objects);
+    OFF(locd_scene_stats, moved);
+    OFF(locd_scene_stats, reencoded);
+    OFF(locd_scene_stats, entries);
+    OFF(locd_scene_stats, candidates);
+    OFF(locd_scene_stats, pairs);
+    OFF(locd_scene_stats, created);
+    OFF(locd_scene_stats, lost);
+    OFF(locd_scene_stats, rebuilt);
+    OFF(locd_scene_stats, reserved);
+    OFF(locd_scene_stats, ms_total);
+    OFF(locd_scene_stats, ms_encode);
+    OFF(locd_scene_stats, ms_merge);
+    OFF(locd_scene_stats, ms_sweep);
+    OFF(locd_scene_stats, ms_events);
     return 0;
 }

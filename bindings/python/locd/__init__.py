@@ -455,3 +455,9 @@ def find_pairs(boxes: Any, other: Any = None, *, threads: Optional[int] = None, 
 def brute_force(boxes: Any, *, index_dtype: Any = np.uint32) -> np.ndarray:
     """The O(n^2) C reference: every overlapping pair, sorted by (i, j). For tests and tiny scenes."""
     return _core.brute_force(boxes, _arrays.index_dtype(index_dtype))
+
+
+# -- the persistent scene (locd/scene.py) -----------------------------------------
+from .scene import DuplicateIdError, Scene, SceneUpdate, StaleIdError  # noqa: E402
+
+__all__ += ["Scene", "SceneUpdate", "StaleIdError", "DuplicateIdError"]

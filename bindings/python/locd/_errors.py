@@ -52,6 +52,17 @@ class ShapeError(InvalidArgumentError):
     """A shape description is invalid (locd.pipeline)."""
 
 
+class StaleIdError(Error, KeyError):
+    """A scene id was removed or never issued by this scene; ``index`` is its position in the batch."""
+
+    def __str__(self) -> str:  # KeyError would show the message quoted
+        return str(self.args[0]) if self.args else ""
+
+
+class DuplicateIdError(InvalidArgumentError):
+    """A scene id appears twice in one batch; ``index`` is the position of its second occurrence."""
+
+
 class ClosedError(Error, ValueError):
     """The handle is closed or invalid (like I/O on a closed file: a ``ValueError``)."""
 
@@ -106,8 +117,8 @@ ERRORS: Dict[str, Type[Error]] = {
     "ERR_NULL_POINTER": InvalidArgumentError,
     "ERR_TOO_MANY_OBJECTS": InvalidArgumentError,
     "ERR_BUFFER_TOO_SMALL": InvalidArgumentError,
-    "ERR_STALE_ID": InvalidArgumentError,
-    "ERR_DUPLICATE_ID": InvalidArgumentError,
+    "ERR_STALE_ID": StaleIdError,
+    "ERR_DUPLICATE_ID": DuplicateIdError,
     "ERR_NONFINITE": InvalidBoxError,
     "ERR_INVERTED_BOX": InvalidBoxError,
     "ERR_SHAPE": ShapeError,
@@ -134,6 +145,10 @@ def from_status(status: int, text: str, detail: str, index: int) -> Error:
     if status in (STATUS["ERR_NONFINITE"], STATUS["ERR_INVERTED_BOX"]):
         what = "has a NaN or infinite coordinate" if status == STATUS["ERR_NONFINITE"] else "has min > max on some axis"
         return cls(status, "box %d %s" % (index, what), detail, index)
+    if status == STATUS["ERR_STALE_ID"]:
+        return cls(status, "id at index %d is stale (removed or never issued by this scene)" % index, detail, index)
+    if status == STATUS["ERR_DUPLICATE_ID"]:
+        return cls(status, "id at index %d appears earlier in the same batch" % index, detail, index)
     # The library's detail usually starts with the status text already.
     message = detail if detail.startswith(text) else ("%s: %s" % (text, detail) if detail else text)
     message = "%s [LOCD_%s = %d]" % (message, _STATUS_NAMES.get(status, "?"), status)

@@ -16,6 +16,10 @@ namespace Locd
         /// <summary>Index of the first bad box (NonFinite, InvertedBox), or -1.</summary>
         public long BoxIndex { get; private set; }
 
+        /// <summary>Position in the batch of the first bad item (a box, or a scene id for
+        /// StaleId and DuplicateId), or -1. The same value as BoxIndex.</summary>
+        public long Index { get { return BoxIndex; } }
+
         /// <summary>For BufferTooSmall: the number of pairs found, else -1.</summary>
         public long RequiredPairs { get; internal set; }
 
@@ -32,7 +36,8 @@ namespace Locd
         {
             string s = string.IsNullOrEmpty(detail) ? StatusString(status) : detail;
             if (boxIndex >= 0)
-                s += " (box " + boxIndex + ")";
+                s += (status == Status.StaleId || status == Status.DuplicateId ? " (index " : " (box ")
+                     + boxIndex + ")";
             return "locd " + status + ": " + s;
         }
 

@@ -39,6 +39,10 @@ namespace Locd
         Cancelled = -17,
         Auth = -18,
         Shape = -19,
+        /// <summary>A scene id was removed or never issued (LocdException.Index: its position in the batch).</summary>
+        StaleId = -20,
+        /// <summary>A scene id appears twice in one batch (LocdException.Index: its position).</summary>
+        DuplicateId = -21,
         Internal = -100,
     }
 
@@ -419,5 +423,118 @@ namespace Locd
         [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_world_collide(IntPtr world, locd_pipeline_options* options, IntPtr contacts,
                                                     locd_pipeline_stats* stats);
+        // ================================================================
+        // Scene (include/locd/scene.h): a persistent broad phase with stable
+        // ids. The safe layer is Locd.Scene (Scene.cs).
+        // ================================================================
+
+        public const uint LOCD_OBJECT_STATIC = 0x1;
+        public const uint LOCD_SCENE_UPDATE_PAIRS = 0x1;
+        public const uint LOCD_SCENE_UPDATE_EVENTS = 0x2;
+        public const ulong LOCD_ID_NONE = 0;
+
+        /// <summary>locd_scene_config; initialize with locd_scene_config_init.</summary>
+        [StructLayout(LayoutKind.Sequential)]
+        public struct locd_scene_config
+        {
+            public uint size;
+            public uint flags;
+            public ulong capacity_hint;
+        }
+
+        /// <summary>locd_scene_add_options; initialize with locd_scene_add_options_init.
+        /// Each array pointer (n values) is used when not zero, the scalar otherwise.</summary>
+        [StructLayout(LayoutKind.Sequential)]
+        public struct locd_scene_add_options
+        {
+            public uint size;
+            public uint flags;       // LOCD_OBJECT_STATIC
+            public ulong category;
+            public ulong mask;
+            public ulong group;
+            public ulong user;
+            public IntPtr categories; // const uint64_t *
+            public IntPtr masks;
+            public IntPtr groups;
+            public IntPtr users;
+        }
+
+        /// <summary>locd_scene_stats; initialize with locd_scene_stats_init.</summary>
+        [StructLayout(LayoutKind.Sequential)]
+        public struct locd_scene_stats
+        {
+            public uint size;
+            public uint threads;
+            public ulong objects;
+            public ulong static_objects;
+            public ulong moved;
+            public ulong reencoded;
+            public ulong entries;
+            public ulong candidates;
+            public ulong pairs;
+            public ulong created;
+            public ulong lost;
+            public uint rebuilt;
+            public uint reserved;
+            public double ms_total;
+            public double ms_encode;
+            public double ms_merge;
+            public double ms_sweep;
+            public double ms_events;
+        }
+
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_scene_config_init(locd_scene_config* config);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_create(IntPtr engine, locd_scene_config* config, IntPtr* out_scene);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_scene_destroy(IntPtr scene);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern UIntPtr locd_scene_count(IntPtr scene);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_scene_add_options_init(locd_scene_add_options* options);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_add_f32(IntPtr scene, float* boxes, UIntPtr n, locd_scene_add_options* options, ulong* ids_out);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_add_f64(IntPtr scene, double* boxes, UIntPtr n, locd_scene_add_options* options, ulong* ids_out);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_move_f32(IntPtr scene, ulong* ids, float* boxes, UIntPtr n);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_move_f64(IntPtr scene, ulong* ids, double* boxes, UIntPtr n);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_remove(IntPtr scene, ulong* ids, UIntPtr n);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_set_filter(IntPtr scene, ulong* ids, UIntPtr n, ulong* categories, ulong* masks, ulong* groups);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_set_user(IntPtr scene, ulong* ids, UIntPtr n, ulong* users);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_get_user(IntPtr scene, ulong* ids, UIntPtr n, ulong* users_out);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_update(IntPtr scene, uint flags);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_pairs(IntPtr scene, ulong** pairs, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_created(IntPtr scene, ulong** pairs, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_lost(IntPtr scene, ulong** pairs, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_scene_stats_init(locd_scene_stats* stats);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_stats_get(IntPtr scene, locd_scene_stats* stats);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_query_box_f32(IntPtr scene, float* box, ulong mask, ulong* ids_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_query_box_f64(IntPtr scene, double* box, ulong mask, ulong* ids_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_query_point_f32(IntPtr scene, float* point, ulong mask, ulong* ids_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_query_point_f64(IntPtr scene, double* point, ulong mask, ulong* ids_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_raycast_f32(IntPtr scene, float* origin, float* direction, double max_t, ulong mask,
+                                                        ulong* ids_out, double* t_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_raycast_f64(IntPtr scene, double* origin, double* direction, double max_t, ulong mask,
+                                                        ulong* ids_out, double* t_out, UIntPtr capacity, UIntPtr* count);
+        // ================================ end of scene ================================
     }
 }

@@ -1,0 +1,283 @@
+"""locd.Scene: a persistent broad phase for a world that changes a little each frame.
+
+Objects live in the scene under stable uint64 ids (never 0, never reused).
+They are added, moved, removed and re-filtered in batches; :meth:`Scene.update`
+gives the full set of overlapping pairs and the pairs created and lost since
+the previous update. Queries (box, point, ray segment) see the scene as it is
+now. The C side is include/locd/scene.h; docs/scene.md explains the design.
+
+>>> import numpy as np, locd
+>>> scene = locd.Scene()
+>>> ids = scene.add(np.array([[0, 0, 0, 1, 1, 1], [1, 0, 0, 2, 1, 1]], np.float32))
+>>> r = scene.update()
+>>> r.pairs.tolist() == [[int(ids[0]), int(ids[1])]]
+True
+
+A pair (a, b) is reported iff the boxes overlap (closed intervals),
+``(category_a & mask_b) != 0 and (category_b & mask_a) != 0``, not
+``group_a == group_b != 0``, and not both objects are static. Pair lists are
+(m, 2) uint64 arrays of ids, first < second in each row, rows sorted.
+
+Errors name the position in the batch: a stale (removed or never issued) id
+raises :class:`StaleIdError` (a ``KeyError``), an id twice in one batch
+:class:`DuplicateIdError` (a ``ValueError``), a NaN/infinite box or min > max
+:class:`locd.InvalidBoxError` (a ``ValueError``); each has ``.index``. A batch
+that fails changes nothing.
+"""
+from __future__ import annotations
+
+import dataclasses
+import operator
+from typing import Any, Dict, Optional, Tuple
+
+import numpy as np
+
+from . import _core
+from ._errors import DuplicateIdError, Error, StaleIdError, from_status
+
+__all__ = ["Scene", "SceneUpdate", "StaleIdError", "DuplicateIdError", "ALL"]
+
+#: A mask with every category bit set (the default mask).
+ALL: int = (1 << 64) - 1
+
+_U64_MAX = ALL
+
+
+def _error(status: int, text: str, detail: str, index: int) -> Error:
+    """The exception for a failed scene call (used by the extension): the one mapping of _errors."""
+    return from_status(status, text, detail, index)
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneUpdate:
+    """What :meth:`Scene.update` found: three (m, 2) uint64 arrays of ids, rows sorted.
+
+    ``pairs``: every pair now; ``created``: pairs now that were not at the
+    previous update (all of them at the first); ``lost``: pairs at the previous
+    update that are not now (those of removed objects included).
+    """
+
+    pairs: np.ndarray
+    created: np.ndarray
+    lost: np.ndarray
+
+
+def _u64_scalar(name: str, value: Any) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError("%s must be an integer or an array of integers, got %r" % (name, value))
+    v = int(value)
+    if not 0 <= v <= _U64_MAX:
+        raise ValueError("%s = %d is outside 0 .. 2**64-1" % (name, v))
+    return v
+
+
+def _u64_array(name: str, values: Any, n: Optional[int] = None) -> np.ndarray:
+    """Any integer array (or sequence of Python ints) as a C-contiguous (n,) uint64 array.
+
+    Negative or too large values raise ValueError naming the index; other
+    dtypes raise TypeError. Zero-copy for a C-contiguous native uint64 array."""
+    arr = values if isinstance(values, np.ndarray) else np.asarray(values)
+    if not isinstance(values, np.ndarray) and arr.dtype.kind not in "iub":
+        # A list mixing ints below and above 2**63 becomes float64 in numpy:
+        # take the Python ints one by one instead (floats are refused there).
+        arr = np.empty(len(values), dtype=object) if np.ndim(values) == 1 else arr
+        if arr.dtype == object and arr.ndim == 1:
+            arr[:] = list(values)
+    if arr.ndim == 0:
+        arr = arr.reshape(1)
+    if arr.ndim != 1:
+        raise ValueError("%s must be one-dimensional, got shape %s" % (name, arr.shape))
+    if n is not None and len(arr) != n:
+        raise ValueError("%s has %d values for a batch of %d" % (name, len(arr), n))
+    kind = arr.dtype.kind
+    if kind == "u":
+        return np.ascontiguousarray(arr, dtype=np.uint64)
+    if kind == "i":
+        neg = np.flatnonzero(arr < 0)
+        if len(neg):
+            raise ValueError("%s[%d] = %d is negative" % (name, neg[0], arr[neg[0]]))
+        return np.ascontiguousarray(arr, dtype=np.uint64)
+    if kind == "O":  # Python ints past int64
+        out = np.empty(len(arr), dtype=np.uint64)
+        for k, v in enumerate(arr):
+            out[k] = _u64_scalar("%s[%d]" % (name, k), v)
+        return out
+    raise TypeError("%s must hold integers, got dtype %s" % (name, arr.dtype))
+
+
+def _attribute(name: str, value: Any, n: int) -> Tuple[int, Optional[np.ndarray]]:
+    """(scalar, None) for a scalar, (0, array) for n values."""
+    if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)):
+        return _u64_scalar(name, value), None
+    return 0, _u64_array(name, value, n)
+
+
+class Scene:
+    """A persistent scene of boxes with stable ids (see the module docstring).
+
+    Args:
+        threads: threads of the scene's engine (None = one per core).
+        dtype: ``np.float32`` or ``np.float64``: the precision of the scene's
+            coordinates. Boxes and query shapes are converted to it (float32
+            input of a float32 scene is read in place; float64 input of a
+            float32 scene is rounded to nearest float32).
+        capacity: objects to reserve room for (0 = grow as needed).
+
+    One thread at a time may change a scene; Python threads sharing one take
+    turns (the GIL is released while the C library works). Use it as a
+    context manager or call :meth:`close` to free it at once.
+    """
+
+    def __init__(self, threads: Optional[int] = None, dtype: Any = np.float32, *, capacity: int = 0) -> None:
+        dt = np.dtype(dtype)
+        if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
+            raise TypeError("dtype must be numpy.float32 or numpy.float64, got %s" % dt)
+        if threads is not None:
+            threads = operator.index(threads)
+            if threads < 1:
+                raise ValueError("threads must be >= 1 (or None for one per core), got %d" % threads)
+        capacity = operator.index(capacity)
+        if capacity < 0:
+            raise ValueError("capacity must be >= 0, got %d" % capacity)
+        self._dtype = dt
+        self._core = _core.Scene(threads or 0, dt == np.dtype(np.float64), capacity)
+
+    # -- lifetime -------------------------------------------------------------
+    def close(self) -> None:
+        """Frees the scene and its engine. Later calls raise ValueError."""
+        core = getattr(self, "_core", None)
+        if core is not None:
+            core.close()
+
+    def __enter__(self) -> "Scene":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    @property
+    def closed(self) -> bool:
+        return self._core.closed
+
+    @property
+    def dtype(self) -> np.dtype:
+        """The scene's coordinate precision (float32 or float64)."""
+        return self._dtype
+
+    @property
+    def threads(self) -> int:
+        """Threads of the scene's engine."""
+        return self._core.threads
+
+    def __len__(self) -> int:
+        """Objects in the scene now (static ones included)."""
+        return self._core.count()
+
+    def __repr__(self) -> str:
+        if self._core.closed:
+            return "<locd.Scene closed>"
+        return "<locd.Scene %d objects %s threads=%d>" % (len(self), self._dtype.name, self.threads)
+
+    # -- conversions ----------------------------------------------------------
+    def _boxes(self, boxes: Any, n: Optional[int] = None) -> np.ndarray:
+        arr = boxes if isinstance(boxes, np.ndarray) else np.asarray(boxes, dtype=np.float64)
+        if arr.dtype.kind != "f" or arr.dtype.itemsize not in (4, 8):
+            raise TypeError("boxes must be a float32 or float64 array, got dtype %s "
+                            "(convert it with .astype(numpy.float64))" % arr.dtype)
+        if arr.ndim == 1 and arr.shape[0] == 0:
+            arr = arr.reshape(0, 6)
+        if arr.ndim != 2 or arr.shape[1] != 6:
+            raise ValueError("boxes must have shape (n, 6): minx miny minz maxx maxy maxz per row; got shape %s"
+                             % (arr.shape,))
+        if n is not None and arr.shape[0] != n:
+            raise ValueError("boxes has %d rows for %d ids" % (arr.shape[0], n))
+        with np.errstate(over="ignore"):  # too large for float32: inf, which the library names
+            return np.ascontiguousarray(arr, dtype=self._dtype)
+
+    def _vector(self, name: str, value: Any, size: int) -> np.ndarray:
+        arr = value if isinstance(value, np.ndarray) else np.asarray(value, dtype=np.float64)
+        if arr.dtype.kind not in "fiu":
+            raise TypeError("%s must hold numbers, got dtype %s" % (name, arr.dtype))
+        if arr.shape != (size,):
+            raise ValueError("%s must have shape (%d,), got shape %s" % (name, size, arr.shape))
+        with np.errstate(over="ignore"):
+            return np.ascontiguousarray(arr, dtype=self._dtype)
+
+    # -- changes, in batches --------------------------------------------------
+    def add(self, boxes: Any, *, static: bool = False, category: Any = 1, mask: Any = ALL, group: Any = 0,
+            user: Any = None) -> np.ndarray:
+        """Adds the (n, 6) boxes; returns their n new ids (uint64).
+
+        ``category``, ``mask``, ``group`` and ``user`` are each a scalar for
+        the whole batch or n values (any integer dtype; Python ints up to
+        2**64-1). ``static=True`` makes the whole batch static: static objects
+        never pair with each other (level geometry)."""
+        b = self._boxes(boxes)
+        n = b.shape[0]
+        cat, cats = _attribute("category", category, n)
+        msk, msks = _attribute("mask", mask, n)
+        grp, grps = _attribute("group", group, n)
+        usr, usrs = _attribute("user", 0 if user is None else user, n)
+        return self._core.add(b, bool(static), cat, msk, grp, usr, cats, msks, grps, usrs)
+
+    def move(self, ids: Any, boxes: Any) -> None:
+        """Gives object ids[k] the box boxes[k]."""
+        i = _u64_array("ids", ids)
+        self._core.move(i, self._boxes(boxes, len(i)))
+
+    def remove(self, ids: Any) -> None:
+        """Removes the objects; their pairs are lost pairs at the next update."""
+        self._core.remove(_u64_array("ids", ids))
+
+    def set_filter(self, ids: Any, *, category: Any = None, mask: Any = None, group: Any = None) -> None:
+        """Sets category, mask and/or group (None keeps it) of the objects: scalars or n values."""
+        i = _u64_array("ids", ids)
+        n = len(i)
+
+        def values(name: str, v: Any) -> Optional[np.ndarray]:
+            if v is None:
+                return None
+            s, arr = _attribute(name, v, n)
+            return arr if arr is not None else np.full(n, s, dtype=np.uint64)
+
+        self._core.set_filter(i, values("category", category), values("mask", mask), values("group", group))
+
+    def set_user(self, ids: Any, user: Any) -> None:
+        """Sets the user values of the objects (a scalar or n values)."""
+        i = _u64_array("ids", ids)
+        s, arr = _attribute("user", user, len(i))
+        self._core.set_user(i, arr if arr is not None else np.full(len(i), s, dtype=np.uint64))
+
+    def user(self, ids: Any) -> np.ndarray:
+        """The user values of the objects, as a uint64 array."""
+        return self._core.get_user(_u64_array("ids", ids))
+
+    # -- update ---------------------------------------------------------------
+    def update(self) -> SceneUpdate:
+        """Brings the pairs up to date with every change since the previous update."""
+        pairs, created, lost = self._core.update(True, True)
+        return SceneUpdate(pairs, created, lost)
+
+    @property
+    def stats(self) -> Dict[str, Any]:
+        """Counts and milliseconds of the last update (``locd_scene_stats``)."""
+        return self._core.stats()
+
+    # -- queries --------------------------------------------------------------
+    def query_box(self, box: Any, mask: Any = ALL) -> np.ndarray:
+        """Ids (ascending, uint64) of the objects whose box overlaps ``box``
+        (6 values, closed) and whose category has a bit in ``mask``."""
+        return self._core.query(0, self._vector("box", box, 6), _u64_scalar("mask", mask))
+
+    def query_point(self, point: Any, mask: Any = ALL) -> np.ndarray:
+        """Ids (ascending) of the objects whose box contains ``point`` (on a face, edge or corner counts)."""
+        return self._core.query(1, self._vector("point", point, 3), _u64_scalar("mask", mask))
+
+    def raycast(self, origin: Any, direction: Any, max_t: float, mask: Any = ALL) -> Tuple[np.ndarray, np.ndarray]:
+        """Objects whose box meets the segment ``origin + t * direction``, 0 <= t <= max_t.
+
+        Returns ``(ids, t)``: uint64 ids and their float64 entry parameters
+        (0 when the origin is inside the box), sorted by t, then id.
+        ``direction`` need not be unit length."""
+        return self._core.raycast(self._vector("origin", origin, 3), self._vector("direction", direction, 3),
+                                  float(max_t), _u64_scalar("mask", mask))

@@ -1,0 +1,229 @@
+/* lib/scene: the persistent scene of include/locd/scene.h (docs/scene.md).
+ * It sits above levels/: it runs its big steps on the level-1 engine's
+ * thread pool (lc_inproc_pool) and uses the octree's encode and sweep
+ * coordinates. Private; not installed.
+ *
+ * Files: slots.c (ids, slots), validate.c (batch checks), scene.c (create,
+ * the changes), tree.c (the two sorted entry lists and their repair),
+ * find.c (pairs of the moved objects), rebuild.c (everything from scratch),
+ * pairset.c (sorted pair lists: sort, merge, difference), update.c,
+ * query.c, stats.c. */
+#ifndef LOCD_SCENE_IMPL_H
+#define LOCD_SCENE_IMPL_H
+
+#include "levels/levels.h"
+#include "locd/scene.h"
+#include "octree/octree.h"
+
+/* Slot flags. */
+#define LC_SLOT_LIVE 0x1u    /* holds an object */
+#define LC_SLOT_STATIC 0x2u  /* the object is static */
+#define LC_SLOT_DIRTY 0x4u   /* added, moved or re-filtered since the last update (in scene->dirty) */
+#define LC_SLOT_REMOVED 0x8u /* removed since the last update; freed by the next one */
+#define LC_SLOT_INTREE 0x10u /* has entries in a tree list (its cells are in slot->cell) */
+
+/* An id: the serial number of the add (1, 2, ...: never reused) in the high
+ * 32 bits, the slot in the low 32. Serials grow with every add, so sorting
+ * ids sorts by serial: a pair's order key is serial_a << 32 | serial_b. */
+#define LC_ID_SLOT(id) ((uint32_t)((id)&0xffffffffu))
+#define LC_ID_SERIAL(id) ((uint32_t)((id) >> 32))
+#define LC_MAX_SERIAL 0xffffffffu
+
+/* The cells an object's entries were made from: its level, the first cell
+ * per axis and whether it spans a second one (bit a of span). Enough to
+ * write its entries again, so the old entries of a moved object can be
+ * found and removed without keeping them. */
+typedef struct lc_cells {
+    uint32_t c0[3];
+    uint8_t level, span, pad[2];
+} lc_cells;
+
+/* What the search reads of a candidate, 48 bytes: the packed sweep box
+ * (lc_pack_qbox), the filter, the slot and the flags. The records are
+ * indexed by a dense index that the entries carry instead of the slot:
+ * a rebuild numbers the objects in the order of the sorted entry lists,
+ * so the objects of one cell have neighbouring records and a search reads
+ * them in a few cache lines. Objects added later take the next indices. */
+typedef struct lc_hot {
+    uint64_t qlo, qhi;
+    uint64_t cat, mask, group;
+    uint32_t slot;
+    uint32_t flags; /* LC_SLOT_STATIC; LC_SLOT_DIRTY while an update runs */
+} lc_hot;
+
+/* An entry list: a main array sorted by entry, in which a deleted entry is
+ * a tombstone (its slot bits all set: the key, hence the order of keys,
+ * stays), and a small sorted overflow array of the entries added since the
+ * last compaction. Both are searched; a compaction merges them when the
+ * overflow and the tombstones pass a fraction of the main array. per_level
+ * counts the live entries of each level (a level with none is never
+ * searched). */
+typedef struct lc_tree {
+    lc_buf ent; /* uint64, main */
+    size_t count;
+    lc_buf ovf; /* uint64, overflow */
+    size_t novf;
+    size_t dead; /* tombstones in main */
+    size_t per_level[32];
+} lc_tree;
+
+/* A sorted pair list: rows of two ids. */
+typedef struct lc_plist {
+    lc_buf rows; /* locd_id, two a row */
+    size_t count;
+} lc_plist;
+
+struct locd_scene {
+    uint32_t magic;
+    locd_engine *engine;
+    const locd_allocator *alloc; /* the engine's */
+    lc_pool *pool;
+    uint32_t threads;
+    int kernel;
+
+    /* slots (slots.c) */
+    size_t nslots;      /* slots ever used */
+    size_t live;        /* objects now */
+    size_t live_static; /* static objects now */
+    size_t slot_cap;
+    locd_id *id;        /* per slot; the current object's id (kept after removal until freed) */
+    double *box;        /* 6 per slot */
+    uint64_t *cat, *mask, *group, *user;
+    uint8_t *flags;
+    uint32_t *stamp;     /* duplicate check of a batch */
+    uint32_t stamp_now;
+    lc_cells *cell;      /* per slot, valid with LC_SLOT_INTREE */
+    uint32_t *dense;     /* per slot: its dense index, valid with LC_SLOT_INTREE */
+    lc_hot *hot;         /* per dense index (hot_cap of them; ndense issued since the last rebuild) */
+    size_t hot_cap, ndense;
+    lc_buf free_slots;   /* uint32 stack */
+    size_t nfree;
+    uint32_t serial;     /* serials issued */
+    lc_buf dirty;        /* uint32 slots flagged LC_SLOT_DIRTY */
+    size_t ndirty;
+    lc_buf removed;      /* uint32 slots flagged LC_SLOT_REMOVED */
+    size_t nremoved;
+
+    /* broad phase (tree.c) */
+    int have_tree;
+    locd_grid grid;
+    lc_tree dyn, sta; /* entries of the dynamic and of the static objects */
+
+    /* pairs (update.c) */
+    lc_plist pairs, created, lost; /* the current set and the last events */
+    int show_pairs, show_events;   /* the flags of the last update */
+    locd_scene_stats stats;
+};
+
+/* ---- slots (slots.c) ---- */
+/* The slot of id if it names a live object, else -1. */
+int64_t lc_scene_slot(const locd_scene *s, locd_id id);
+/* Makes room for `more` new slots (nothing else changes on failure). */
+locd_status lc_scene_reserve(locd_scene *s, size_t more);
+/* Takes a free slot (after lc_scene_reserve) for a new object; returns it. */
+uint32_t lc_scene_take_slot(locd_scene *s);
+/* Marks a slot dirty (in scene->dirty; room reserved beforehand). */
+void lc_scene_mark_dirty(locd_scene *s, uint32_t slot);
+/* Releases every slot removed since the last update to the free list. */
+void lc_scene_free_removed(locd_scene *s);
+void lc_scene_slots_fini(locd_scene *s);
+/* Room for `more` entries in the dirty and removed lists. */
+locd_status lc_scene_reserve_lists(locd_scene *s, size_t more_dirty, size_t more_removed);
+
+/* ---- batch checks (validate.c): nothing is changed; errors name the index ---- */
+locd_status lc_scene_check_boxes_f32(const float *boxes, size_t n);
+locd_status lc_scene_check_boxes_f64(const double *boxes, size_t n);
+/* Every id live and none twice (stamps only). */
+locd_status lc_scene_check_ids(locd_scene *s, const locd_id *ids, size_t n);
+/* Every id live (duplicates allowed: for reads). */
+locd_status lc_scene_check_ids_live(const locd_scene *s, const locd_id *ids, size_t n);
+locd_status lc_scene_check_handle(const locd_scene *s);
+
+/* ---- pair filter: may a and b pair at all? ---- */
+LC_INLINE int lc_scene_may_pair(const locd_scene *s, uint32_t a, uint32_t b)
+{
+    if ((s->flags[a] & s->flags[b] & LC_SLOT_STATIC) != 0)
+        return 0;
+    if (!(s->cat[a] & s->mask[b]) || !(s->cat[b] & s->mask[a]))
+        return 0;
+    return !(s->group[a] == s->group[b] && s->group[a] != 0);
+}
+LC_INLINE int lc_box_overlap(const double *a, const double *b)
+{
+    return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+}
+
+/* ---- sorted pair lists (pairset.c) ---- */
+locd_status lc_plist_reserve(const locd_allocator *a, lc_plist *p, size_t rows);
+void lc_plist_fini(const locd_allocator *a, lc_plist *p);
+/* The order key of a row: serial_a << 32 | serial_b. */
+LC_INLINE uint64_t lc_pair_key(const locd_id *row)
+{
+    return (uint64_t)LC_ID_SERIAL(row[0]) << 32 | LC_ID_SERIAL(row[1]);
+}
+/* Sorts rows[0, n) (scratch: 2 * n locd_id) by key. */
+locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n);
+/* out = a \ b (both sorted); out has room for na rows. Returns rows written. */
+size_t lc_plist_minus(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out);
+/* out = a merged with b (both sorted, disjoint); room for na + nb rows. */
+void lc_plist_merge(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out);
+
+/* ---- broad phase (rebuild.c, tree.c, find.c) ---- */
+void lc_scene_tree_fini(locd_scene *s);
+/* An object's cells on grid g, and its packed sweep box (lc_pack_qbox). */
+void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t qbox[2]);
+int lc_cells_same(const lc_cells *a, const lc_cells *b);
+/* Writes the object's entries (1 to 8) from its cells; returns how many. */
+uint32_t lc_cells_entries(const locd_grid *g, const lc_cells *c, uint32_t slot, uint64_t *out);
+void lc_sort_u64(uint64_t *v, size_t n);
+/* The same with a radix sort past a few hundred values (scratch allocated). */
+locd_status lc_sort_u64_radix(const locd_allocator *a, uint64_t *v, size_t n);
+/* Counts t's entries per level. */
+void lc_tree_count_levels(const locd_grid *g, lc_tree *t);
+void lc_tree_release(const locd_allocator *a, lc_tree *t);
+/* The tombstone of an entry, and whether an entry is one. */
+#define LC_TOMB(g, e) ((e) | ((((uint64_t)1) << (g)->index_bits) - 1))
+#define LC_IS_TOMB(g, e) ((~(e) & ((((uint64_t)1) << (g)->index_bits) - 1)) == 0)
+/* Where a tree change is written: tombstones in place (positions and old
+ * values kept for undo), or a new tree when the change compacts. */
+typedef struct lc_tree_edit {
+    int compacted;     /* the new tree is `out`; t is untouched */
+    lc_tree out;       /* compacted: the new tree; else only its ovf/novf/per_level are new */
+    size_t *pos;       /* tombstoned positions of t's main array */
+    uint64_t *old;     /* and the entries they held */
+    size_t npos, pos_cap;
+} lc_tree_edit;
+/* Applies del (entries of t, sorted) and add (sorted) to t: tombstones in
+ * t's main array (undone by lc_tree_undo) and a new overflow in e->out,
+ * or a compacted new tree in e->out. */
+locd_status lc_tree_edit_apply(const locd_allocator *a, const locd_grid *g, lc_tree *t, const uint64_t *del,
+                               size_t ndel, const uint64_t *add, size_t nadd, lc_tree_edit *e);
+void lc_tree_edit_undo(lc_tree *t, lc_tree_edit *e);
+/* Makes the edit t's state (t takes e->out's buffers). */
+void lc_tree_edit_commit(const locd_allocator *a, lc_tree *t, lc_tree_edit *e);
+void lc_tree_edit_free(const locd_allocator *a, lc_tree_edit *e);
+/* A grid fitted to the live boxes with a margin, with index bits for twice the slots. */
+locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g);
+/* 1 if box b quantizes inside the root cube without clamping. */
+int lc_grid_holds(const locd_grid *g, const double *b);
+/* The pairs of the objects whose entries are q (sorted), against the
+ * lists dyn and sta, into *out (sorted); adds to *candidates. */
+locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q,
+                                size_t nq, lc_plist *out, uint64_t *candidates);
+/* Every live object's cells on g into cells, its dense index into dense
+ * and its record into hot (numbered in entry order; *ndense receives the
+ * count), and both entry lists, sorted by key. */
+locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint32_t *dense, lc_hot *hot,
+                                 size_t *ndense, lc_tree *dyn, lc_tree *sta);
+/* The dense indices a rebuild of n slots makes room for. */
+size_t lc_scene_dense_room(size_t nslots);
+/* The hot record of slot k from its slot arrays and packed box. */
+void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *h);
+/* Computes the pairs of the live objects from scratch into *out (sorted). */
+locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates);
+
+/* ---- queries (query.c) ---- */
+/* The ray-box slab test (docs/scene.md); 1 and *t_enter on a hit. */
+int lc_ray_box(const double *b, const double *o, const double *d, double max_t, double *t_enter);
+
+#endif

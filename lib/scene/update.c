@@ -1,0 +1,583 @@
+/* locd_scene_update and the lists it leaves.
+ *
+ * Incremental path (docs/scene.md): the moved objects' cells are computed
+ * again; those whose cells changed have their old entries deleted and new
+ * ones added by one merge pass per list; the pairs of the moved objects
+ * are found in the repaired lists (find.c); the pairs between unmoved
+ * objects are carried over from the previous set. The rebuild path
+ * (first update, a box outside the root cube, more index bits needed, or
+ * most objects moved) fits a new grid and does everything from scratch.
+ *
+ * Either path builds the new lists in buffers of their own and swaps them
+ * in at the end; the per-slot cells it writes early are restored on
+ * failure. So a failing update changes nothing: the pending changes stay
+ * pending for the next one. */
+#include "scene/scene.h"
+
+/* Rebuild when more than this fraction of the objects moved. */
+#define LC_REBUILD_FRACTION 0.25
+
+typedef struct upd {
+    locd_scene *s;
+    uint32_t flags;
+    lc_tree dyn, sta;   /* the new lists */
+    lc_plist next, cr, lo;
+    lc_cells *cells;    /* rebuild: new per-slot cells (slot_cap) */
+    lc_hot *hot;        /* rebuild: new records (hot_cap) */
+    size_t hot_cap, ndense;
+    uint32_t *dense;    /* rebuild: new per-slot dense indices (slot_cap) */
+    locd_grid grid;     /* rebuild: the new grid */
+    /* incremental: undo of the per-slot cells written early */
+    uint32_t *undo_slot;
+    lc_cells *undo_cells;
+    lc_hot *undo_hot;
+    uint32_t *undo_dense;
+    size_t ndense_before;
+    uint8_t *undo_flags;
+    size_t nundo, undo_cap;
+    lc_tree_edit edit[2]; /* incremental: of the dynamic and the static list */
+    uint64_t *buf; /* del/add/query entries */
+    size_t buf_cap;
+    uint64_t candidates, moved, reencoded;
+    int rebuilt;
+    double ms_encode, ms_merge, ms_sweep, ms_events;
+} upd;
+
+static void swap_plist(lc_plist *a, lc_plist *b)
+{
+    lc_plist t = *a;
+    *a = *b;
+    *b = t;
+}
+
+static void swap_tree(lc_tree *a, lc_tree *b)
+{
+    lc_tree t = *a;
+    *a = *b;
+    *b = t;
+}
+
+static void upd_free(upd *u)
+{
+    const locd_allocator *a = u->s->alloc;
+    lc_tree_release(a, &u->dyn);
+    lc_tree_release(a, &u->sta);
+    lc_tree_edit_free(a, &u->edit[0]);
+    lc_tree_edit_free(a, &u->edit[1]);
+    lc_plist_fini(a, &u->next);
+    lc_plist_fini(a, &u->cr);
+    lc_plist_fini(a, &u->lo);
+    lc_free(a, u->cells, u->s->slot_cap * sizeof *u->cells);
+    lc_free(a, u->hot, u->hot_cap * sizeof *u->hot);
+    lc_free(a, u->dense, u->s->slot_cap * sizeof *u->dense);
+    lc_free(a, u->undo_slot, u->undo_cap * sizeof *u->undo_slot);
+    lc_free(a, u->undo_cells, u->undo_cap * sizeof *u->undo_cells);
+    lc_free(a, u->undo_hot, u->undo_cap * sizeof *u->undo_hot);
+    lc_free(a, u->undo_dense, u->undo_cap * sizeof *u->undo_dense);
+    lc_free(a, u->undo_flags, u->undo_cap * sizeof *u->undo_flags);
+    lc_free(a, u->buf, u->buf_cap * sizeof *u->buf);
+}
+
+/* Puts back what a failed incremental update wrote early: the cells and
+ * hot records of the moved objects, the tombstones. */
+static void undo(upd *u)
+{
+    locd_scene *s = u->s;
+    size_t k;
+    for (k = u->nundo; k-- > 0;) {
+        uint32_t slot = u->undo_slot[k];
+        uint32_t di = (u->undo_flags[k] & LC_SLOT_INTREE) ? u->undo_dense[k] : s->dense[slot];
+        s->hot[di] = u->undo_hot[k];
+        s->cell[slot] = u->undo_cells[k];
+        s->dense[slot] = u->undo_dense[k];
+        s->flags[slot] = u->undo_flags[k];
+    }
+    if (u->nundo)
+        s->ndense = u->ndense_before;
+    u->nundo = 0;
+    lc_tree_edit_undo(&s->dyn, &u->edit[0]);
+    lc_tree_edit_undo(&s->sta, &u->edit[1]);
+}
+
+/* 1 when this update should start from scratch. */
+static int want_rebuild(const locd_scene *s, size_t moved)
+{
+    size_t k;
+    const uint32_t *d = s->dirty.data;
+    if (!s->have_tree)
+        return 1;
+    {
+        size_t fresh = 0; /* objects new to the lists: each takes a dense index */
+        for (k = 0; k < s->ndirty; k++)
+            fresh += (s->flags[d[k]] & (LC_SLOT_LIVE | LC_SLOT_INTREE)) == LC_SLOT_LIVE;
+        if (s->ndense + fresh > s->hot_cap)
+            return 1;
+    }
+    if ((double)moved > LC_REBUILD_FRACTION * (double)s->live && moved > 64)
+        return 1;
+    for (k = 0; k < s->ndirty; k++)
+        if ((s->flags[d[k]] & LC_SLOT_LIVE) && !lc_grid_holds(&s->grid, s->box + 6 * (size_t)d[k]))
+            return 1;
+    return 0;
+}
+
+static locd_status events_full(upd *u)
+{
+    locd_scene *s = u->s;
+    locd_status st;
+    if ((st = lc_plist_reserve(s->alloc, &u->cr, u->next.count + 1)) != LOCD_OK ||
+        (st = lc_plist_reserve(s->alloc, &u->lo, s->pairs.count + 1)) != LOCD_OK)
+        return st;
+    u->cr.count = lc_plist_minus(u->next.rows.data, u->next.count, s->pairs.rows.data, s->pairs.count, u->cr.rows.data);
+    u->lo.count = lc_plist_minus(s->pairs.rows.data, s->pairs.count, u->next.rows.data, u->next.count, u->lo.rows.data);
+    return LOCD_OK;
+}
+
+static locd_status rebuild(upd *u)
+{
+    locd_scene *s = u->s;
+    const locd_allocator *a = s->alloc;
+    locd_status st;
+    double t0 = lc_now_ms(), t1;
+    u->rebuilt = 1;
+    u->cells = lc_alloc(a, s->slot_cap * sizeof *u->cells);
+    u->hot_cap = lc_scene_dense_room(s->nslots);
+    u->hot = lc_alloc(a, u->hot_cap * sizeof *u->hot);
+    u->dense = lc_alloc(a, s->slot_cap * sizeof *u->dense);
+    if (!u->cells || !u->hot || !u->dense)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's cells");
+    memset(u->cells, 0, s->slot_cap * sizeof *u->cells);
+    if ((st = lc_scene_fit_grid(s, &u->grid)) != LOCD_OK ||
+        (st = lc_scene_build_trees(s, &u->grid, u->cells, u->dense, u->hot, &u->ndense, &u->dyn, &u->sta)) !=
+            LOCD_OK)
+        return st;
+    t1 = lc_now_ms();
+    u->ms_encode = t1 - t0;
+    u->reencoded = s->live;
+    if ((st = lc_scene_pairs_from_scratch(s, &u->next, &u->candidates)) != LOCD_OK)
+        return st;
+    u->ms_sweep = lc_now_ms() - t1;
+    t1 = lc_now_ms();
+    if ((u->flags & LOCD_SCENE_UPDATE_EVENTS) && (st = events_full(u)) != LOCD_OK)
+        return st;
+    u->ms_events = lc_now_ms() - t1;
+    return LOCD_OK;
+}
+
+/* What the lists will be after edit e of t, without copying: a view. */
+static void view_tree(const lc_tree *t, const lc_tree_edit *e, lc_tree *v)
+{
+    if (e->compacted) {
+        *v = e->out;
+        v->ovf.data = NULL, v->novf = 0;
+    } else {
+        *v = *t;
+        if (e->out.novf != (size_t)-1)
+            v->ovf = e->out.ovf, v->novf = e->out.novf;
+    }
+    memcpy(v->per_level, e->out.per_level, sizeof v->per_level);
+}
+
+/* Room for n more entries in u->buf at *len. */
+static locd_status buf_room(upd *u, size_t len, size_t n)
+{
+    if (len + n <= u->buf_cap)
+        return LOCD_OK;
+    {
+        size_t cap = lc_grow_cap(u->buf_cap, len + n);
+        uint64_t *b = lc_alloc(u->s->alloc, cap * sizeof *b);
+        if (!b)
+            return lc_error(LOCD_ERR_NO_MEMORY, "could not grow the entry deltas");
+        if (len)
+            memcpy(b, u->buf, len * sizeof *b);
+        lc_free(u->s->alloc, u->buf, u->buf_cap * sizeof *u->buf);
+        u->buf = b, u->buf_cap = cap;
+    }
+    return LOCD_OK;
+}
+
+/* The carry pass, split over the pool: thread t takes rows [b[t], b[t+1])
+ * of the previous set and the new rows whose keys fall in its key range,
+ * counts (pass 1) then writes (pass 2) its kept rows merged with those new
+ * rows, and its dropped rows, at offsets the counts give. */
+typedef struct carry_ctx {
+    const locd_scene *s;
+    const uint64_t *changed; /* bitmap of changed slots */
+    const locd_id *p;        /* previous rows */
+    const locd_id *n;        /* new rows */
+    size_t pb[LC_MAX_THREADS + 1], nb[LC_MAX_THREADS + 1]; /* row ranges */
+    size_t ndrop[LC_MAX_THREADS], out_off[LC_MAX_THREADS], drop_off[LC_MAX_THREADS];
+    locd_id *out, *drop;
+    int pass;
+} carry_ctx;
+
+LC_INLINE int row_changed(const uint64_t *bits, const locd_id *r)
+{
+    uint32_t a = LC_ID_SLOT(r[0]), b = LC_ID_SLOT(r[1]);
+    return (int)(((bits[a >> 6] >> (a & 63)) | (bits[b >> 6] >> (b & 63))) & 1u);
+}
+
+static void task_carry(void *arg, uint32_t t, uint32_t k)
+{
+    carry_ctx *c = arg;
+    size_t i, j = c->nb[t], w = c->out_off[t], dw = c->drop_off[t];
+    (void)k;
+    if (c->pass == 1) {
+        size_t nd = 0;
+        for (i = c->pb[t]; i < c->pb[t + 1]; i++)
+            nd += (size_t)row_changed(c->changed, c->p + 2 * i);
+        c->ndrop[t] = nd;
+        return;
+    }
+    for (i = c->pb[t]; i < c->pb[t + 1]; i++) {
+        const locd_id *r = c->p + 2 * i;
+        uint64_t key;
+        if (row_changed(c->changed, r)) {
+            c->drop[2 * dw] = r[0], c->drop[2 * dw + 1] = r[1], dw++;
+            continue;
+        }
+        key = lc_pair_key(r);
+        while (j < c->nb[t + 1] && lc_pair_key(c->n + 2 * j) < key) {
+            c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1], w++, j++;
+        }
+        c->out[2 * w] = r[0], c->out[2 * w + 1] = r[1], w++;
+    }
+    for (; j < c->nb[t + 1]; j++)
+        c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1], w++;
+}
+
+/* The first row of sorted rows[0, n) whose key is >= key. */
+static size_t rows_lower_bound(const locd_id *rows, size_t n, uint64_t key)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (lc_pair_key(rows + 2 * mid) < key)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+/* The rows of the previous set that neither end changed (kept), the others
+ * (dropped, into *dropped), merged with the new rows n. */
+static locd_status carry(upd *u, const lc_plist *n, lc_plist *dropped)
+{
+    locd_scene *s = u->s;
+    const locd_allocator *a = s->alloc;
+    const uint32_t *d = s->dirty.data, *r = s->removed.data;
+    size_t words = (s->nslots + 63) / 64 + 1, np = s->pairs.count, k, nd = 0;
+    uint32_t kk = s->threads ? s->threads : 1, t;
+    carry_ctx *c = lc_alloc(a, sizeof *c);
+    uint64_t *bits = lc_alloc(a, words * sizeof *bits);
+    locd_status st = LOCD_OK;
+    if (!c || !bits) {
+        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the carry pass");
+        goto done;
+    }
+    memset(c, 0, sizeof *c);
+    memset(bits, 0, words * sizeof *bits);
+    for (k = 0; k < s->ndirty; k++)
+        bits[d[k] >> 6] |= (uint64_t)1 << (d[k] & 63);
+    for (k = 0; k < s->nremoved; k++)
+        bits[r[k] >> 6] |= (uint64_t)1 << (r[k] & 63);
+    if (np < 65536)
+        kk = 1;
+    c->s = s, c->changed = bits, c->p = s->pairs.rows.data, c->n = n->rows.data;
+    for (t = 0; t <= kk; t++) {
+        c->pb[t] = np * t / kk;
+        c->nb[t] = t == 0 ? 0 : t == kk ? n->count : rows_lower_bound(n->rows.data, n->count, lc_pair_key(c->p + 2 * c->pb[t]));
+    }
+    c->pass = 1;
+    if (kk > 1)
+        lc_pool_run(s->pool, kk, task_carry, c);
+    else
+        task_carry(c, 0, 1);
+    for (t = 0; t < kk; t++) {
+        c->drop_off[t] = nd;
+        nd += c->ndrop[t];
+    }
+    for (t = 0, k = 0; t < kk; t++) {
+        c->out_off[t] = k;
+        k += (c->pb[t + 1] - c->pb[t]) - c->ndrop[t] + (c->nb[t + 1] - c->nb[t]);
+    }
+    if ((st = lc_plist_reserve(a, &u->next, k + 1)) != LOCD_OK || (st = lc_plist_reserve(a, dropped, nd + 1)) != LOCD_OK)
+        goto done;
+    c->out = u->next.rows.data;
+    c->drop = dropped->rows.data;
+    c->pass = 2;
+    if (kk > 1)
+        lc_pool_run(s->pool, kk, task_carry, c);
+    else
+        task_carry(c, 0, 1);
+    u->next.count = k;
+    dropped->count = nd;
+done:
+    lc_free(a, c, sizeof *c);
+    lc_free(a, bits, words * sizeof *bits);
+    return st;
+}
+
+static locd_status incremental(upd *u)
+{
+    locd_scene *s = u->s;
+    const locd_allocator *a = s->alloc;
+    const locd_grid *g = &s->grid;
+    const uint32_t *d = s->dirty.data, *r = s->removed.data;
+    size_t k, ndel[2] = {0, 0}, nadd[2] = {0, 0}, nq = 0, off_del[2], off_add[2], off_q;
+    lc_plist n = {{NULL, 0}, 0}, dropped = {{NULL, 0}, 0};
+    locd_status st;
+    double t0 = lc_now_ms(), t1;
+    uint64_t tmp[8];
+    /* undo room: one per dirty slot */
+    u->undo_cap = s->ndirty ? s->ndirty : 1;
+    u->undo_slot = lc_alloc(a, u->undo_cap * sizeof *u->undo_slot);
+    u->undo_cells = lc_alloc(a, u->undo_cap * sizeof *u->undo_cells);
+    u->undo_hot = lc_alloc(a, u->undo_cap * sizeof *u->undo_hot);
+    u->undo_dense = lc_alloc(a, u->undo_cap * sizeof *u->undo_dense);
+    u->ndense_before = s->ndense;
+    u->undo_flags = lc_alloc(a, u->undo_cap * sizeof *u->undo_flags);
+    if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags || !u->undo_dense)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the update's undo list");
+    /* Pass 1: count the deltas (deleted and added per list, queries). */
+    for (k = 0; k < s->nremoved; k++)
+        if (s->flags[r[k]] & LC_SLOT_INTREE)
+            ndel[(s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0] += lc_cells_entries(g, &s->cell[r[k]], 0, tmp);
+    for (k = 0; k < s->ndirty; k++) {
+        uint32_t slot = d[k], cnt;
+        uint8_t f = s->flags[slot];
+        int t = (f & LC_SLOT_STATIC) ? 1 : 0;
+        lc_cells c;
+        uint64_t q[2];
+        if (!(f & LC_SLOT_LIVE))
+            continue;
+        u->moved++;
+        lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
+        cnt = lc_cells_entries(g, &c, 0, tmp);
+        nq += cnt;
+        if ((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))
+            continue;
+        if (f & LC_SLOT_INTREE)
+            ndel[t] += lc_cells_entries(g, &s->cell[slot], 0, tmp);
+        nadd[t] += cnt;
+    }
+    off_del[0] = 0, off_del[1] = ndel[0];
+    off_add[0] = ndel[0] + ndel[1], off_add[1] = off_add[0] + nadd[0];
+    off_q = off_add[1] + nadd[1];
+    if ((st = buf_room(u, 0, off_q + nq + 1)) != LOCD_OK)
+        return st;
+
+    ndel[0] = ndel[1] = nadd[0] = nadd[1] = 0;
+    nq = 0;
+    /* Pass 2: write them, and the new cells (undo kept). */
+    for (k = 0; k < s->nremoved; k++)
+        if (s->flags[r[k]] & LC_SLOT_INTREE) {
+            int t = (s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0;
+            ndel[t] += lc_cells_entries(g, &s->cell[r[k]], s->dense[r[k]], u->buf + off_del[t] + ndel[t]);
+        }
+    for (k = 0; k < s->ndirty; k++) {
+        uint32_t slot = d[k], cnt;
+        uint8_t f = s->flags[slot];
+        int t = (f & LC_SLOT_STATIC) ? 1 : 0;
+        lc_cells c;
+        uint64_t q[2];
+        uint32_t di;
+        if (!(f & LC_SLOT_LIVE))
+            continue;
+        lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
+        /* an object new to the lists takes the next dense index */
+        di = (f & LC_SLOT_INTREE) ? s->dense[slot] : (uint32_t)s->ndense++;
+        u->undo_slot[u->nundo] = slot;
+        u->undo_cells[u->nundo] = s->cell[slot];
+        u->undo_dense[u->nundo] = s->dense[slot];
+        u->undo_hot[u->nundo] = s->hot[di];
+        u->undo_flags[u->nundo] = f;
+        u->nundo++;
+        cnt = lc_cells_entries(g, &c, di, u->buf + off_q + nq);
+        if (!((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))) {
+            if (f & LC_SLOT_INTREE)
+                ndel[t] += lc_cells_entries(g, &s->cell[slot], di, u->buf + off_del[t] + ndel[t]);
+            memcpy(u->buf + off_add[t] + nadd[t], u->buf + off_q + nq, cnt * sizeof(uint64_t));
+            nadd[t] += cnt;
+            u->reencoded++;
+        }
+        nq += cnt;
+        s->cell[slot] = c;
+        s->dense[slot] = di;
+        lc_hot_fill(s, slot, q, &s->hot[di]);
+        s->hot[di].flags |= LC_SLOT_DIRTY;
+        s->flags[slot] |= LC_SLOT_INTREE;
+    }
+    for (k = 0; k < 2; k++)
+        if ((st = lc_sort_u64_radix(a, u->buf + off_del[k], ndel[k])) != LOCD_OK ||
+            (st = lc_sort_u64_radix(a, u->buf + off_add[k], nadd[k])) != LOCD_OK)
+            return st;
+    if ((st = lc_sort_u64_radix(a, u->buf + off_q, nq)) != LOCD_OK)
+        return st;
+    t1 = lc_now_ms();
+    u->ms_encode = t1 - t0;
+    t0 = t1;
+    if ((st = lc_tree_edit_apply(a, g, &s->dyn, u->buf + off_del[0], ndel[0], u->buf + off_add[0], nadd[0],
+                                 &u->edit[0])) != LOCD_OK ||
+        (st = lc_tree_edit_apply(a, g, &s->sta, u->buf + off_del[1], ndel[1], u->buf + off_add[1], nadd[1],
+                                 &u->edit[1])) != LOCD_OK)
+        return st;
+    /* The search sees the lists as they will be: a view of each. */
+    view_tree(&s->dyn, &u->edit[0], &u->dyn);
+    view_tree(&s->sta, &u->edit[1], &u->sta);
+    t1 = lc_now_ms();
+    u->ms_merge = t1 - t0;
+    t0 = t1;
+    st = lc_scene_find_moved(s, &u->dyn, &u->sta, u->buf + off_q, nq, &n, &u->candidates);
+    memset(&u->dyn, 0, sizeof u->dyn); /* views: not ours to free */
+    memset(&u->sta, 0, sizeof u->sta);
+    t1 = lc_now_ms();
+    u->ms_sweep = t1 - t0;
+    t0 = t1;
+    if (st == LOCD_OK)
+        st = carry(u, &n, &dropped);
+    if (st == LOCD_OK && (u->flags & LOCD_SCENE_UPDATE_EVENTS)) {
+        /* previous = kept + dropped, now = kept + n, kept disjoint from both */
+        if ((st = lc_plist_reserve(a, &u->cr, n.count + 1)) == LOCD_OK &&
+            (st = lc_plist_reserve(a, &u->lo, dropped.count + 1)) == LOCD_OK) {
+            u->cr.count = lc_plist_minus(n.rows.data, n.count, dropped.rows.data, dropped.count, u->cr.rows.data);
+            u->lo.count = lc_plist_minus(dropped.rows.data, dropped.count, n.rows.data, n.count, u->lo.rows.data);
+        }
+    }
+    u->ms_events = lc_now_ms() - t0;
+    lc_plist_fini(a, &n);
+    lc_plist_fini(a, &dropped);
+    return st;
+}
+
+/* Forgets the changes the update has taken in. */
+static void clear_changes(locd_scene *s)
+{
+    size_t k;
+    const uint32_t *d = s->dirty.data;
+    for (k = 0; k < s->ndirty; k++)
+        s->flags[d[k]] &= (uint8_t)~LC_SLOT_DIRTY;
+    s->ndirty = 0;
+    lc_scene_free_removed(s);
+}
+
+static void commit(upd *u)
+{
+    locd_scene *s = u->s;
+    size_t k;
+    if (u->rebuilt) {
+        lc_cells *c = s->cell;
+        lc_hot *h = s->hot;
+        uint32_t *dn = s->dense;
+        size_t hc = s->hot_cap;
+        s->cell = u->cells, u->cells = c;
+        s->hot = u->hot, u->hot = h;
+        s->hot_cap = u->hot_cap, u->hot_cap = hc;
+        s->dense = u->dense, u->dense = dn;
+        s->ndense = u->ndense;
+        s->grid = u->grid;
+        s->have_tree = 1;
+        for (k = 0; k < s->nslots; k++)
+            if (s->flags[k] & LC_SLOT_LIVE)
+                s->flags[k] |= LC_SLOT_INTREE;
+        u->moved = 0;
+        for (k = 0; k < s->ndirty; k++)
+            u->moved += (s->flags[((const uint32_t *)s->dirty.data)[k]] & LC_SLOT_LIVE) != 0;
+        swap_tree(&s->dyn, &u->dyn);
+        swap_tree(&s->sta, &u->sta);
+    } else {
+        lc_tree_edit_commit(s->alloc, &s->dyn, &u->edit[0]);
+        lc_tree_edit_commit(s->alloc, &s->sta, &u->edit[1]);
+        for (k = 0; k < u->nundo; k++)
+            s->hot[s->dense[u->undo_slot[k]]].flags &= ~(uint32_t)LC_SLOT_DIRTY;
+        u->nundo = 0;
+    }
+    swap_plist(&s->pairs, &u->next);
+    swap_plist(&s->created, &u->cr);
+    swap_plist(&s->lost, &u->lo);
+    clear_changes(s);
+}
+
+locd_status locd_scene_update(locd_scene *s, uint32_t flags)
+{
+    upd u;
+    locd_scene_stats *st_out;
+    size_t moved = 0, k;
+    double t0 = lc_now_ms();
+    locd_status st;
+    if ((st = lc_scene_check_handle(s)) != LOCD_OK)
+        return st;
+    if (flags & ~(LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS))
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "unknown update flags 0x%x",
+                        flags & ~(LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
+    if (!lc_engine_acquire(s->engine))
+        return lc_error(LOCD_ERR_BUSY, "the scene's engine is running another call");
+    memset(&u, 0, sizeof u);
+    u.s = s;
+    u.flags = flags;
+    for (k = 0; k < s->ndirty; k++)
+        moved += (s->flags[((const uint32_t *)s->dirty.data)[k]] & LC_SLOT_LIVE) != 0;
+    st = want_rebuild(s, moved) ? rebuild(&u) : incremental(&u);
+    if (st != LOCD_OK) {
+        undo(&u);
+        upd_free(&u);
+        lc_engine_release(s->engine);
+        return st;
+    }
+    commit(&u);
+    upd_free(&u);
+    s->show_pairs = (flags & LOCD_SCENE_UPDATE_PAIRS) != 0;
+    s->show_events = (flags & LOCD_SCENE_UPDATE_EVENTS) != 0;
+    st_out = &s->stats;
+    locd_scene_stats_init(st_out);
+    st_out->threads = s->threads;
+    st_out->objects = s->live;
+    st_out->static_objects = s->live_static;
+    st_out->moved = u.moved;
+    st_out->reencoded = u.reencoded;
+    st_out->entries = s->dyn.count + s->sta.count;
+    st_out->candidates = u.candidates;
+    st_out->pairs = s->pairs.count;
+    st_out->created = s->created.count;
+    st_out->lost = s->lost.count;
+    st_out->rebuilt = (uint32_t)u.rebuilt;
+    st_out->ms_encode = u.ms_encode;
+    st_out->ms_merge = u.ms_merge;
+    st_out->ms_sweep = u.ms_sweep;
+    st_out->ms_events = u.ms_events;
+    st_out->ms_total = lc_now_ms() - t0;
+    lc_engine_release(s->engine);
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+/* One of the lists of the last update; empty when not asked for. */
+static locd_status give_list(const locd_scene *s, const lc_plist *p, int shown, const locd_id **pairs,
+                             size_t *count)
+{
+    locd_status st;
+    if ((st = lc_scene_check_handle(s)) != LOCD_OK)
+        return st;
+    if (!pairs || !count)
+        return lc_error(LOCD_ERR_NULL_POINTER, "pairs or count is NULL");
+    *pairs = shown ? p->rows.data : NULL;
+    *count = shown ? p->count : 0;
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+locd_status locd_scene_pairs(const locd_scene *s, const locd_id **pairs, size_t *count)
+{
+    return give_list(s, s ? &s->pairs : NULL, s && s->show_pairs, pairs, count);
+}
+
+locd_status locd_scene_created(const locd_scene *s, const locd_id **pairs, size_t *count)
+{
+    return give_list(s, s ? &s->created : NULL, s && s->show_events, pairs, count);
+}
+
+locd_status locd_scene_lost(const locd_scene *s, const locd_id **pairs, size_t *count)
+{
+    return give_list(s, s ? &s->lost : NULL, s && s->show_events, pairs, count);
+}
