@@ -90,10 +90,18 @@ static void consider(find_ctx *c, uint32_t t, uint64_t eq, const lc_hot *hm, uin
     }
 }
 
-/* Every entry of e[0, n) on a common path with the cell of entry eq. */
-static void search_array(find_ctx *c, uint32_t t, const size_t *per_level, const uint64_t *e, size_t n, uint64_t eq,
+/* The first of e[0, n) >= v: through tr's directory for its main array. */
+static size_t lower(const lc_tree *tr, const uint64_t *e, size_t n, uint64_t v)
+{
+    return e == tr->ent.data ? lc_tree_lower_bound(tr, v) : lc_lower_bound(e, n, v);
+}
+
+/* Every entry of e[0, n) (tr's main array or overflow) on a common path
+ * with the cell of entry eq. */
+static void search_array(find_ctx *c, uint32_t t, const lc_tree *tr, const uint64_t *e, size_t n, uint64_t eq,
                          const lc_hot *hm)
 {
+    const size_t *per_level = tr->per_level;
     const locd_grid *g = &c->s->grid;
     const uint32_t ib = g->index_bits;
     const uint64_t key = eq >> ib, pm = key >> LC_LEVEL_BITS;
@@ -105,7 +113,7 @@ static void search_array(find_ctx *c, uint32_t t, const size_t *per_level, const
     /* the cell itself and its descendants: keys in [key, (pm + span) << 5) */
     {
         const uint64_t end = (pm + ((uint64_t)1 << (3u * (g->depth - level)))) << LC_LEVEL_BITS;
-        for (i = lc_lower_bound(e, n, key << ib); i < n && (e[i] >> ib) < end; i++)
+        for (i = lower(tr, e, n, key << ib); i < n && (e[i] >> ib) < end; i++)
             consider(c, t, eq, hm, e[i]);
     }
     /* its ancestors, at the levels that hold entries */
@@ -114,15 +122,17 @@ static void search_array(find_ctx *c, uint32_t t, const size_t *per_level, const
         if (!per_level[l])
             continue;
         ka = ((pm & ~(((uint64_t)1 << (3u * (g->depth - l))) - 1)) << LC_LEVEL_BITS) | l;
-        for (i = lc_lower_bound(e, n, ka << ib); i < n && (e[i] >> ib) == ka; i++)
+        for (i = lower(tr, e, n, ka << ib); i < n && (e[i] >> ib) == ka; i++)
             consider(c, t, eq, hm, e[i]);
     }
 }
 
 static void search(find_ctx *c, uint32_t t, const lc_tree *tr, uint64_t eq, const lc_hot *hm)
 {
-    search_array(c, t, tr->per_level, tr->ent.data, tr->count, eq, hm);
-    search_array(c, t, tr->per_level, tr->ovf.data, tr->novf, eq, hm);
+    if (tr->count)
+        search_array(c, t, tr, tr->ent.data, tr->count, eq, hm);
+    if (tr->novf)
+        search_array(c, t, tr, tr->ovf.data, tr->novf, eq, hm);
 }
 
 static void task_find(void *arg, uint32_t t, uint32_t k)
