@@ -130,6 +130,13 @@ static void same_rows(const char *what, const locd_id *want, size_t nwant, const
 
 static unsigned g_updates, g_incremental;
 
+/* LOCD_TEST_HEAVY=0 (the sanitizer runs) shortens the sequences. */
+static int steps(int n)
+{
+    const char *v = getenv("LOCD_TEST_HEAVY");
+    return v && v[0] == '0' ? (n + 4) / 5 : n;
+}
+
 /* Checks the lists of the update just made (pairs, created and lost)
  * against the model, and moves the model's previous set on. */
 static void check_lists(locd_scene *s, model *m)
@@ -503,6 +510,7 @@ static void random_sequences(void)
     int shape;
     for (shape = 0; shape < 3; shape++) {
         run_opts ro = {1, 1500, 60, 0, 2, 0};
+        ro.steps = steps(ro.steps);
         ro.shape = shape;
         ro.seed = 100 + (uint64_t)shape;
         g_updates = g_incremental = 0;
@@ -516,13 +524,16 @@ static void random_sequences(void)
 static void bigger_scene_two_threads(void)
 {
     run_opts ro = {2, 200, 3000, 0, 1, 7};
+    ro.steps = steps(ro.steps);
     run_sequence(&ro);
 }
 
 static void thread_counts_give_identical_lists(void)
 {
     run_opts ro = {1, 300, 2000, 0, 0, 99};
-    uint64_t h1 = run_sequence(&ro), h2;
+    uint64_t h1, h2;
+    ro.steps = steps(ro.steps);
+    h1 = run_sequence(&ro);
     ro.threads = 2;
     h2 = run_sequence(&ro);
     TEST_ASSERT_EQUAL_UINT64(h1, h2);
@@ -792,7 +803,7 @@ static void large_scene_threads_and_fresh(void)
     TEST_ASSERT_EQUAL_MEMORY(ids1, ids2, n * sizeof *ids1);
     for (k = 0; k < n; k++)
         m_add(&m, ids1[k], b + 6 * k, 1, ~(uint64_t)0, 0, 0, k < n / 3);
-    for (step = 0; step < 12; step++) {
+    for (step = 0; step < steps(12); step++) {
         const locd_id *p1, *p2;
         size_t n1, n2, nf;
         locd_id *want;
