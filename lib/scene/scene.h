@@ -4,10 +4,11 @@
  * coordinates. Private; not installed.
  *
  * Files: slots.c (ids, slots), validate.c (batch checks), scene.c (create,
- * the changes), tree.c (the two sorted entry lists and their repair),
- * find.c (pairs of the moved objects), rebuild.c (everything from scratch),
- * pairset.c (sorted pair lists: sort, merge, difference), update.c,
- * query.c, stats.c. */
+ * the changes), tree.c (cells, the two entry lists: tombstones, overflow,
+ * compaction, directory), find.c (pairs of the moved objects), rebuild.c
+ * (everything from scratch, the numbering), pairset.c (sorted pair lists),
+ * update.c (the update: both paths, undo, the carry pass), query.c,
+ * stats.c. docs/scene.md explains the design. */
 #ifndef LOCD_SCENE_IMPL_H
 #define LOCD_SCENE_IMPL_H
 
@@ -170,8 +171,6 @@ LC_INLINE uint64_t lc_pair_key(const locd_id *row)
 locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n);
 /* out = a \ b (both sorted); out has room for na rows. Returns rows written. */
 size_t lc_plist_minus(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out);
-/* out = a merged with b (both sorted, disjoint); room for na + nb rows. */
-void lc_plist_merge(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out);
 
 /* ---- broad phase (rebuild.c, tree.c, find.c) ---- */
 void lc_scene_tree_fini(locd_scene *s);
