@@ -134,7 +134,7 @@ static void task_build(void *arg, uint32_t t, uint32_t k)
 /* Every live object's cells, dense index and record, and the two entry
  * lists sorted by key (rebuild). */
 locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint32_t *dense, lc_hot *hot,
-                                 size_t *ndense, lc_tree *dyn, lc_tree *sta)
+                                 uint64_t *hq, size_t *ndense, lc_tree *dyn, lc_tree *sta)
 {
     const locd_allocator *a = s->alloc;
     const uint64_t imask = ((uint64_t)1 << g->index_bits) - 1;
@@ -215,6 +215,7 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
             if (dense[slot] == UINT32_MAX) {
                 dense[slot] = (uint32_t)next;
                 lc_hot_fill(s, slot, qb + 2 * (size_t)slot, &hot[next]);
+                hq[2 * next] = hot[next].qlo, hq[2 * next + 1] = hot[next].qhi;
                 next++;
             }
             e[j] = (e[j] & ~imask) | dense[slot];

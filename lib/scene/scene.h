@@ -101,6 +101,8 @@ struct locd_scene {
     lc_cells *cell;      /* per slot, valid with LC_SLOT_INTREE */
     uint32_t *dense;     /* per slot: its dense index, valid with LC_SLOT_INTREE */
     lc_hot *hot;         /* per dense index (hot_cap of them; ndense issued since the last rebuild) */
+    uint64_t *hq;        /* per dense index, 2: the packed sweep box again, 16 bytes (4 a cache line)
+                            for the search's first test */
     size_t hot_cap, ndense;
     lc_buf free_slots;   /* uint32 stack */
     size_t nfree;
@@ -224,7 +226,7 @@ locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const l
  * and its record into hot (numbered in entry order; *ndense receives the
  * count), and both entry lists, sorted by key. */
 locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint32_t *dense, lc_hot *hot,
-                                 size_t *ndense, lc_tree *dyn, lc_tree *sta);
+                                 uint64_t *hq, size_t *ndense, lc_tree *dyn, lc_tree *sta);
 /* The dense indices a rebuild of n slots makes room for. */
 size_t lc_scene_dense_room(size_t nslots);
 /* The hot record of slot k from its slot arrays and packed box. */

@@ -24,6 +24,7 @@ typedef struct upd {
     lc_plist next, cr, lo;
     lc_cells *cells;    /* rebuild: new per-slot cells (slot_cap) */
     lc_hot *hot;        /* rebuild: new records (hot_cap) */
+    uint64_t *hq;       /* rebuild: their packed boxes (2 * hot_cap) */
     size_t hot_cap, ndense;
     uint32_t *dense;    /* rebuild: new per-slot dense indices (slot_cap) */
     locd_grid grid;     /* rebuild: the new grid */
@@ -69,6 +70,7 @@ static void upd_free(upd *u)
     lc_plist_fini(a, &u->lo);
     lc_free(a, u->cells, u->s->slot_cap * sizeof *u->cells);
     lc_free(a, u->hot, u->hot_cap * sizeof *u->hot);
+    lc_free(a, u->hq, u->hot_cap * 2 * sizeof *u->hq);
     lc_free(a, u->dense, u->s->slot_cap * sizeof *u->dense);
     lc_free(a, u->undo_slot, u->undo_cap * sizeof *u->undo_slot);
     lc_free(a, u->undo_cells, u->undo_cap * sizeof *u->undo_cells);
@@ -88,6 +90,7 @@ static void undo(upd *u)
         uint32_t slot = u->undo_slot[k];
         uint32_t di = (u->undo_flags[k] & LC_SLOT_INTREE) ? u->undo_dense[k] : s->dense[slot];
         s->hot[di] = u->undo_hot[k];
+        s->hq[2 * (size_t)di] = u->undo_hot[k].qlo, s->hq[2 * (size_t)di + 1] = u->undo_hot[k].qhi;
         s->cell[slot] = u->undo_cells[k];
         s->dense[slot] = u->undo_dense[k];
         s->flags[slot] = u->undo_flags[k];
@@ -143,12 +146,14 @@ static locd_status rebuild(upd *u)
     u->cells = lc_alloc(a, s->slot_cap * sizeof *u->cells);
     u->hot_cap = lc_scene_dense_room(s->nslots);
     u->hot = lc_alloc(a, u->hot_cap * sizeof *u->hot);
+    u->hq = lc_alloc(a, u->hot_cap * 2 * sizeof *u->hq);
     u->dense = lc_alloc(a, s->slot_cap * sizeof *u->dense);
-    if (!u->cells || !u->hot || !u->dense)
+    if (!u->cells || !u->hot || !u->hq || !u->dense)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's cells");
     memset(u->cells, 0, s->slot_cap * sizeof *u->cells);
     if ((st = lc_scene_fit_grid(s, &u->grid)) != LOCD_OK ||
-        (st = lc_scene_build_trees(s, &u->grid, u->cells, u->dense, u->hot, &u->ndense, &u->dyn, &u->sta)) !=
+        (st = lc_scene_build_trees(s, &u->grid, u->cells, u->dense, u->hot, u->hq, &u->ndense, &u->dyn,
+                                                &u->sta)) !=
             LOCD_OK)
         return st;
     t1 = lc_now_ms();
@@ -407,6 +412,7 @@ static locd_status incremental(upd *u)
         s->dense[slot] = di;
         lc_hot_fill(s, slot, q, &s->hot[di]);
         s->hot[di].flags |= LC_SLOT_DIRTY;
+        s->hq[2 * (size_t)di] = q[0], s->hq[2 * (size_t)di + 1] = q[1];
         s->flags[slot] |= LC_SLOT_INTREE;
     }
     for (k = 0; k < 2; k++)
@@ -473,6 +479,10 @@ static void commit(upd *u)
         size_t hc = s->hot_cap;
         s->cell = u->cells, u->cells = c;
         s->hot = u->hot, u->hot = h;
+        {
+            uint64_t *hq = s->hq;
+            s->hq = u->hq, u->hq = hq;
+        }
         s->hot_cap = u->hot_cap, u->hot_cap = hc;
         s->dense = u->dense, u->dense = dn;
         s->ndense = u->ndense;
