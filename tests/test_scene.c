@@ -686,10 +686,14 @@ static void allocation_failures_change_nothing(void)
             }
             fa_counts_get(&c);
             fa_arm(0, 0);
-            if (c.failures == 0) {
+            if (c.failures == 0 || st == LOCD_OK) {
+                /* a failure may be absorbed (the lists' directory is only a
+                   shortcut): the answer must still be exact */
                 TEST_ASSERT_EQUAL_INT(LOCD_OK, st);
                 check_lists(s, &m);
-                break;
+                if (c.failures == 0)
+                    break;
+                continue;
             }
             TEST_ASSERT_EQUAL_INT(LOCD_ERR_NO_MEMORY, st);
             failed_calls++;

@@ -22,6 +22,7 @@
 #define LC_SLOT_DIRTY 0x4u   /* added, moved or re-filtered since the last update (in scene->dirty) */
 #define LC_SLOT_REMOVED 0x8u /* removed since the last update; freed by the next one */
 #define LC_SLOT_INTREE 0x10u /* has entries in a tree list (its cells are in slot->cell) */
+#define LC_SLOT_REFILTER 0x20u /* its filter changed since the last update (its record is written again) */
 
 /* An id: the serial number of the add (1, 2, ...: never reused) in the high
  * 32 bits, the slot in the low 32. Serials grow with every add, so sorting

@@ -33,6 +33,8 @@ typedef struct upd {
     lc_cells *undo_cells;
     lc_hot *undo_hot;
     uint32_t *undo_dense;
+    lc_cells *new_cells; /* pass 1's cells and packed boxes of the dirty objects, for pass 2 */
+    uint64_t *new_q;
     size_t ndense_before;
     uint8_t *undo_flags;
     size_t nundo, undo_cap;
@@ -76,6 +78,8 @@ static void upd_free(upd *u)
     lc_free(a, u->undo_cells, u->undo_cap * sizeof *u->undo_cells);
     lc_free(a, u->undo_hot, u->undo_cap * sizeof *u->undo_hot);
     lc_free(a, u->undo_dense, u->undo_cap * sizeof *u->undo_dense);
+    lc_free(a, u->new_cells, u->undo_cap * sizeof *u->new_cells);
+    lc_free(a, u->new_q, u->undo_cap * 2 * sizeof *u->new_q);
     lc_free(a, u->undo_flags, u->undo_cap * sizeof *u->undo_flags);
     lc_free(a, u->buf, u->buf_cap * sizeof *u->buf);
 }
@@ -341,9 +345,12 @@ static locd_status incremental(upd *u)
     u->undo_cells = lc_alloc(a, u->undo_cap * sizeof *u->undo_cells);
     u->undo_hot = lc_alloc(a, u->undo_cap * sizeof *u->undo_hot);
     u->undo_dense = lc_alloc(a, u->undo_cap * sizeof *u->undo_dense);
+    u->new_cells = lc_alloc(a, u->undo_cap * sizeof *u->new_cells);
+    u->new_q = lc_alloc(a, u->undo_cap * 2 * sizeof *u->new_q);
     u->ndense_before = s->ndense;
     u->undo_flags = lc_alloc(a, u->undo_cap * sizeof *u->undo_flags);
-    if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags || !u->undo_dense)
+    if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags || !u->undo_dense || !u->new_cells ||
+        !u->new_q)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the update's undo list");
     /* Pass 1: count the deltas (deleted and added per list, queries). */
     for (k = 0; k < s->nremoved; k++)
@@ -354,11 +361,12 @@ static locd_status incremental(upd *u)
         uint8_t f = s->flags[slot];
         int t = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        uint64_t q[2];
+        uint64_t *q = u->new_q + 2 * k;
         if (!(f & LC_SLOT_LIVE))
             continue;
         u->moved++;
         lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
+        u->new_cells[k] = c;
         cnt = lc_cells_entries(g, &c, 0, tmp);
         nq += cnt;
         if ((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))
@@ -386,11 +394,11 @@ static locd_status incremental(upd *u)
         uint8_t f = s->flags[slot];
         int t = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        uint64_t q[2];
+        const uint64_t *q = u->new_q + 2 * k;
         uint32_t di;
         if (!(f & LC_SLOT_LIVE))
             continue;
-        lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
+        c = u->new_cells[k];
         /* an object new to the lists takes the next dense index */
         di = (f & LC_SLOT_INTREE) ? s->dense[slot] : (uint32_t)s->ndense++;
         u->undo_slot[u->nundo] = slot;
@@ -410,7 +418,11 @@ static locd_status incremental(upd *u)
         nq += cnt;
         s->cell[slot] = c;
         s->dense[slot] = di;
-        lc_hot_fill(s, slot, q, &s->hot[di]);
+        if ((f & (LC_SLOT_INTREE | LC_SLOT_REFILTER)) == LC_SLOT_INTREE) { /* moved only: the filter is as it was */
+            s->hot[di].qlo = q[0], s->hot[di].qhi = q[1];
+        } else {
+            lc_hot_fill(s, slot, q, &s->hot[di]);
+        }
         s->hot[di].flags |= LC_SLOT_DIRTY;
         s->hq[2 * (size_t)di] = q[0], s->hq[2 * (size_t)di + 1] = q[1];
         s->flags[slot] |= LC_SLOT_INTREE;
@@ -463,7 +475,7 @@ static void clear_changes(locd_scene *s)
     size_t k;
     const uint32_t *d = s->dirty.data;
     for (k = 0; k < s->ndirty; k++)
-        s->flags[d[k]] &= (uint8_t)~LC_SLOT_DIRTY;
+        s->flags[d[k]] &= (uint8_t) ~(LC_SLOT_DIRTY | LC_SLOT_REFILTER);
     s->ndirty = 0;
     lc_scene_free_removed(s);
 }
