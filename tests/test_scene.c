@@ -134,7 +134,7 @@ static unsigned g_updates, g_incremental;
 static int steps(int n)
 {
     const char *v = getenv("LOCD_TEST_HEAVY");
-    return v && v[0] == '0' ? (n + 4) / 5 : n;
+    return v && v[0] == '0' ? (n + 9) / 10 : n;
 }
 
 /* Checks the lists of the update just made (pairs, created and lost)
