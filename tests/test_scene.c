@@ -949,7 +949,81 @@ static void hard_cases(void)
     }
 }
 
+/* The float32 entry points give what the float64 ones give for the same
+ * (float-representable) values. */
+static void f32_entry_points_match_f64(void)
+{
+    locd_engine *e = new_engine(1, NULL);
+    locd_scene *s32 = NULL, *s64 = NULL;
+    world w;
+    float f[6 * 200], q32[6], o32[3], d32[3];
+    double b[6 * 200], q64[6], o64[3], d64[3];
+    locd_id ids32[200], ids64[200], h32[200], h64[200];
+    double t32[200], t64[200];
+    size_t n32, n64, i;
+    int k, a;
+    memset(&w, 0, sizeof w);
+    ts_seed(&w.r, 77);
+    w.extent = 30.0, w.size = 3.0;
+    for (i = 0; i < 6 * 200; i++) {
+        if (i % 6 == 0)
+            random_box(&w, b + i);
+    }
+    for (i = 0; i < 6 * 200; i++)
+        f[i] = (float)b[i], b[i] = f[i];
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s32));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s64));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s32, f, 200, NULL, ids32));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s64, b, 200, NULL, ids64));
+    TEST_ASSERT_EQUAL_MEMORY(ids32, ids64, sizeof ids32);
+    for (k = 0; k < 40; k++) {
+        if (k == 20) { /* moved through both entry points, updated */
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s32, ids32, f + 6 * 100, 100));
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s64, ids64, b + 6 * 100, 100));
+        }
+        if (k % 10 == 0) {
+            const locd_id *p32, *p64;
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s32, LOCD_SCENE_UPDATE_PAIRS));
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s64, LOCD_SCENE_UPDATE_PAIRS));
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s32, &p32, &n32));
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s64, &p64, &n64));
+            same_rows("f32 against f64", p64, n64, p32, n32);
+        }
+        random_box(&w, q64);
+        for (a = 0; a < 6; a++) { /* volatile: the rounding to float must happen here */
+            volatile float t = (float)q64[a];
+            q32[a] = t;
+            q64[a] = (double)t;
+        }
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_query_box_f32(s32, q32, ~(uint64_t)0, h32, 200, &n32));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_query_box_f64(s64, q64, ~(uint64_t)0, h64, 200, &n64));
+        TEST_ASSERT_EQUAL_UINT64(n64, n32);
+        if (n64)
+            TEST_ASSERT_EQUAL_MEMORY(h64, h32, n64 * sizeof *h64);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_query_point_f32(s32, q32, 3, h32, 200, &n32));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_query_point_f64(s64, q64, 3, h64, 200, &n64));
+        TEST_ASSERT_EQUAL_UINT64(n64, n32);
+        if (n64)
+            TEST_ASSERT_EQUAL_MEMORY(h64, h32, n64 * sizeof *h64);
+        for (a = 0; a < 3; a++) {
+            o32[a] = q32[a], o64[a] = q64[a];
+            d32[a] = (float)((ts_uniform(&w.r) - 0.5) * 20.0), d64[a] = d32[a];
+        }
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_raycast_f32(s32, o32, d32, 2.0, ~(uint64_t)0, h32, t32, 200, &n32));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_raycast_f64(s64, o64, d64, 2.0, ~(uint64_t)0, h64, t64, 200, &n64));
+        TEST_ASSERT_EQUAL_UINT64(n64, n32);
+        if (n64) {
+            TEST_ASSERT_EQUAL_MEMORY(h64, h32, n64 * sizeof *h64);
+            TEST_ASSERT_EQUAL_MEMORY(t64, t32, n64 * sizeof *t64);
+        }
+    }
+    locd_scene_destroy(s32);
+    locd_scene_destroy(s64);
+    locd_engine_destroy(e);
+}
+
 static const lt_test tests[] = {
+    LT_TEST(f32_entry_points_match_f64),
     LT_TEST(hard_cases),
     LT_TEST(large_scene_threads_and_fresh),
     LT_TEST(bad_batches_change_nothing),
