@@ -5,6 +5,7 @@
  * right index and nothing changed; allocation failures; thread counts. */
 #include <locd/scene.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -1027,7 +1028,80 @@ static void f32_entry_points_match_f64(void)
     locd_engine_destroy(e);
 }
 
+/* Queries only read: two threads query one scene at once (TSan watches),
+ * each getting what one thread alone gets. */
+typedef struct query_job {
+    const locd_scene *s;
+    uint64_t hash;
+    int failed;
+} query_job;
+
+static void *query_thread(void *arg)
+{
+    query_job *j = arg;
+    locd_id ids[512];
+    double t[512];
+    size_t n, i;
+    int k;
+    uint64_t h = 1469598103934665603ull;
+    for (k = 0; k < 300; k++) {
+        double q[6], o[3], d[3];
+        int a;
+        for (a = 0; a < 3; a++) {
+            q[a] = (k * 7 % 50) + a, q[a + 3] = q[a] + 5.0;
+            o[a] = q[a], d[a] = (a == k % 3) ? 10.0 : 0.5;
+        }
+        if (locd_scene_query_box_f64(j->s, q, ~(uint64_t)0, ids, 512, &n) != LOCD_OK)
+            j->failed = 1;
+        for (i = 0; i < n && !j->failed; i++)
+            h = (h ^ ids[i]) * 1099511628211ull;
+        if (locd_scene_raycast_f64(j->s, o, d, 3.0, ~(uint64_t)0, ids, t, 512, &n) != LOCD_OK)
+            j->failed = 1;
+        for (i = 0; i < n && !j->failed; i++)
+            h = (h ^ ids[i]) * 1099511628211ull;
+    }
+    j->hash = h;
+    return NULL;
+}
+
+static void queries_from_two_threads(void)
+{
+    locd_engine *e = new_engine(2, NULL);
+    locd_scene *s = NULL;
+    world w;
+    double b[6 * 2000];
+    locd_id ids[2000];
+    query_job j0, j1, j2;
+    pthread_t t1, t2;
+    int i;
+    memset(&w, 0, sizeof w);
+    ts_seed(&w.r, 11);
+    w.extent = 60.0, w.size = 2.0;
+    for (i = 0; i < 2000; i++)
+        random_box(&w, b + 6 * i);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b, 1500, NULL, ids));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS));
+    /* some changed since the update: the queries also try those one by one */
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b + 6 * 1500, 500, NULL, ids + 1500));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s, ids, b + 6 * 1000, 100));
+    memset(&j0, 0, sizeof j0);
+    j0.s = s;
+    j1 = j0, j2 = j0;
+    query_thread(&j0);
+    TEST_ASSERT_EQUAL_INT(0, pthread_create(&t1, NULL, query_thread, &j1));
+    TEST_ASSERT_EQUAL_INT(0, pthread_create(&t2, NULL, query_thread, &j2));
+    pthread_join(t1, NULL);
+    pthread_join(t2, NULL);
+    TEST_ASSERT_FALSE(j0.failed || j1.failed || j2.failed);
+    TEST_ASSERT_EQUAL_UINT64(j0.hash, j1.hash);
+    TEST_ASSERT_EQUAL_UINT64(j0.hash, j2.hash);
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+}
+
 static const lt_test tests[] = {
+    LT_TEST(queries_from_two_threads),
     LT_TEST(f32_entry_points_match_f64),
     LT_TEST(hard_cases),
     LT_TEST(large_scene_threads_and_fresh),
