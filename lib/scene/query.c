@@ -187,7 +187,8 @@ static int tree_candidates(const locd_scene *s, const lc_ask *q, lc_hits *hs)
                         for (part = 0; part < 2; part++) {
                             const uint64_t *e = part ? tr->ovf.data : tr->ent.data;
                             size_t n = part ? tr->novf : tr->count, i;
-                            for (i = lc_lower_bound(e, n, key << ib); i < n && (e[i] >> ib) == key; i++) {
+                            i = part ? lc_lower_bound(e, n, key << ib) : lc_tree_lower_bound(tr, key << ib);
+                            for (; i < n && (e[i] >> ib) == key; i++) {
                                 uint32_t slot;
                                 if ((e[i] & imask) == imask)
                                     continue; /* a tombstone */
