@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Every function liblocd exports has an entry in docs/api.md (meson test 'api_docs').
+"""Every function liblocd and liblocd_narrow export has an entry in docs/api.md (meson test 'api_docs').
 
-    python3 scripts/check_api_docs.py docs/api.md build/lib/liblocd.so
+    python3 scripts/check_api_docs.py docs/api.md build/lib/liblocd.so [build/lib/liblocd_narrow.so ...]
 
 Reads the exported functions with `nm -D --defined-only` (the ' T locd_' symbols, version suffix
 dropped) and fails, naming them, when one does not appear in the page as a whole word. Exit 77
@@ -25,17 +25,20 @@ def exported(lib):
 
 
 def main():
-    if len(sys.argv) != 3:
+    if len(sys.argv) < 3:
         print(__doc__)
         return 2
-    doc, lib = sys.argv[1], sys.argv[2]
+    doc, libs = sys.argv[1], sys.argv[2:]
     if not shutil.which("nm"):
         print("nm not found: skipped")
         return 77
-    names = exported(lib)
-    if not names:
-        print("no locd_ function exported by %s: is it the library?" % lib)
-        return 1
+    names = []
+    for lib in libs:
+        found = exported(lib)
+        if not found:
+            print("no locd_ function exported by %s: is it the library?" % lib)
+            return 1
+        names += found
     text = open(doc, encoding="utf-8").read()
     missing = [n for n in names if not re.search(r"(?<![A-Za-z0-9_])%s(?![A-Za-z0-9_])" % re.escape(n), text)]
     if missing:
