@@ -87,6 +87,8 @@ static void world_boxes(locd_world *w, const locd_pipeline_options *o, uint32_t 
         const double *v = w->vel + 6 * i;
         double *box = w->boxes + 6 * i;
         lc_placed p;
+        if (!w->shapes[i])
+            continue; /* removed */
         lc_pose_to_rt(w->poses + 7 * i, w->R + 12 * i, w->R + 12 * i + 9);
         lc_place(w->shapes[i], w->R + 12 * i, w->R + 12 * i + 9, &p);
         lc_placed_box(&p, box);
@@ -263,27 +265,25 @@ static locd_status stage_contact(locd_world *w, const locd_pipeline_options *o, 
  * come first in the result, each part in broad-phase order). */
 static locd_status run(locd_world *w, const locd_pipeline_options *o, locd_contacts *out, locd_pipeline_stats *s)
 {
-    locd_stats bs;
+    uint64_t candidates;
     const uint32_t *bp;
     size_t m, k, nd = 0, ns = 0;
     uint32_t *disc, *swept;
     double t0 = lc_now_ms();
     locd_status st;
 
-    s->objects = (uint32_t)w->n;
+    s->objects = (uint32_t)w->live;
     st = reserve_scratch(w, 0);
     if (st != LOCD_OK)
         return st;
     world_boxes(w, o, &s->swept_objects);
-    st = locd_engine_find_pairs_f64(w->engine, w->boxes, w->n, o->find_flags, w->pairs);
-    if (st != LOCD_OK)
+    /* Only the objects whose box changed cost anything here (world_broad.c). */
+    if ((st = lc_world_broad_find(w, o->find_flags, &candidates)) != LOCD_OK)
         return st;
     m = locd_pairs_count(w->pairs);
-    locd_stats_init(&bs);
-    if (locd_engine_stats(w->engine, &bs) == LOCD_OK)
-        s->broad.tests = bs.candidates;
+    s->broad.tests = candidates;
     s->broad.calls = 1;
-    s->broad.pairs_in = w->n > 1 ? (uint64_t)w->n * (uint64_t)(w->n - 1) / 2 : 0;
+    s->broad.pairs_in = w->live > 1 ? (uint64_t)w->live * (uint64_t)(w->live - 1) / 2 : 0;
     s->broad.pairs_out = m;
     s->broad.ms = lc_now_ms() - t0;
 
@@ -337,7 +337,10 @@ locd_status locd_world_collide(locd_world *w, const locd_pipeline_options *optio
     out->count = 0;
     out->has_contact = 0;
     locd_pipeline_stats_init(&s);
+    lc_world_events_clear(w);
     st = run(w, &o, out, &s);
+    if (st == LOCD_OK)
+        st = lc_world_events_update(w, out);
     if (st != LOCD_OK) {
         out->count = 0;
         out->has_contact = 0;
