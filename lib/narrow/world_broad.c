@@ -280,11 +280,11 @@ static locd_status find_from_scratch(locd_world *w, uint32_t find_flags, uint64_
     p = w->pairs->data;
     /* Packed indices are increasing in object index: (i, j) order survives. */
     for (k = 0; k < m; k++) {
-        uint32_t i = idx[p[2 * k]], j = idx[p[2 * k + 1]];
-        if (!filter_pass(f + i, f + j))
+        uint32_t a = idx[p[2 * k]], c = idx[p[2 * k + 1]];
+        if (!filter_pass(f + a, f + c))
             continue;
-        p[2 * kept] = i < j ? i : j;
-        p[2 * kept + 1] = i < j ? j : i;
+        p[2 * kept] = a < c ? a : c;
+        p[2 * kept + 1] = a < c ? c : a;
         kept++;
     }
     w->pairs->count = kept;
