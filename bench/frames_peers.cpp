@@ -14,7 +14,8 @@
 //   bullet   btDbvtBroadphase::setAabb for each moved proxy, then
 //            calculateOverlappingPairs (its pair cache holds the pairs);
 //            static boxes are proxies of StaticFilter that do not collide
-//            with each other (Bullet's own rule)
+//            with each other (Bullet's own rule); coordinates scaled by a
+//            power of two to Bullet's unit-sized regime (bullet_scale)
 //   fcl      each moved object's AABB set, DynamicAABBTreeCollisionManager::
 //            update(moved objects), then collide() (dynamic x dynamic) and
 //            collide(static manager) (dynamic x static): statics live in a
@@ -35,6 +36,7 @@ extern "C" {
 #include <fcl/geometry/shape/box.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -154,12 +156,25 @@ struct rebuild_sys : system_base {
 
 // ---- Bullet ----
 
+// Bullet's tree margin (DBVT_BP_MARGIN, 0.05) is absolute: it is made for
+// boxes about a unit in size. The boxes are scaled for Bullet by the power of
+// two that brings the mean edge nearest to 1: exact in floating point, so
+// the overlaps (and the work) are the same, in Bullet's own regime.
+float bullet_scale(const frames_motion &m)
+{
+    double edge = m.step / 0.03; // frames_motion: step = 3% of the mean edge
+    return edge > 0.0 ? (float)std::ldexp(1.0, -(int)std::lround(std::log2(edge))) : 1.0f;
+}
+
 struct bullet_sys : system_base {
     btDefaultCollisionConfiguration cfg;
     btCollisionDispatcher disp{&cfg};
     btDbvtBroadphase *bp = nullptr;
     std::vector<btBroadphaseProxy *> proxies;
-    bullet_sys(const frames_motion &m, const float *boxes)
+    float scale;
+    btVector3 lo(const float *b) const { return btVector3(scale * b[0], scale * b[1], scale * b[2]); }
+    btVector3 hi(const float *b) const { return btVector3(scale * b[3], scale * b[4], scale * b[5]); }
+    bullet_sys(const frames_motion &m, const float *boxes) : scale(bullet_scale(m))
     {
         bp = new btDbvtBroadphase();
         proxies.resize(m.n);
@@ -168,8 +183,7 @@ struct bullet_sys : system_base {
             int group = m.is_static[i] ? btBroadphaseProxy::StaticFilter : btBroadphaseProxy::DefaultFilter;
             int mask = m.is_static[i] ? btBroadphaseProxy::AllFilter ^ btBroadphaseProxy::StaticFilter
                                       : btBroadphaseProxy::AllFilter;
-            proxies[i] = bp->createProxy(btVector3(b[0], b[1], b[2]), btVector3(b[3], b[4], b[5]),
-                                         BOX_SHAPE_PROXYTYPE, (void *)(std::uintptr_t)(i + 1), group, mask, &disp);
+            proxies[i] = bp->createProxy(lo(b), hi(b), BOX_SHAPE_PROXYTYPE, (void *)(std::uintptr_t)(i + 1), group, mask, &disp);
         }
         bp->calculateOverlappingPairs(&disp);
     }
@@ -188,7 +202,7 @@ struct bullet_sys : system_base {
         for (std::size_t k = 0; k < m.moved; k++) {
             std::uint32_t i = m.dynamic[k];
             const float *b = boxes + 6 * (std::size_t)i;
-            bp->setAabb(proxies[i], btVector3(b[0], b[1], b[2]), btVector3(b[3], b[4], b[5]), &disp);
+            bp->setAabb(proxies[i], lo(b), hi(b), &disp);
         }
         bp->calculateOverlappingPairs(&disp);
         ms.push_back(peer_now_ms() - t0);
