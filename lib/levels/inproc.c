@@ -109,6 +109,13 @@ static void task_gather(void *arg, uint32_t t, uint32_t k)
         memcpy(c->dst + 2 * c->pair_off[t], o->pairs.data, o->count * 2 * sizeof(uint32_t));
 }
 
+lc_pool *lc_inproc_pool(locd_engine *e, int *kernel)
+{
+    lc_inproc *ip = e->backend;
+    *kernel = ip->kernel;
+    return ip->pool;
+}
+
 static locd_status inproc_open(locd_engine *e)
 {
     lc_inproc *ip = lc_alloc(&e->alloc, sizeof *ip);

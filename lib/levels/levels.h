@@ -60,6 +60,11 @@ typedef struct lc_shm_ctl {
     lc_shm_slot slot[LC_MAX_THREADS];
 } lc_shm_ctl;
 
+/* ---- level 1's pool, lent to the scene (inproc.c) ----
+ * The thread pool of a level-1 engine and the kernel it chose; the scene
+ * runs its steps on them while it holds the engine's busy flag. */
+lc_pool *lc_inproc_pool(struct locd_engine *e, int *kernel);
+
 /* ---- planning (plan.c): the work split levels 1 and 2 share ----
  * n objects go in k shares of near-equal size (contiguous, in order: the
  * merged result does not depend on k); share t encodes into region t of an

@@ -1,0 +1,157 @@
+/* lib/scene: the persistent scene of include/locd/scene.h (docs/scene.md).
+ * It sits above levels/: it runs its big steps on the level-1 engine's
+ * thread pool (lc_inproc_pool) and uses the octree's encode and sweep
+ * coordinates. Private; not installed.
+ *
+ * Files: slots.c (ids, slots), validate.c (batch checks), scene.c (create,
+ * the changes), tree.c (the two sorted entry lists and their repair),
+ * find.c (pairs of the moved objects), rebuild.c (everything from scratch),
+ * pairset.c (sorted pair lists: sort, merge, difference), update.c,
+ * query.c, stats.c. */
+#ifndef LOCD_SCENE_IMPL_H
+#define LOCD_SCENE_IMPL_H
+
+#include "levels/levels.h"
+#include "locd/scene.h"
+#include "octree/octree.h"
+
+/* Slot flags. */
+#define LC_SLOT_LIVE 0x1u    /* holds an object */
+#define LC_SLOT_STATIC 0x2u  /* the object is static */
+#define LC_SLOT_DIRTY 0x4u   /* added, moved or re-filtered since the last update (in scene->dirty) */
+#define LC_SLOT_REMOVED 0x8u /* removed since the last update; freed by the next one */
+#define LC_SLOT_INTREE 0x10u /* has entries in a tree list (its cells are in slot->cell) */
+
+/* An id: the serial number of the add (1, 2, ...: never reused) in the high
+ * 32 bits, the slot in the low 32. Serials grow with every add, so sorting
+ * ids sorts by serial: a pair's order key is serial_a << 32 | serial_b. */
+#define LC_ID_SLOT(id) ((uint32_t)((id)&0xffffffffu))
+#define LC_ID_SERIAL(id) ((uint32_t)((id) >> 32))
+#define LC_MAX_SERIAL 0xffffffffu
+
+/* The cells an object's entries were made from: its level, the first cell
+ * per axis and whether it spans a second one (bit a of span). Enough to
+ * write its entries again, so the old entries of a moved object can be
+ * found and removed without keeping them. */
+typedef struct lc_cells {
+    uint32_t c0[3];
+    uint8_t level, span, pad[2];
+} lc_cells;
+
+/* A sorted list of entries (octree key << index_bits | slot) and how many
+ * entries it holds per level (a level with none is never searched). */
+typedef struct lc_tree {
+    lc_buf ent; /* uint64 */
+    size_t count;
+    size_t per_level[32];
+} lc_tree;
+
+/* A sorted pair list: rows of two ids. */
+typedef struct lc_plist {
+    lc_buf rows; /* locd_id, two a row */
+    size_t count;
+} lc_plist;
+
+struct locd_scene {
+    uint32_t magic;
+    locd_engine *engine;
+    const locd_allocator *alloc; /* the engine's */
+    lc_pool *pool;
+    uint32_t threads;
+    int kernel;
+
+    /* slots (slots.c) */
+    size_t nslots;      /* slots ever used */
+    size_t live;        /* objects now */
+    size_t live_static; /* static objects now */
+    size_t slot_cap;
+    locd_id *id;        /* per slot; the current object's id (kept after removal until freed) */
+    double *box;        /* 6 per slot */
+    uint64_t *cat, *mask, *group, *user;
+    uint8_t *flags;
+    uint32_t *stamp;     /* duplicate check of a batch */
+    uint32_t stamp_now;
+    lc_cells *cell;      /* per slot, valid with LC_SLOT_INTREE */
+    uint64_t *qbox;      /* 2 per slot: packed sweep box at the tree's grid (valid with LC_SLOT_INTREE) */
+    lc_buf free_slots;   /* uint32 stack */
+    size_t nfree;
+    uint32_t serial;     /* serials issued */
+    lc_buf dirty;        /* uint32 slots flagged LC_SLOT_DIRTY */
+    size_t ndirty;
+    lc_buf removed;      /* uint32 slots flagged LC_SLOT_REMOVED */
+    size_t nremoved;
+
+    /* broad phase (tree.c) */
+    int have_tree;
+    locd_grid grid;
+    lc_tree dyn, sta; /* entries of the dynamic and of the static objects */
+
+    /* pairs (update.c) */
+    lc_plist pairs, created, lost; /* the current set and the last events */
+    int show_pairs, show_events;   /* the flags of the last update */
+    locd_scene_stats stats;
+};
+
+/* ---- slots (slots.c) ---- */
+/* The slot of id if it names a live object, else -1. */
+int64_t lc_scene_slot(const locd_scene *s, locd_id id);
+/* Makes room for `more` new slots (nothing else changes on failure). */
+locd_status lc_scene_reserve(locd_scene *s, size_t more);
+/* Takes a free slot (after lc_scene_reserve) for a new object; returns it. */
+uint32_t lc_scene_take_slot(locd_scene *s);
+/* Marks a slot dirty (in scene->dirty; room reserved beforehand). */
+void lc_scene_mark_dirty(locd_scene *s, uint32_t slot);
+/* Releases every slot removed since the last update to the free list. */
+void lc_scene_free_removed(locd_scene *s);
+void lc_scene_slots_fini(locd_scene *s);
+/* Room for `more` entries in the dirty and removed lists. */
+locd_status lc_scene_reserve_lists(locd_scene *s, size_t more_dirty, size_t more_removed);
+
+/* ---- batch checks (validate.c): nothing is changed; errors name the index ---- */
+locd_status lc_scene_check_boxes_f32(const float *boxes, size_t n);
+locd_status lc_scene_check_boxes_f64(const double *boxes, size_t n);
+/* Every id live and none twice (stamps only). */
+locd_status lc_scene_check_ids(locd_scene *s, const locd_id *ids, size_t n);
+/* Every id live (duplicates allowed: for reads). */
+locd_status lc_scene_check_ids_live(const locd_scene *s, const locd_id *ids, size_t n);
+locd_status lc_scene_check_handle(const locd_scene *s);
+
+/* ---- pair filter: may a and b pair at all? ---- */
+LC_INLINE int lc_scene_may_pair(const locd_scene *s, uint32_t a, uint32_t b)
+{
+    if ((s->flags[a] & s->flags[b] & LC_SLOT_STATIC) != 0)
+        return 0;
+    if (!(s->cat[a] & s->mask[b]) || !(s->cat[b] & s->mask[a]))
+        return 0;
+    return !(s->group[a] == s->group[b] && s->group[a] != 0);
+}
+LC_INLINE int lc_box_overlap(const double *a, const double *b)
+{
+    return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+}
+
+/* ---- sorted pair lists (pairset.c) ---- */
+locd_status lc_plist_reserve(const locd_allocator *a, lc_plist *p, size_t rows);
+void lc_plist_fini(const locd_allocator *a, lc_plist *p);
+/* The order key of a row: serial_a << 32 | serial_b. */
+LC_INLINE uint64_t lc_pair_key(const locd_id *row)
+{
+    return (uint64_t)LC_ID_SERIAL(row[0]) << 32 | LC_ID_SERIAL(row[1]);
+}
+/* Sorts rows[0, n) (scratch: 2 * n locd_id) by key. */
+locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n);
+/* out = a \ b (both sorted); out has room for na rows. Returns rows written. */
+size_t lc_plist_minus(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out);
+/* out = a merged with b (both sorted, disjoint); room for na + nb rows. */
+void lc_plist_merge(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out);
+
+/* ---- broad phase (rebuild.c, tree.c, find.c) ---- */
+void lc_scene_tree_fini(locd_scene *s);
+/* Computes the pairs of the live objects from scratch into *out (sorted). */
+locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates);
+
+/* ---- queries (query.c) ---- */
+/* The ray-box slab test (docs/scene.md); 1 and *t_enter on a hit. */
+int lc_ray_box(const double *b, const double *o, const double *d, double max_t, double *t_enter);
+
+#endif

@@ -1,0 +1,520 @@
+/* The persistent scene (include/locd/scene.h) against a brute-force model
+ * written here: long random sequences of add, move, remove, set_filter and
+ * set_user, with static objects, compared at every update (pairs, created,
+ * lost) and with box, point and ray queries; bad batches rejected with the
+ * right index and nothing changed; allocation failures; thread counts. */
+#include <locd/scene.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "runner.h"
+
+#include "fail_alloc.h"
+#include "support.h"
+
+/* ---- the model ---- */
+typedef struct m_obj {
+    locd_id id;
+    double box[6];
+    uint64_t cat, mask, group, user;
+    int stat;
+} m_obj;
+
+typedef struct model {
+    m_obj *o;
+    size_t n, cap;
+    locd_id *pairs; /* rows of the last update, sorted */
+    size_t npairs;
+} model;
+
+static void m_add(model *m, locd_id id, const double *box, uint64_t cat, uint64_t mask, uint64_t group,
+                  uint64_t user, int stat)
+{
+    if (m->n == m->cap) {
+        m->cap = m->cap ? 2 * m->cap : 64;
+        m->o = realloc(m->o, m->cap * sizeof *m->o);
+    }
+    m->o[m->n].id = id;
+    memcpy(m->o[m->n].box, box, sizeof m->o[m->n].box);
+    m->o[m->n].cat = cat, m->o[m->n].mask = mask, m->o[m->n].group = group, m->o[m->n].user = user;
+    m->o[m->n].stat = stat;
+    m->n++;
+}
+
+static m_obj *m_find(model *m, locd_id id)
+{
+    size_t k;
+    for (k = 0; k < m->n; k++)
+        if (m->o[k].id == id)
+            return &m->o[k];
+    return NULL;
+}
+
+static void m_remove(model *m, locd_id id)
+{
+    m_obj *o = m_find(m, id);
+    TEST_ASSERT_NOT_NULL(o);
+    *o = m->o[--m->n];
+}
+
+static int overlap(const double *a, const double *b)
+{
+    return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+}
+
+static int may_pair(const m_obj *a, const m_obj *b)
+{
+    if (a->stat && b->stat)
+        return 0;
+    if (!(a->cat & b->mask) || !(b->cat & a->mask))
+        return 0;
+    if (a->group == b->group && a->group != 0)
+        return 0;
+    return overlap(a->box, b->box);
+}
+
+static int cmp_row(const void *pa, const void *pb)
+{
+    const locd_id *a = pa, *b = pb;
+    if (a[0] != b[0])
+        return a[0] < b[0] ? -1 : 1;
+    return (a[1] > b[1]) - (a[1] < b[1]);
+}
+
+static locd_id *m_pairs(const model *m, size_t *count)
+{
+    size_t i, j, w = 0, cap = 64;
+    locd_id *r = malloc(cap * 2 * sizeof *r);
+    for (i = 0; i < m->n; i++)
+        for (j = i + 1; j < m->n; j++)
+            if (may_pair(&m->o[i], &m->o[j])) {
+                if (w == cap)
+                    cap *= 2, r = realloc(r, cap * 2 * sizeof *r);
+                r[2 * w] = m->o[i].id < m->o[j].id ? m->o[i].id : m->o[j].id;
+                r[2 * w + 1] = m->o[i].id < m->o[j].id ? m->o[j].id : m->o[i].id;
+                w++;
+            }
+    qsort(r, w, 2 * sizeof *r, cmp_row);
+    *count = w;
+    return r;
+}
+
+/* Rows of a not in b (both sorted). */
+static locd_id *minus(const locd_id *a, size_t na, const locd_id *b, size_t nb, size_t *count)
+{
+    size_t i, j = 0, w = 0;
+    locd_id *r = malloc((na ? na : 1) * 2 * sizeof *r);
+    for (i = 0; i < na; i++) {
+        while (j < nb && cmp_row(b + 2 * j, a + 2 * i) < 0)
+            j++;
+        if (j < nb && cmp_row(b + 2 * j, a + 2 * i) == 0)
+            continue;
+        r[2 * w] = a[2 * i], r[2 * w + 1] = a[2 * i + 1], w++;
+    }
+    *count = w;
+    return r;
+}
+
+static void same_rows(const char *what, const locd_id *want, size_t nwant, const locd_id *got, size_t ngot)
+{
+    size_t k;
+    if (nwant != ngot)
+        LT_FAIL("%s: %zu rows, expected %zu", what, ngot, nwant);
+    for (k = 0; k < nwant; k++)
+        if (want[2 * k] != got[2 * k] || want[2 * k + 1] != got[2 * k + 1])
+            LT_FAIL("%s: row %zu is (%llx, %llx), expected (%llx, %llx)", what, k, (unsigned long long)got[2 * k],
+                    (unsigned long long)got[2 * k + 1], (unsigned long long)want[2 * k],
+                    (unsigned long long)want[2 * k + 1]);
+}
+
+/* Updates the scene and checks pairs, created and lost against the model. */
+static void check_update(locd_scene *s, model *m)
+{
+    const locd_id *p;
+    size_t np, nw, nc, nl;
+    locd_id *want = m_pairs(m, &nw), *cr, *lo;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s, &p, &np));
+    same_rows("pairs", want, nw, p, np);
+    cr = minus(want, nw, m->pairs, m->npairs, &nc);
+    lo = minus(m->pairs, m->npairs, want, nw, &nl);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_created(s, &p, &np));
+    same_rows("created", cr, nc, p, np);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_lost(s, &p, &np));
+    same_rows("lost", lo, nl, p, np);
+    free(cr);
+    free(lo);
+    free(m->pairs);
+    m->pairs = want;
+    m->npairs = nw;
+    TEST_ASSERT_EQUAL_UINT64(m->n, locd_scene_count(s));
+}
+
+/* ---- queries against the model ---- */
+typedef struct hit {
+    double t;
+    locd_id id;
+} hit;
+
+static int cmp_hit(const void *pa, const void *pb)
+{
+    const hit *a = pa, *b = pb;
+    if (a->t != b->t)
+        return a->t < b->t ? -1 : 1;
+    return (a->id > b->id) - (a->id < b->id);
+}
+
+/* The reference slab test, written as docs/scene.md states it. */
+static int ray_ref(const double *b, const double *o, const double *d, double max_t, double *t)
+{
+    double t0 = 0.0, t1 = max_t;
+    int a;
+    for (a = 0; a < 3; a++) {
+        if (d[a] == 0.0) {
+            if (o[a] < b[a] || o[a] > b[a + 3])
+                return 0;
+            continue;
+        }
+        {
+            double u = (b[a] - o[a]) / d[a], v = (b[a + 3] - o[a]) / d[a];
+            double lo = u < v ? u : v, hi = u < v ? v : u;
+            t0 = lo > t0 ? lo : t0;
+            t1 = hi < t1 ? hi : t1;
+        }
+    }
+    *t = t0;
+    return t0 <= t1;
+}
+
+/* kind 0 box, 1 point, 2 ray; q: 6 values (box), 3 (point) or o, d, max_t. */
+static void check_query(const locd_scene *s, const model *m, int kind, const double *q, uint64_t mask)
+{
+    hit *want = malloc((m->n + 1) * sizeof *want);
+    locd_id *ids = malloc((m->n + 1) * sizeof *ids);
+    double *ts = malloc((m->n + 1) * sizeof *ts);
+    size_t k, w = 0, count = 99;
+    for (k = 0; k < m->n; k++) {
+        const m_obj *o = &m->o[k];
+        double t = 0.0, pb[6];
+        int h;
+        if (!(o->cat & mask))
+            continue;
+        if (kind == 0)
+            h = overlap(o->box, q);
+        else if (kind == 1) {
+            memcpy(pb, q, 3 * sizeof *q);
+            memcpy(pb + 3, q, 3 * sizeof *q);
+            h = overlap(o->box, pb);
+        } else
+            h = ray_ref(o->box, q, q + 3, q[6], &t);
+        if (h)
+            want[w].t = t, want[w].id = o->id, w++;
+    }
+    qsort(want, w, sizeof *want, cmp_hit);
+    if (kind == 0)
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_query_box_f64(s, q, mask, ids, m->n + 1, &count));
+    else if (kind == 1)
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_query_point_f64(s, q, mask, ids, m->n + 1, &count));
+    else
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_raycast_f64(s, q, q + 3, q[6], mask, ids, ts, m->n + 1, &count));
+    TEST_ASSERT_EQUAL_UINT64(w, count);
+    for (k = 0; k < w; k++) {
+        if (ids[k] != want[k].id)
+            LT_FAIL("query kind %d hit %zu: id %llx, expected %llx", kind, k, (unsigned long long)ids[k],
+                    (unsigned long long)want[k].id);
+        if (kind == 2 && memcmp(&ts[k], &want[k].t, sizeof(double)) != 0)
+            LT_FAIL("ray hit %zu: t %.17g, expected %.17g", k, ts[k], want[k].t);
+    }
+    if (w > 0) { /* one short: nothing written, the count reported */
+        ids[0] = 12345;
+        if (kind == 0)
+            TEST_ASSERT_EQUAL_INT(LOCD_ERR_BUFFER_TOO_SMALL, locd_scene_query_box_f64(s, q, mask, ids, w - 1, &count));
+        else if (kind == 1)
+            TEST_ASSERT_EQUAL_INT(LOCD_ERR_BUFFER_TOO_SMALL,
+                                  locd_scene_query_point_f64(s, q, mask, ids, w - 1, &count));
+        else
+            TEST_ASSERT_EQUAL_INT(LOCD_ERR_BUFFER_TOO_SMALL,
+                                  locd_scene_raycast_f64(s, q, q + 3, q[6], mask, ids, ts, w - 1, &count));
+        TEST_ASSERT_EQUAL_UINT64(w, count);
+        if (w > 1)
+            TEST_ASSERT_EQUAL_UINT64(12345, ids[0]);
+    }
+    free(want);
+    free(ids);
+    free(ts);
+}
+
+/* ---- random worlds ---- */
+typedef struct world {
+    ts_rng r;
+    double extent; /* coordinates in [0, extent) */
+    double size;   /* typical box edge */
+    int shape;     /* 0 random, 1 lattice (touching faces), 2 far from the origin */
+} world;
+
+static void random_box(world *w, double *b)
+{
+    int a;
+    double base = w->shape == 2 ? 1e7 : 0.0;
+    double e = w->size * (0.2 + ts_uniform(&w->r));
+    if ((ts_next(&w->r) & 31) == 0)
+        e *= 20.0; /* a huge one now and then */
+    if ((ts_next(&w->r) & 31) == 1)
+        e = 0.0; /* a point */
+    for (a = 0; a < 3; a++) {
+        double lo = base + ts_uniform(&w->r) * w->extent;
+        if (w->shape == 1) {
+            lo = base + floor(lo / w->size) * w->size;
+            b[a] = lo;
+            b[a + 3] = lo + w->size;
+        } else {
+            b[a] = lo;
+            b[a + 3] = lo + e * (0.5 + ts_uniform(&w->r));
+        }
+    }
+    if (w->shape == 2)
+        for (a = 0; a < 6; a++)
+            b[a] = (double)(float)b[a]; /* representable in float too */
+}
+
+static uint64_t random_bits(world *w)
+{
+    /* few bits, so that filters bite often */
+    static const uint64_t v[] = {1, 2, 3, 4, 7, ~(uint64_t)0};
+    return v[ts_next(&w->r) % 6];
+}
+
+typedef struct run_opts {
+    uint32_t threads;
+    int steps;
+    int start; /* objects added first */
+    int shape;
+    int queries; /* queries per step */
+    uint64_t seed;
+} run_opts;
+
+static locd_engine *new_engine(uint32_t threads, const locd_allocator *alloc)
+{
+    locd_engine_config cfg;
+    locd_engine *e = NULL;
+    locd_engine_config_init(&cfg);
+    cfg.threads = threads;
+    if (alloc)
+        cfg.allocator = *alloc;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_create(&cfg, &e));
+    return e;
+}
+
+static void random_query(world *w, const locd_scene *s, const model *m)
+{
+    double q[7];
+    int kind = (int)(ts_next(&w->r) % 3);
+    uint64_t mask = random_bits(w);
+    random_box(w, q);
+    if (kind == 0 && (ts_next(&w->r) & 3) == 0) { /* a large region */
+        int a;
+        for (a = 0; a < 3; a++)
+            q[a + 3] = q[a] + w->extent * 0.5;
+    }
+    if (kind == 2) {
+        int a;
+        if ((ts_next(&w->r) & 7) == 0 && m->n) { /* start inside an object */
+            const m_obj *o = &m->o[ts_next(&w->r) % m->n];
+            for (a = 0; a < 3; a++)
+                q[a] = o->box[a];
+        }
+        for (a = 0; a < 3; a++) {
+            q[3 + a] = (ts_uniform(&w->r) - 0.5) * w->extent;
+            if ((ts_next(&w->r) & 3) == 0)
+                q[3 + a] = 0.0; /* parallel to a face */
+        }
+        q[6] = (ts_next(&w->r) & 3) == 0 ? HUGE_VAL : ts_uniform(&w->r) * 1.5;
+    }
+    check_query(s, m, kind, q, mask);
+}
+
+/* Runs one random sequence; returns a hash of every update's pair lists
+ * (for the thread-count comparison). */
+static uint64_t run_sequence(const run_opts *ro)
+{
+    world w;
+    model m;
+    locd_engine *e = new_engine(ro->threads, NULL);
+    locd_scene *s = NULL;
+    uint64_t hash = 1469598103934665603ull;
+    int step, k;
+    size_t big = ro->start > 256 ? (size_t)ro->start : 256;
+    locd_id *ids = malloc(big * sizeof *ids);
+    double *boxes = malloc(6 * big * sizeof *boxes);
+    uint64_t *v[3];
+    float *f = malloc(6 * big * sizeof *f);
+    v[0] = malloc(3 * big * sizeof(uint64_t)), v[1] = v[0] + big, v[2] = v[1] + big;
+    memset(&m, 0, sizeof m);
+    memset(&w, 0, sizeof w);
+    ts_seed(&w.r, ro->seed);
+    w.extent = 100.0;
+    w.size = 4.0;
+    w.shape = ro->shape;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    for (step = 0; step < ro->steps; step++) {
+        int op = step == 0 ? 0 : (int)(ts_next(&w.r) % 10);
+        size_t n = step == 0 ? (size_t)ro->start : 1 + ts_next(&w.r) % 8;
+        size_t i;
+        if (op <= 1 || m.n < 10) { /* add */
+            locd_scene_add_options o;
+            int stat = (ts_next(&w.r) % 3) == 0;
+            locd_scene_add_options_init(&o);
+            o.flags = stat ? LOCD_OBJECT_STATIC : 0;
+            for (i = 0; i < n; i++) {
+                random_box(&w, boxes + 6 * i);
+                v[0][i] = random_bits(&w), v[1][i] = random_bits(&w), v[2][i] = ts_next(&w.r) % 3;
+            }
+            o.categories = v[0], o.masks = v[1], o.groups = v[2];
+            o.user = ts_next(&w.r);
+            if (n > 4 && (ts_next(&w.r) & 1)) {
+                for (i = 0; i < 6 * n; i++)
+                    f[i] = (float)boxes[i], boxes[i] = f[i];
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n, &o, ids));
+            } else {
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, boxes, n, &o, ids));
+            }
+            for (i = 0; i < n; i++)
+                m_add(&m, ids[i], boxes + 6 * i, v[0][i], v[1][i], v[2][i], o.user, stat);
+        } else if (op <= 5) { /* move: some by a small step, some anywhere */
+            size_t cnt = 0;
+            for (i = 0; i < n && i < m.n; i++) {
+                const m_obj *o = &m.o[ts_next(&w.r) % m.n];
+                size_t j;
+                int a, dup = 0;
+                for (j = 0; j < cnt; j++)
+                    dup |= ids[j] == o->id;
+                if (dup)
+                    continue;
+                ids[cnt] = o->id;
+                if (ts_next(&w.r) & 1) {
+                    double d = (ts_uniform(&w.r) - 0.5) * w.size;
+                    for (a = 0; a < 6; a++)
+                        boxes[6 * cnt + (size_t)a] = o->box[a] + (w.shape == 1 ? 0.0 : d);
+                } else {
+                    random_box(&w, boxes + 6 * cnt);
+                }
+                cnt++;
+            }
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s, ids, boxes, cnt));
+            for (i = 0; i < cnt; i++)
+                memcpy(m_find(&m, ids[i])->box, boxes + 6 * i, 6 * sizeof(double));
+        } else if (op == 6) { /* remove */
+            size_t cnt = 0;
+            for (i = 0; i < n && m.n > 0; i++) {
+                locd_id id = m.o[ts_next(&w.r) % m.n].id;
+                ids[cnt++] = id;
+                m_remove(&m, id);
+            }
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, ids, cnt));
+        } else if (op == 7) { /* filter */
+            size_t cnt = 0;
+            int which = (int)(ts_next(&w.r) % 4);
+            for (i = 0; i < n && i < m.n; i++) {
+                const m_obj *o = &m.o[ts_next(&w.r) % m.n];
+                size_t j;
+                int dup = 0;
+                for (j = 0; j < cnt; j++)
+                    dup |= ids[j] == o->id;
+                if (dup)
+                    continue;
+                ids[cnt] = o->id;
+                v[0][cnt] = random_bits(&w), v[1][cnt] = random_bits(&w), v[2][cnt] = ts_next(&w.r) % 3;
+                cnt++;
+            }
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_filter(s, ids, cnt, which != 1 ? v[0] : NULL,
+                                                                 which != 2 ? v[1] : NULL, which != 3 ? v[2] : NULL));
+            for (i = 0; i < cnt; i++) {
+                m_obj *o = m_find(&m, ids[i]);
+                if (which != 1)
+                    o->cat = v[0][i];
+                if (which != 2)
+                    o->mask = v[1][i];
+                if (which != 3)
+                    o->group = v[2][i];
+            }
+        } else if (op == 8) { /* users */
+            size_t cnt = 0;
+            uint64_t *got = v[1];
+            for (i = 0; i < n && i < m.n; i++) {
+                const m_obj *o = &m.o[ts_next(&w.r) % m.n];
+                size_t j;
+                int dup = 0;
+                for (j = 0; j < cnt; j++)
+                    dup |= ids[j] == o->id;
+                if (dup)
+                    continue;
+                ids[cnt] = o->id;
+                v[0][cnt] = ts_next(&w.r);
+                cnt++;
+            }
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_user(s, ids, cnt, v[0]));
+            for (i = 0; i < cnt; i++)
+                m_find(&m, ids[i])->user = v[0][i];
+            for (i = 0; i < m.n && i < 256; i++)
+                ids[i] = m.o[i].id;
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_get_user(s, ids, i, got));
+            while (i-- > 0)
+                TEST_ASSERT_EQUAL_UINT64(m.o[i].user, got[i]);
+        }
+        /* op 9: no change */
+        if ((ts_next(&w.r) % 3) != 0 || step == ro->steps - 1) {
+            const locd_id *p;
+            size_t np;
+            check_update(s, &m);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s, &p, &np));
+            for (i = 0; i < 2 * np; i++)
+                hash = (hash ^ p[i]) * 1099511628211ull;
+        }
+        for (k = 0; k < ro->queries; k++)
+            random_query(&w, s, &m);
+    }
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    free(m.o);
+    free(m.pairs);
+    free(ids), free(boxes), free(f), free(v[0]);
+    return hash;
+}
+
+static void random_sequences(void)
+{
+    int shape;
+    for (shape = 0; shape < 3; shape++) {
+        run_opts ro = {1, 1500, 60, 0, 2, 0};
+        ro.shape = shape;
+        ro.seed = 100 + (uint64_t)shape;
+        run_sequence(&ro);
+    }
+}
+
+static void bigger_scene_two_threads(void)
+{
+    run_opts ro = {2, 200, 3000, 0, 1, 7};
+    run_sequence(&ro);
+}
+
+static void thread_counts_give_identical_lists(void)
+{
+    run_opts ro = {1, 300, 2000, 0, 0, 99};
+    uint64_t h1 = run_sequence(&ro), h2;
+    ro.threads = 2;
+    h2 = run_sequence(&ro);
+    TEST_ASSERT_EQUAL_UINT64(h1, h2);
+}
+
+static const lt_test tests[] = {
+    LT_TEST(random_sequences),
+    LT_TEST(bigger_scene_two_threads),
+    LT_TEST(thread_counts_give_identical_lists),
+};
+
+int main(void)
+{
+    return LT_RUN(tests);
+}
