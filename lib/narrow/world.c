@@ -290,6 +290,26 @@ locd_status locd_world_set_filter(locd_world *w, uint32_t index, uint64_t catego
     return LOCD_OK;
 }
 
+/* The lists world_events.c keeps (here, beside the handle check: world.c
+ * calls into world_events.c, never the reverse). */
+locd_status locd_world_contact_events(const locd_world *w, const uint32_t **began, size_t *began_count,
+                                      const uint32_t **ended, size_t *ended_count)
+{
+    locd_status st;
+    if ((st = lc_world_check(w)) != LOCD_OK)
+        return st;
+    if (began)
+        *began = w->events.began.data;
+    if (began_count)
+        *began_count = w->events.began_n;
+    if (ended)
+        *ended = w->events.ended.data;
+    if (ended_count)
+        *ended_count = w->events.ended_n;
+    lc_clear_error();
+    return LOCD_OK;
+}
+
 /* ---- contacts ---- */
 
 locd_status lc_contacts_check(const locd_contacts *c)

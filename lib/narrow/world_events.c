@@ -69,21 +69,3 @@ locd_status lc_world_events_update(locd_world *w, const locd_contacts *c)
     e->prev_n = m;
     return LOCD_OK;
 }
-
-locd_status locd_world_contact_events(const locd_world *w, const uint32_t **began, size_t *began_count,
-                                      const uint32_t **ended, size_t *ended_count)
-{
-    locd_status st;
-    if ((st = lc_world_check(w)) != LOCD_OK)
-        return st;
-    if (began)
-        *began = w->events.began.data;
-    if (began_count)
-        *began_count = w->events.began_n;
-    if (ended)
-        *ended = w->events.ended.data;
-    if (ended_count)
-        *ended_count = w->events.ended_n;
-    lc_clear_error();
-    return LOCD_OK;
-}
