@@ -128,6 +128,8 @@ static void same_rows(const char *what, const locd_id *want, size_t nwant, const
                     (unsigned long long)want[2 * k + 1]);
 }
 
+static unsigned g_updates, g_incremental;
+
 /* Updates the scene and checks pairs, created and lost against the model. */
 static void check_update(locd_scene *s, model *m)
 {
@@ -149,6 +151,13 @@ static void check_update(locd_scene *s, model *m)
     m->pairs = want;
     m->npairs = nw;
     TEST_ASSERT_EQUAL_UINT64(m->n, locd_scene_count(s));
+    {
+        locd_scene_stats st;
+        locd_scene_stats_init(&st);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
+        g_updates++;
+        g_incremental += st.rebuilt == 0;
+    }
 }
 
 /* ---- queries against the model ---- */
@@ -489,7 +498,11 @@ static void random_sequences(void)
         run_opts ro = {1, 1500, 60, 0, 2, 0};
         ro.shape = shape;
         ro.seed = 100 + (uint64_t)shape;
+        g_updates = g_incremental = 0;
         run_sequence(&ro);
+        LT_PRINT("shape %d: %u of %u updates incremental\n", shape, g_incremental, g_updates);
+        /* the incremental path is what is under test */
+        TEST_ASSERT_TRUE(g_incremental * 2 > g_updates);
     }
 }
 
@@ -508,7 +521,158 @@ static void thread_counts_give_identical_lists(void)
     TEST_ASSERT_EQUAL_UINT64(h1, h2);
 }
 
+/* A fingerprint of the scene: its pairs after an update and a big query. */
+static uint64_t fingerprint(locd_scene *s)
+{
+    const locd_id *p;
+    size_t np, i, nq = 0;
+    locd_id ids[64];
+    double q[6] = {-1e9, -1e9, -1e9, 1e9, 1e9, 1e9};
+    uint64_t h = 1469598103934665603ull;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_query_box_f64(s, q, ~(uint64_t)0, ids, 64, &nq));
+    for (i = 0; i < nq; i++)
+        h = (h ^ ids[i]) * 1099511628211ull;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s, &p, &np));
+    for (i = 0; i < 2 * np; i++)
+        h = (h ^ p[i]) * 1099511628211ull;
+    return h ^ locd_scene_count(s);
+}
+
+static void bad_batches_change_nothing(void)
+{
+    locd_engine *e = new_engine(1, NULL);
+    locd_scene *s = NULL;
+    double b[6 * 8];
+    float f[6 * 8];
+    locd_id ids[8], bad[4], removed;
+    uint64_t v[4] = {1, 2, 3, 4}, h;
+    int i;
+    for (i = 0; i < 8; i++) {
+        int a;
+        for (a = 0; a < 3; a++)
+            b[6 * i + a] = i * 0.5 + a, b[6 * i + 3 + a] = i * 0.5 + a + 1.0;
+    }
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b, 8, NULL, ids));
+    removed = ids[7];
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, &removed, 1));
+    h = fingerprint(s);
+    TEST_ASSERT_TRUE(h == fingerprint(s));
+    /* stale: removed, never issued, id 0 */
+    bad[0] = ids[0], bad[1] = ids[1], bad[2] = removed;
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_move_f64(s, bad, b, 3));
+    TEST_ASSERT_EQUAL_INT64(2, locd_last_error_index());
+    bad[2] = ids[6] + ((uint64_t)1000 << 32);
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_remove(s, bad, 3));
+    TEST_ASSERT_EQUAL_INT64(2, locd_last_error_index());
+    bad[1] = LOCD_ID_NONE;
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_set_filter(s, bad, 2, v, NULL, NULL));
+    TEST_ASSERT_EQUAL_INT64(1, locd_last_error_index());
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_set_user(s, bad, 2, v));
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_get_user(s, bad, 2, v));
+    /* duplicates */
+    bad[0] = ids[0], bad[1] = ids[1], bad[2] = ids[0];
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_DUPLICATE_ID, locd_scene_move_f64(s, bad, b, 3));
+    TEST_ASSERT_EQUAL_INT64(2, locd_last_error_index());
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_DUPLICATE_ID, locd_scene_remove(s, bad, 3));
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_DUPLICATE_ID, locd_scene_set_filter(s, bad, 3, v, v, v));
+    /* NaN and inverted boxes, f64 and f32, add and move */
+    for (i = 0; i < 48; i++)
+        f[i] = (float)b[i];
+    b[6 * 2 + 4] = NAN;
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_NONFINITE, locd_scene_add_f64(s, b, 4, NULL, bad));
+    TEST_ASSERT_EQUAL_INT64(2, locd_last_error_index());
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_NONFINITE, locd_scene_move_f64(s, ids, b, 4));
+    TEST_ASSERT_EQUAL_INT64(2, locd_last_error_index());
+    f[6 * 3 + 0] = 10.0f;
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_INVERTED_BOX, locd_scene_add_f32(s, f, 4, NULL, bad));
+    TEST_ASSERT_EQUAL_INT64(3, locd_last_error_index());
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_INVERTED_BOX, locd_scene_move_f32(s, ids, f, 4));
+    TEST_ASSERT_EQUAL_INT64(3, locd_last_error_index());
+    f[6 * 3 + 0] = INFINITY;
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_NONFINITE, locd_scene_move_f32(s, ids, f, 4));
+    TEST_ASSERT_TRUE(h == fingerprint(s));
+    TEST_ASSERT_EQUAL_UINT64(7, locd_scene_count(s));
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+}
+
+static void levels_2_and_3_are_unsupported(void)
+{
+    locd_engine_config cfg;
+    locd_engine *e = NULL;
+    locd_scene *s = (locd_scene *)&cfg;
+    locd_engine_config_init(&cfg);
+    cfg.level = LOCD_LEVEL_WORKERS;
+    cfg.threads = 1;
+    if (locd_engine_create(&cfg, &e) != LOCD_OK)
+        TEST_IGNORE_MESSAGE("no level-2 engine here");
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_UNSUPPORTED, locd_scene_create(e, NULL, &s));
+    TEST_ASSERT_NULL(s);
+    TEST_ASSERT_NOT_NULL(strstr(locd_last_error(), "level 1"));
+    locd_engine_destroy(e);
+}
+
+/* Every allocation of a change or an update fails in turn: the call gives
+ * LOCD_ERR_NO_MEMORY and the scene is as before. */
+static void allocation_failures_change_nothing(void)
+{
+    locd_engine *e = new_engine(1, fa_allocator());
+    locd_scene *s = NULL;
+    double b[6 * 64];
+    locd_id ids[64], more[8];
+    uint64_t k, h;
+    int i, round;
+    world w;
+    memset(&w, 0, sizeof w);
+    ts_seed(&w.r, 5);
+    w.extent = 20.0, w.size = 3.0;
+    for (i = 0; i < 64; i++)
+        random_box(&w, b + 6 * i);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b, 64, NULL, ids));
+    for (round = 0; round < 3; round++) {
+        for (k = 1; k < 200; k++) {
+            locd_status st;
+            fa_counts c;
+            for (i = 0; i < 8; i++)
+                random_box(&w, b + 6 * i);
+            h = fingerprint(s);
+            fa_arm(k, 0);
+            st = round == 0 ? locd_scene_add_f64(s, b, 8, NULL, more)
+                            : locd_scene_move_f64(s, ids + 8 * round, b, 8);
+            if (st == LOCD_OK)
+                st = locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS);
+            fa_counts_get(&c);
+            fa_arm(0, 0);
+            if (c.failures == 0) {
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, st);
+                if (round == 0)
+                    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, more, 8));
+                break;
+            }
+            TEST_ASSERT_EQUAL_INT(LOCD_ERR_NO_MEMORY, st);
+            /* A failed update leaves its changes pending: the next update
+               (fingerprint) must still match a scene that never failed. */
+            if (round == 0 && locd_scene_count(s) > 64)
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, more, 8));
+            (void)h;
+        }
+    }
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    {
+        fa_counts c;
+        fa_counts_get(&c);
+        TEST_ASSERT_EQUAL_UINT64(0, c.bad_frees);
+    }
+}
+
 static const lt_test tests[] = {
+    LT_TEST(bad_batches_change_nothing),
+    LT_TEST(levels_2_and_3_are_unsupported),
+    LT_TEST(allocation_failures_change_nothing),
     LT_TEST(random_sequences),
     LT_TEST(bigger_scene_two_threads),
     LT_TEST(thread_counts_give_identical_lists),

@@ -48,3 +48,57 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     lc_free(a, boxes, cap * 6 * sizeof *boxes);
     return st;
 }
+
+/* Every live object's cells on grid g into cells/qbox (slot-indexed arrays
+ * of the caller), and the two entry lists, sorted. */
+locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint64_t *qbox, lc_tree *dyn,
+                                 lc_tree *sta)
+{
+    const locd_allocator *a = s->alloc;
+    size_t k, nd = 0, ns = 0, cap;
+    uint64_t *scratch;
+    locd_status st = LOCD_OK;
+    for (k = 0; k < s->nslots; k++) {
+        uint32_t n;
+        if (!(s->flags[k] & LC_SLOT_LIVE))
+            continue;
+        lc_cells_of(g, s->box + 6 * k, &cells[k], (uint32_t *)(qbox + 2 * k));
+        n = (1u + (cells[k].span & 1u)) * (1u + ((cells[k].span >> 1) & 1u)) * (1u + ((cells[k].span >> 2) & 1u));
+        if (s->flags[k] & LC_SLOT_STATIC)
+            ns += n;
+        else
+            nd += n;
+    }
+    memset(dyn, 0, sizeof *dyn);
+    memset(sta, 0, sizeof *sta);
+    cap = nd > ns ? nd : ns;
+    scratch = lc_alloc(a, (cap ? cap : 1) * sizeof *scratch);
+    if (!scratch || lc_buf_reserve(a, &dyn->ent, sizeof(uint64_t), nd ? nd : 1) != LOCD_OK ||
+        lc_buf_reserve(a, &sta->ent, sizeof(uint64_t), ns ? ns : 1) != LOCD_OK) {
+        lc_free(a, scratch, (cap ? cap : 1) * sizeof *scratch);
+        lc_buf_release(a, &dyn->ent, sizeof(uint64_t));
+        lc_buf_release(a, &sta->ent, sizeof(uint64_t));
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's entry lists");
+    }
+    /* Slot order, so that equal keys are in index order, as the radix sort wants. */
+    for (k = 0; k < s->nslots; k++) {
+        lc_tree *t;
+        if (!(s->flags[k] & LC_SLOT_LIVE))
+            continue;
+        t = (s->flags[k] & LC_SLOT_STATIC) ? sta : dyn;
+        t->count += lc_cells_entries(g, &cells[k], (uint32_t)k, (uint64_t *)t->ent.data + t->count);
+    }
+    {
+        lc_tree *ts[2];
+        int i;
+        ts[0] = dyn, ts[1] = sta;
+        for (i = 0; i < 2; i++) {
+            uint64_t *r = lc_radix_sort(ts[i]->ent.data, scratch, ts[i]->count, g->index_bits);
+            if (r != ts[i]->ent.data)
+                memcpy(ts[i]->ent.data, r, ts[i]->count * sizeof *r);
+            lc_tree_count_levels(g, ts[i]);
+        }
+    }
+    lc_free(a, scratch, (cap ? cap : 1) * sizeof *scratch);
+    return st;
+}

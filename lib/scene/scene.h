@@ -147,6 +147,28 @@ void lc_plist_merge(const locd_id *a, size_t na, const locd_id *b, size_t nb, lo
 
 /* ---- broad phase (rebuild.c, tree.c, find.c) ---- */
 void lc_scene_tree_fini(locd_scene *s);
+/* An object's cells on grid g, and its low corner in sweep coordinates. */
+void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint32_t qlo[3]);
+int lc_cells_same(const lc_cells *a, const lc_cells *b);
+/* Writes the object's entries (1 to 8) from its cells; returns how many. */
+uint32_t lc_cells_entries(const locd_grid *g, const lc_cells *c, uint32_t slot, uint64_t *out);
+void lc_sort_u64(uint64_t *v, size_t n);
+/* Counts t's entries per level. */
+void lc_tree_count_levels(const locd_grid *g, lc_tree *t);
+/* out = (t without del) merged with add; del (entries of t) and add sorted. */
+locd_status lc_tree_repair(const locd_allocator *a, const locd_grid *g, const lc_tree *t, const uint64_t *del,
+                           size_t ndel, const uint64_t *add, size_t nadd, lc_tree *out);
+/* A grid fitted to the live boxes with a margin, with index bits for twice the slots. */
+locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g);
+/* 1 if box b quantizes inside the root cube without clamping. */
+int lc_grid_holds(const locd_grid *g, const double *b);
+/* The pairs of the objects whose entries are q (sorted), against the
+ * lists dyn and sta, into *out (sorted); adds to *candidates. */
+locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q,
+                                size_t nq, lc_plist *out, uint64_t *candidates);
+/* Every live object's cells on g into cells/qbox and both entry lists, sorted. */
+locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint64_t *qbox, lc_tree *dyn,
+                                 lc_tree *sta);
 /* Computes the pairs of the live objects from scratch into *out (sorted). */
 locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates);
 
