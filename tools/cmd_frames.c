@@ -215,6 +215,8 @@ typedef struct frames_run {
     locd_id *mid;  /* this frame's moved ids */
     float *mbox;   /* and their boxes */
     double *t_update, *t_rebuild, *n_pairs;
+    double *t_stage[4]; /* the scene's own encode, merge, sweep, events ms per frame */
+    size_t rebuilt;     /* frames the scene answered by rebuilding everything */
     uint64_t created, lost;
     double first_ms;
     checker chk;
@@ -280,6 +282,9 @@ static void setup(frames_run *r)
     r->n_pairs = malloc(r->a.frames * sizeof(double));
     if (!r->ids || !r->mid || !r->mbox || !r->t_update || !r->t_rebuild || !r->n_pairs)
         cli_die("out of memory");
+    for (i = 0; i < 4; i++)
+        if (!(r->t_stage[i] = malloc(r->a.frames * sizeof(double))))
+            cli_die("out of memory");
 }
 
 static double rebuild(frames_run *r)
@@ -327,6 +332,16 @@ static void run_frames(frames_run *r)
             r->t_update[f] = update(r);
             r->t_rebuild[f] = rebuild(r);
         }
+        {
+            locd_scene_stats ss;
+            locd_scene_stats_init(&ss);
+            ok(locd_scene_stats_get(r->scene, &ss), "stats");
+            r->t_stage[0][f] = ss.ms_encode;
+            r->t_stage[1][f] = ss.ms_merge;
+            r->t_stage[2][f] = ss.ms_sweep;
+            r->t_stage[3][f] = ss.ms_events;
+            r->rebuilt += ss.rebuilt != 0;
+        }
         ok(locd_scene_pairs(r->scene, &list, &count), "pairs");
         r->n_pairs[f] = (double)count;
         ok(locd_scene_created(r->scene, &list, &count), "created");
@@ -353,10 +368,13 @@ static void report(frames_run *r)
            "\"update_ms\":%.4f,\"rebuild_ms\":%.4f,\"ratio\":%.4f,\"first_update_ms\":%.3f,"
            "\"pairs\":%.0f,\"created\":%llu,\"lost\":%llu,"
            "\"counts\":\"pairs: median per frame; created, lost: totals over the frames\","
+           "\"scene_ms\":{\"encode\":%.4f,\"merge\":%.4f,\"sweep\":%.4f,\"events\":%.4f},\"rebuilt_frames\":%zu,"
            "\"checked\":%s,\"failed_frames\":%zu,\"cpu\":\"%s\",\"kernel\":\"%s\"}\n",
            r->sc.n, nstatic, r->a.static_frac, r->a.moving, r->m.moved, r->a.frames, ss.threads,
            (unsigned long long)r->a.seed, r->m.step, up, rb, rb > 0.0 ? up / rb : 0.0, r->first_ms,
            cli_median(r->n_pairs, r->a.frames), (unsigned long long)r->created, (unsigned long long)r->lost,
+           cli_median(r->t_stage[0], r->a.frames), cli_median(r->t_stage[1], r->a.frames),
+           cli_median(r->t_stage[2], r->a.frames), cli_median(r->t_stage[3], r->a.frames), r->rebuilt,
            r->a.check ? "true" : "false", r->chk.failures, cpu, kernel && *kernel ? kernel : "auto");
 }
 
@@ -375,6 +393,10 @@ static void close_run(frames_run *r)
     free(r->t_update);
     free(r->t_rebuild);
     free(r->n_pairs);
+    free(r->t_stage[0]);
+    free(r->t_stage[1]);
+    free(r->t_stage[2]);
+    free(r->t_stage[3]);
     free(r->chk.prev.r);
     free(r->chk.cur.r);
     free(r->chk.diff.r);
