@@ -28,6 +28,7 @@ ROOT = Path(__file__).resolve().parent.parent
 # the project's venv when matplotlib is missing, so import it the same way.
 bench_run = importlib.machinery.SourceFileLoader("bench_run", str(ROOT / "bench" / "run")).load_module()
 plt = bench_run.plt
+from matplotlib import ticker  # noqa: E402
 
 SYSTEMS = ["locd", "rebuild", "bullet_dbvt", "fcl_dynamic_aabb_tree"]
 LABELS = {
@@ -170,12 +171,17 @@ def plot(table, path, meta):
             ax.set_xticks(xs)
             ax.set_xticklabels(["%d%%" % x for x in xs])
             ax.minorticks_off()
+            # Readable y ticks on the log axis: 1, 2, 5 per decade, written as plain numbers.
+            ax.yaxis.set_major_locator(ticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+            ax.yaxis.set_major_formatter(ticker.FuncFormatter(lambda v, _: "%g" % v))
             ax.set_xlabel("objects moving per frame (of the non-static ones)")
             ax.set_ylabel("ms per frame (median)")
             ax.set_title("n = %s, %d%% static" % (bench_run.fmt_n(n), round(100 * st)))
             ax.grid(True, which="major", alpha=0.3)
-    axes[0][0].legend(fontsize=7, loc="upper left")
-    fig.tight_layout(rect=(0, 0.03, 1, 1))
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=2 if len(sizes) > 1 else 1, fontsize=8, frameon=False,
+               bbox_to_anchor=(0.5, 0.02))
+    fig.tight_layout(rect=(0, 0.09 if len(sizes) > 1 else 0.14, 1, 1))
     bench_run.plot_footer(fig, meta)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
