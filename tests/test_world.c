@@ -229,6 +229,97 @@ static void workers_level_matches_brute_force(void)
     run_sequence(LOCD_LEVEL_WORKERS, 11, 12);
 }
 
+/* A fresh world holding model m (same indices: removed ones added, then removed). */
+static locd_world *fresh_world(const model *m, const double *vel)
+{
+    locd_world *w;
+    size_t i;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_world_create(NULL, &w));
+    for (i = 0; i < m->n; i++) {
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_world_add(w, m->shape[i], m->pose[i], vel + 6 * i, NULL));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_world_set_filter(w, (uint32_t)i, m->cat[i], m->mask[i], m->group[i]));
+    }
+    for (i = 0; i < m->n; i++)
+        if (!m->live[i])
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_world_remove(w, (uint32_t)i));
+    return w;
+}
+
+/* With every stage on (swept boxes that change with the velocities, contact
+ * data, sorted order), a world kept across frames gives byte for byte the
+ * result of a world built afresh each frame. */
+static void persistent_world_equals_fresh_world(void)
+{
+    locd_world *w;
+    locd_contacts *c, *cf;
+    locd_pipeline_options o;
+    locd_shape *shapes[3];
+    model *m = calloc(1, sizeof *m);
+    double *vel = calloc(6 * WT_MAX, sizeof(double));
+    size_t i;
+    ts_rng r;
+    int f;
+    TEST_ASSERT_NOT_NULL(m);
+    TEST_ASSERT_NOT_NULL(vel);
+    ts_seed(&r, 77);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_shape_sphere(0.4, &shapes[0]));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_shape_box(0.3, 0.3, 0.5, &shapes[1]));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_shape_capsule(0.2, 0.4, &shapes[2]));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_world_create(NULL, &w));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_contacts_create(&c));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_contacts_create(&cf));
+    locd_pipeline_options_init(&o);
+    o.stages = LOCD_STAGE_SHAPE | LOCD_STAGE_CONTACT;
+    o.swept = LOCD_SWEPT_AUTO;
+    o.dt = 0.05;
+    o.find_flags = LOCD_FIND_SORTED;
+    for (i = 0; i < 150; i++)
+        add_object(w, m, &r, shapes);
+    for (f = 0; f < 25; f++) {
+        locd_world *fw;
+        size_t k, n;
+        for (i = 0; i < m->n; i++) {
+            int a;
+            if (!m->live[i] || ts_next(&r) % 4)
+                continue;
+            for (a = 0; a < 3; a++) {
+                m->pose[i][a] += 0.2 * (ts_uniform(&r) - 0.5);
+                vel[6 * i + a] = ts_next(&r) % 3 ? 0.0 : 20.0 * (ts_uniform(&r) - 0.5); /* some fast movers */
+            }
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_world_set_pose(w, (uint32_t)i, m->pose[i]));
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_world_set_velocity(w, (uint32_t)i, vel + 6 * i));
+        }
+        i = ts_next(&r) % m->n;
+        if (m->live[i])
+            random_filter(w, m, &r, i);
+        i = ts_next(&r) % m->n;
+        if (f % 2 && m->live[i]) {
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_world_remove(w, (uint32_t)i));
+            m->live[i] = 0;
+        }
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_world_collide(w, &o, c, NULL));
+        fw = fresh_world(m, vel);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_world_collide(fw, &o, cf, NULL));
+        n = locd_contacts_count(c);
+        if (n != locd_contacts_count(cf))
+            LT_FAIL("frame %d: %zu contacts, a fresh world %zu", f, n, locd_contacts_count(cf));
+        for (k = 0; k < n; k++) {
+            TEST_ASSERT_EQUAL_UINT32(locd_contacts_pairs(cf)[2 * k], locd_contacts_pairs(c)[2 * k]);
+            TEST_ASSERT_EQUAL_UINT32(locd_contacts_pairs(cf)[2 * k + 1], locd_contacts_pairs(c)[2 * k + 1]);
+            TEST_ASSERT_EQUAL_DOUBLE(locd_contacts_toi(cf)[k], locd_contacts_toi(c)[k]);
+            TEST_ASSERT_EQUAL_DOUBLE(locd_contacts_depth(cf)[k], locd_contacts_depth(c)[k]);
+        }
+        locd_world_destroy(fw);
+    }
+    locd_contacts_destroy(c);
+    locd_contacts_destroy(cf);
+    locd_world_destroy(w);
+    for (i = 0; i < 3; i++)
+        locd_shape_destroy(shapes[i]);
+    free(m);
+    free(vel);
+}
+
 static void remove_rules(void)
 {
     locd_world *w;
@@ -339,6 +430,7 @@ int main(void)
         LT_TEST(remove_rules),
         LT_TEST(filters_and_groups),
         LT_TEST(random_sequences_match_brute_force),
+        LT_TEST(persistent_world_equals_fresh_world),
         LT_TEST(workers_level_matches_brute_force),
     };
     return LT_RUN(tests);
