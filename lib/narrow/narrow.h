@@ -101,6 +101,12 @@ typedef struct lc_world_broad {
     uint64_t *map_keys;
     uint32_t *map_vals;
     size_t map_cap, map_used;
+    lc_buf pending;    /* uint8 per object: box recomputed since the scene last took it */
+    /* The broad pairs as sorted keys (i << 32 | j), kept up to date from the
+     * scene's created and lost lists; resync: rebuild them from its full list. */
+    lc_buf keys, keys2, ck, lk, scratch;
+    size_t nkeys;
+    int resync;
     /* per-collide batches */
     lc_buf b_idx, b_ids, b_boxes, b_cat, b_mask, b_group;
 } lc_world_broad;
@@ -121,6 +127,10 @@ struct locd_world {
     locd_pairs *pairs;
     locd_shape **shapes; /* NULL for a removed object */
     lc_buf filter;       /* lc_filter per object */
+    lc_buf dirty;        /* uint8 per object: pose or velocity changed since its box was computed */
+    int all_dirty;       /* every box to recompute (scratch regrown, options changed) */
+    int32_t box_swept;   /* the options the boxes were computed with */
+    double box_dt, box_threshold;
     size_t live;         /* objects not removed */
     lc_world_broad broad;
     lc_world_events events;
@@ -145,7 +155,8 @@ struct locd_contacts {
 
 locd_status lc_world_check(const locd_world *w);
 /* The broad phase on the world's boxes (w->boxes, live objects) into
- * w->pairs, i < j, in a deterministic order ((i, j) with LOCD_FIND_SORTED);
+ * w->pairs, i < j, in a deterministic order ((i, j) on the scene path; the
+ * engine's order, or (i, j) with LOCD_FIND_SORTED, on the from-scratch path);
  * *candidates gets the pairs tested. */
 locd_status lc_world_broad_open(locd_world *w);
 void lc_world_broad_close(locd_world *w);

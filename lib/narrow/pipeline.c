@@ -39,6 +39,7 @@ static locd_status reserve_scratch(locd_world *w, size_t pairs)
     if (w->scratch_n < w->n) {
         size_t n = w->n;
         lc_world_free_scratch(w);
+        w->all_dirty = 1; /* new blocks: every box is computed again */
         w->R = lc_alloc(&w->alloc, n * 12 * sizeof(double));
         w->boxes = lc_alloc(&w->alloc, n * 6 * sizeof(double));
         w->fast = lc_alloc(&w->alloc, n);
@@ -77,18 +78,33 @@ static int moving(const double *v)
 
 /* World boxes; with swept tests on, a moving object's box covers its whole
  * motion in the step (union of the start and end boxes for a translation; of
- * the bounding spheres' boxes when it also turns). */
+ * the bounding spheres' boxes when it also turns). Only the objects whose
+ * pose or velocity changed get theirs computed again (all of them when the
+ * options that shape the boxes changed); those are marked pending for the
+ * broad phase, which moves them in its scene if their box changed. */
 static void world_boxes(locd_world *w, const locd_pipeline_options *o, uint32_t *nswept)
 {
+    uint8_t *dirty = w->dirty.data, *pending = w->broad.pending.data;
     size_t i;
-    int a;
+    int a, all;
     *nswept = 0;
+    all = w->all_dirty || o->swept != w->box_swept || o->dt != w->box_dt || o->swept_threshold != w->box_threshold;
+    w->all_dirty = 0;
+    w->box_swept = o->swept;
+    w->box_dt = o->dt;
+    w->box_threshold = o->swept_threshold;
     for (i = 0; i < w->n; i++) {
         const double *v = w->vel + 6 * i;
         double *box = w->boxes + 6 * i;
         lc_placed p;
         if (!w->shapes[i])
             continue; /* removed */
+        if (!all && !dirty[i]) {
+            *nswept += w->fast[i];
+            continue;
+        }
+        dirty[i] = 0;
+        pending[i] = 1;
         lc_pose_to_rt(w->poses + 7 * i, w->R + 12 * i, w->R + 12 * i + 9);
         lc_place(w->shapes[i], w->R + 12 * i, w->R + 12 * i + 9, &p);
         lc_placed_box(&p, box);

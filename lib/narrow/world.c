@@ -64,6 +64,7 @@ void locd_world_destroy(locd_world *w)
     lc_world_broad_close(w);
     lc_world_events_free(w);
     lc_buf_release(&w->alloc, &w->filter, sizeof(lc_filter));
+    lc_buf_release(&w->alloc, &w->dirty, 1);
     lc_free(&w->alloc, w->work, w->work_cap * sizeof(uint32_t));
     locd_engine_destroy(w->engine);
     locd_pairs_destroy(w->pairs);
@@ -154,6 +155,7 @@ locd_status locd_world_add(locd_world *w, locd_shape *shape, const double *pose,
     if (w->n == w->cap && (st = grow_objects(w)) != LOCD_OK)
         return st;
     if ((st = lc_buf_reserve(&w->alloc, &w->filter, sizeof(lc_filter), w->n + 1)) != LOCD_OK ||
+        (st = lc_buf_reserve(&w->alloc, &w->dirty, 1, w->n + 1)) != LOCD_OK ||
         (st = lc_world_broad_reserve(w, w->n + 1)) != LOCD_OK)
         return st;
     lc_shape_retain(shape);
@@ -165,6 +167,8 @@ locd_status locd_world_add(locd_world *w, locd_shape *shape, const double *pose,
         f->group = 0;
     }
     ((locd_id *)w->broad.ids.data)[w->n] = LOCD_ID_NONE;
+    ((uint8_t *)w->dirty.data)[w->n] = 1;
+    ((uint8_t *)w->broad.pending.data)[w->n] = 0;
     w->live++;
     memcpy(w->poses + 7 * w->n, pose, 7 * sizeof(double));
     memcpy(w->vel + 6 * w->n, velocity, 6 * sizeof(double));
@@ -196,6 +200,7 @@ static locd_status set_row(locd_world *w, uint32_t index, const double *row, siz
     if ((st = check_index(w, index)) != LOCD_OK || (st = check(row, index)) != LOCD_OK)
         return st;
     memcpy(dst + width * (size_t)index, row, width * sizeof(double));
+    ((uint8_t *)w->dirty.data)[index] = 1;
     lc_clear_error();
     return LOCD_OK;
 }
@@ -214,7 +219,7 @@ locd_status locd_world_set_velocity(locd_world *w, uint32_t index, const double 
 
 /* Bulk setters validate every row first: nothing is half-written. The
  * caller has checked the handle. */
-static locd_status set_rows(const locd_world *w, const double *rows, size_t count, size_t width, double *dst,
+static locd_status set_rows(locd_world *w, const double *rows, size_t count, size_t width, double *dst,
                             locd_status (*check)(const double *row, int64_t index), const char *what)
 {
     locd_status st;
@@ -227,8 +232,12 @@ static locd_status set_rows(const locd_world *w, const double *rows, size_t coun
     for (i = 0; i < count; i++)
         if (w->shapes[i] && (st = check(rows + width * i, (int64_t)i)) != LOCD_OK)
             return st;
-    if (count)
-        memcpy(dst, rows, width * count * sizeof(double));
+    /* Only the objects whose row changed get a new box at the next collide. */
+    for (i = 0; i < count; i++)
+        if (memcmp(dst + width * i, rows + width * i, width * sizeof(double)) != 0) {
+            memcpy(dst + width * i, rows + width * i, width * sizeof(double));
+            ((uint8_t *)w->dirty.data)[i] = 1;
+        }
     lc_clear_error();
     return LOCD_OK;
 }

@@ -30,6 +30,12 @@ void lc_world_broad_close(locd_world *w)
     lc_buf_release(a, &b->held, 6 * sizeof(double));
     lc_free(a, b->map_keys, b->map_cap * sizeof(uint64_t));
     lc_free(a, b->map_vals, b->map_cap * sizeof(uint32_t));
+    lc_buf_release(a, &b->pending, 1);
+    lc_buf_release(a, &b->keys, sizeof(uint64_t));
+    lc_buf_release(a, &b->keys2, sizeof(uint64_t));
+    lc_buf_release(a, &b->ck, sizeof(uint64_t));
+    lc_buf_release(a, &b->lk, sizeof(uint64_t));
+    lc_buf_release(a, &b->scratch, sizeof(uint64_t));
     lc_buf_release(a, &b->b_idx, sizeof(uint32_t));
     lc_buf_release(a, &b->b_ids, sizeof(locd_id));
     lc_buf_release(a, &b->b_boxes, 6 * sizeof(double));
@@ -41,7 +47,8 @@ void lc_world_broad_close(locd_world *w)
 locd_status lc_world_broad_reserve(locd_world *w, size_t objects)
 {
     locd_status st;
-    if ((st = lc_buf_reserve(&w->alloc, &w->broad.ids, sizeof(locd_id), objects)) != LOCD_OK)
+    if ((st = lc_buf_reserve(&w->alloc, &w->broad.ids, sizeof(locd_id), objects)) != LOCD_OK ||
+        (st = lc_buf_reserve(&w->alloc, &w->broad.pending, 1, objects)) != LOCD_OK)
         return st;
     return lc_buf_reserve(&w->alloc, &w->broad.held, 6 * sizeof(double), objects);
 }
@@ -184,17 +191,19 @@ static locd_status add_new(locd_world *w)
     for (i = 0; i < k; i++) {
         ids[idx[i]] = out[i];
         memcpy((double *)b->held.data + 6 * (size_t)idx[i], boxes + 6 * i, 6 * sizeof(double));
+        ((uint8_t *)b->pending.data)[idx[i]] = 0;
         map_put(b, out[i], idx[i]);
     }
     return LOCD_OK;
 }
 
-/* Objects whose box changed since the scene last saw it are moved, the
- * others are not touched. */
+/* Objects whose box was computed again (pending) and changed since the
+ * scene last saw it are moved; the others are not touched. */
 static locd_status move_changed(locd_world *w)
 {
     lc_world_broad *b = &w->broad;
     const locd_id *ids = b->ids.data;
+    uint8_t *pending = b->pending.data;
     double *held = b->held.data;
     uint32_t *idx;
     locd_id *mid;
@@ -202,8 +211,12 @@ static locd_status move_changed(locd_world *w)
     size_t i, k = 0;
     locd_status st;
     for (i = 0; i < w->n; i++) {
-        if (!w->shapes[i] || memcmp(held + 6 * i, w->boxes + 6 * i, 6 * sizeof(double)) == 0)
+        if (!pending[i] || !w->shapes[i] || ids[i] == LOCD_ID_NONE)
             continue;
+        if (memcmp(held + 6 * i, w->boxes + 6 * i, 6 * sizeof(double)) == 0) {
+            pending[i] = 0;
+            continue;
+        }
         if (k == b->b_idx.cap && (st = reserve_batches(w, k + 1)) != LOCD_OK)
             return st;
         ((uint32_t *)b->b_idx.data)[k++] = (uint32_t)i;
@@ -217,34 +230,119 @@ static locd_status move_changed(locd_world *w)
     }
     if ((st = locd_scene_move_f64(b->scene, mid, boxes, k)) != LOCD_OK)
         return st;
-    for (i = 0; i < k; i++)
+    for (i = 0; i < k; i++) {
         memcpy(held + 6 * (size_t)idx[i], boxes + 6 * i, 6 * sizeof(double));
+        pending[idx[i]] = 0;
+    }
     return LOCD_OK;
 }
 
+/* A scene pair as a key (i << 32 | j), i < j in object indices. */
+static uint64_t key_of(const lc_world_broad *b, const locd_id *row)
+{
+    uint64_t i = map_get(b, row[0]), j = map_get(b, row[1]);
+    return i < j ? (i << 32) | j : (j << 32) | i;
+}
+
+/* count rows of ids as sorted keys in *dst (scratch: b->scratch); the buffer
+ * holding them (dst's or the scratch, swapped into dst). */
+static locd_status sorted_keys(locd_world *w, const locd_id *rows, size_t count, lc_buf *dst)
+{
+    lc_world_broad *b = &w->broad;
+    uint64_t *k, *sorted;
+    size_t i;
+    locd_status st;
+    if ((st = lc_buf_reserve(&w->alloc, dst, sizeof(uint64_t), count)) != LOCD_OK ||
+        (st = lc_buf_reserve(&w->alloc, &b->scratch, sizeof(uint64_t), count)) != LOCD_OK)
+        return st;
+    k = dst->data;
+    for (i = 0; i < count; i++)
+        k[i] = key_of(b, rows + 2 * i);
+    sorted = count > 1 ? lc_radix_sort(k, b->scratch.data, count, 0) : k;
+    if (sorted != k) {
+        lc_buf t = *dst;
+        *dst = b->scratch;
+        b->scratch = t;
+    }
+    return LOCD_OK;
+}
+
+/* keys = (keys minus lost) merged with created; all three sorted, lost a
+ * subset of keys and created disjoint from keys minus lost (the scene's
+ * events are exact set differences). */
+static locd_status apply_events(locd_world *w, const locd_id *cr, size_t nc, const locd_id *lo, size_t nl)
+{
+    lc_world_broad *b = &w->broad;
+    const uint64_t *cur, *c, *l;
+    uint64_t *out;
+    size_t p = 0, q = 0, r = 0, k = 0;
+    locd_status st;
+    if ((st = sorted_keys(w, cr, nc, &b->ck)) != LOCD_OK || (st = sorted_keys(w, lo, nl, &b->lk)) != LOCD_OK ||
+        (st = lc_buf_reserve(&w->alloc, &b->keys2, sizeof(uint64_t), b->nkeys + nc)) != LOCD_OK)
+        return st;
+    cur = b->keys.data, c = b->ck.data, l = b->lk.data, out = b->keys2.data;
+    while (p < b->nkeys || q < nc) {
+        if (p < b->nkeys && r < nl && cur[p] == l[r]) {
+            p++, r++;
+        } else if (q == nc || (p < b->nkeys && cur[p] < c[q])) {
+            out[k++] = cur[p++];
+        } else {
+            out[k++] = c[q++];
+        }
+    }
+    if (r != nl)
+        return lc_error(LOCD_ERR_INTERNAL, "world: %zu lost pairs were not in the pair set", nl - r);
+    {
+        lc_buf t = b->keys;
+        b->keys = b->keys2;
+        b->keys2 = t;
+    }
+    b->nkeys = k;
+    return LOCD_OK;
+}
+
+/* The scene's pairs, kept as sorted index keys: each update only maps and
+ * merges its created and lost lists (small when little moved), so a frame
+ * where nothing moved costs a pass over the pairs, not a sort. After a
+ * failure half-way (the scene's events of that update are gone), the next
+ * call takes the scene's full list instead. */
 static locd_status find_in_scene(locd_world *w, uint64_t *candidates)
 {
     lc_world_broad *b = &w->broad;
-    const locd_id *sp;
+    const locd_id *cr, *lo;
     locd_scene_stats ss;
-    size_t m, k;
+    size_t nc, nl, k;
     uint32_t *dst;
+    const uint64_t *keys;
+    int resync = b->resync;
     locd_status st;
-    if ((st = add_new(w)) != LOCD_OK || (st = move_changed(w)) != LOCD_OK ||
-        (st = locd_scene_update(b->scene, LOCD_SCENE_UPDATE_PAIRS)) != LOCD_OK ||
-        (st = locd_scene_pairs(b->scene, &sp, &m)) != LOCD_OK)
+    if ((st = add_new(w)) != LOCD_OK || (st = move_changed(w)) != LOCD_OK)
         return st;
-    if ((st = lc_pairs_reserve(w->pairs, m)) != LOCD_OK)
+    if ((st = locd_scene_update(b->scene, resync ? LOCD_SCENE_UPDATE_PAIRS : LOCD_SCENE_UPDATE_EVENTS)) != LOCD_OK)
         return st;
-    dst = w->pairs->data;
-    for (k = 0; k < m; k++) {
-        uint32_t i = map_get(b, sp[2 * k]), j = map_get(b, sp[2 * k + 1]);
-        dst[2 * k] = i < j ? i : j;
-        dst[2 * k + 1] = i < j ? j : i;
+    b->resync = 1; /* until the key set is right again */
+    if (resync) {
+        if ((st = locd_scene_pairs(b->scene, &cr, &nc)) != LOCD_OK ||
+            (st = sorted_keys(w, cr, nc, &b->keys)) != LOCD_OK)
+            return st;
+        b->nkeys = nc;
+    } else if ((st = locd_scene_created(b->scene, &cr, &nc)) != LOCD_OK ||
+               (st = locd_scene_lost(b->scene, &lo, &nl)) != LOCD_OK ||
+               (st = apply_events(w, cr, nc, lo, nl)) != LOCD_OK) {
+        return st;
     }
-    w->pairs->count = m;
+    if ((st = lc_pairs_reserve(w->pairs, b->nkeys)) != LOCD_OK)
+        return st;
+    b->resync = 0;
+    dst = w->pairs->data;
+    keys = b->keys.data;
+    for (k = 0; k < b->nkeys; k++) {
+        dst[2 * k] = (uint32_t)(keys[k] >> 32);
+        dst[2 * k + 1] = (uint32_t)keys[k];
+    }
+    w->pairs->count = b->nkeys;
     locd_scene_stats_init(&ss);
-    *candidates = locd_scene_stats_get(b->scene, &ss) == LOCD_OK ? ss.candidates : m;
+    *candidates = locd_scene_stats_get(b->scene, &ss) == LOCD_OK ? ss.candidates : b->nkeys;
     return LOCD_OK;
 }
 
@@ -295,13 +393,9 @@ static locd_status find_from_scratch(locd_world *w, uint32_t find_flags, uint64_
 
 locd_status lc_world_broad_find(locd_world *w, uint32_t find_flags, uint64_t *candidates)
 {
-    locd_status st;
     *candidates = 0;
     if (!w->broad.scene)
         return find_from_scratch(w, find_flags, candidates);
-    if ((st = find_in_scene(w, candidates)) != LOCD_OK)
-        return st;
-    if ((find_flags & LOCD_FIND_SORTED) && w->pairs->count > 1)
-        return locd_pairs_sort(w->pairs);
-    return LOCD_OK;
+    /* Sorted by (i, j) already, whatever find_flags says. */
+    return find_in_scene(w, candidates);
 }

@@ -46,7 +46,10 @@ locd_status lc_world_events_update(locd_world *w, const locd_contacts *c)
     cur = e->cur.data;
     for (k = 0; k < m; k++)
         cur[k] = ((uint64_t)c->pairs[2 * k] << 32) | c->pairs[2 * k + 1];
-    sorted = m ? lc_radix_sort(cur, e->scratch.data, m, 0) : cur;
+    /* The scene path gives the discrete pairs in (i, j) order: often no sort is needed. */
+    for (k = 1; k < m && cur[k - 1] < cur[k]; k++)
+        ;
+    sorted = k < m ? lc_radix_sort(cur, e->scratch.data, m, 0) : cur;
     if (sorted != cur) {
         /* The result landed in the scratch buffer: it becomes cur. */
         t = e->cur;
