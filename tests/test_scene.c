@@ -669,7 +669,133 @@ static void allocation_failures_change_nothing(void)
     }
 }
 
+/* The pairs of a fresh scene of the model's objects (its first update is a
+ * rebuild), in the model's ids, sorted. */
+static locd_id *fresh_pairs(locd_engine *e, const model *m, size_t *count)
+{
+    locd_scene *f = NULL;
+    locd_scene_add_options o;
+    double *b = malloc((m->n + 1) * 6 * sizeof *b);
+    uint64_t *v = malloc((m->n + 1) * 3 * sizeof *v);
+    locd_id *ids = malloc((m->n + 1) * sizeof *ids), *map = malloc((m->n + 1) * sizeof *map), *rows;
+    const locd_id *p;
+    size_t k, np, nmap = 0;
+    int stat;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &f));
+    for (stat = 0; stat < 2; stat++) { /* one batch per kind; the fresh scene's serials are 1, 2, ... */
+        size_t n = 0;
+        for (k = 0; k < m->n; k++)
+            if (m->o[k].stat == stat) {
+                memcpy(b + 6 * n, m->o[k].box, 6 * sizeof *b);
+                v[n] = m->o[k].cat, v[m->n + n] = m->o[k].mask, v[2 * m->n + n] = m->o[k].group;
+                map[nmap + n] = m->o[k].id;
+                n++;
+            }
+        locd_scene_add_options_init(&o);
+        o.flags = stat ? LOCD_OBJECT_STATIC : 0;
+        o.categories = v, o.masks = v + m->n, o.groups = v + 2 * m->n;
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(f, b, n, &o, ids));
+        nmap += n;
+    }
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(f, LOCD_SCENE_UPDATE_PAIRS));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(f, &p, &np));
+    rows = malloc((np + 1) * 2 * sizeof *rows);
+    for (k = 0; k < np; k++) {
+        locd_id a = map[(p[2 * k] >> 32) - 1], c = map[(p[2 * k + 1] >> 32) - 1];
+        rows[2 * k] = a < c ? a : c;
+        rows[2 * k + 1] = a < c ? c : a;
+    }
+    qsort(rows, np, 2 * sizeof *rows, cmp_row);
+    *count = np;
+    locd_scene_destroy(f);
+    free(b), free(v), free(ids), free(map);
+    return rows;
+}
+
+/* A scene with more than 65536 pairs (the carry pass and the search split
+ * over threads), 1 and 2 threads side by side, each update against a fresh
+ * scene of the same objects. */
+static void large_scene_threads_and_fresh(void)
+{
+    locd_engine *e1 = new_engine(1, NULL), *e2 = new_engine(2, NULL);
+    locd_scene *s1 = NULL, *s2 = NULL;
+    const size_t n = 30000;
+    double *b = malloc(n * 6 * sizeof *b);
+    locd_id *ids1 = malloc(n * sizeof *ids1), *ids2 = malloc(n * sizeof *ids2), *mv = malloc(n * sizeof *mv);
+    model m;
+    world w;
+    size_t k, i;
+    int step;
+    memset(&m, 0, sizeof m);
+    memset(&w, 0, sizeof w);
+    ts_seed(&w.r, 4242);
+    w.extent = 100.0, w.size = 6.0;
+    for (k = 0; k < n; k++)
+        random_box(&w, b + 6 * k);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e1, NULL, &s1));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e2, NULL, &s2));
+    {
+        locd_scene_add_options o;
+        locd_scene_add_options_init(&o);
+        o.flags = LOCD_OBJECT_STATIC;
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s1, b, n / 3, &o, ids1));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s2, b, n / 3, &o, ids2));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s1, b + 6 * (n / 3), n - n / 3, NULL, ids1 + n / 3));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s2, b + 6 * (n / 3), n - n / 3, NULL, ids2 + n / 3));
+    }
+    TEST_ASSERT_EQUAL_MEMORY(ids1, ids2, n * sizeof *ids1);
+    for (k = 0; k < n; k++)
+        m_add(&m, ids1[k], b + 6 * k, 1, ~(uint64_t)0, 0, 0, k < n / 3);
+    for (step = 0; step < 12; step++) {
+        const locd_id *p1, *p2;
+        size_t n1, n2, nf;
+        locd_id *want;
+        size_t cnt = (size_t)(step % 3 == 0 ? n / 100 : n / 20);
+        for (i = 0; i < cnt; i++) { /* distinct: a stride walk */
+            size_t j = (ts_next(&w.r) % 7 + i * 13) % m.n;
+            int a;
+            double d = (ts_uniform(&w.r) - 0.5) * 2.0;
+            m_obj *o = &m.o[j];
+            size_t q;
+            int dup = 0;
+            for (q = 0; q < i; q++)
+                dup |= mv[q] == o->id;
+            if (dup) {
+                cnt = i;
+                break;
+            }
+            for (a = 0; a < 6; a++)
+                o->box[a] += d;
+            mv[i] = o->id;
+            memcpy(b + 6 * i, o->box, 6 * sizeof *b);
+        }
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s1, mv, b, cnt));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s2, mv, b, cnt));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s1, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s2, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s1, &p1, &n1));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s2, &p2, &n2));
+        TEST_ASSERT_TRUE(n1 > 65536);
+        same_rows("1 thread against 2", p1, n1, p2, n2);
+        want = fresh_pairs(e1, &m, &nf);
+        same_rows("pairs against a fresh scene", want, nf, p1, n1);
+        free(want);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_created(s1, &p1, &n1));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_created(s2, &p2, &n2));
+        same_rows("1 thread against 2", p1, n1, p2, n2);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_lost(s1, &p1, &n1));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_lost(s2, &p2, &n2));
+        same_rows("1 thread against 2", p1, n1, p2, n2);
+    }
+    locd_scene_destroy(s1);
+    locd_scene_destroy(s2);
+    locd_engine_destroy(e1);
+    locd_engine_destroy(e2);
+    free(b), free(ids1), free(ids2), free(mv), free(m.o), free(m.pairs);
+}
+
 static const lt_test tests[] = {
+    LT_TEST(large_scene_threads_and_fresh),
     LT_TEST(bad_batches_change_nothing),
     LT_TEST(levels_2_and_3_are_unsupported),
     LT_TEST(allocation_failures_change_nothing),

@@ -60,7 +60,7 @@ typedef struct locd_scene_config {
 LOCD_API void locd_scene_config_init(locd_scene_config *config);
 
 /* The scene uses the engine's threads, allocator, log, max_depth and
- * cell_bias. The engine must be level 1 (LOCD_ERR_UNSUPPORTED otherwise) and
+ * cell_bias (its cells one step finer: cell_bias - 1, at least 0). The engine must be level 1 (LOCD_ERR_UNSUPPORTED otherwise) and
  * must outlive the scene; while the scene updates, the engine is busy (a find
  * on it from another thread returns LOCD_ERR_BUSY, and the reverse).
  * config may be NULL for the defaults. On failure *out is set to NULL. */

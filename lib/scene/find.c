@@ -5,7 +5,10 @@
  * key per level that holds any entry). Each candidate is tested in this
  * order: both moved and not m < o (the other one reports it), the filter
  * (static-static, category/mask, group: filtered pairs are never tested
- * further), the canonical cell pair, the exact box test.
+ * further), the quantized boxes (conservative: they overlap whenever the
+ * boxes do), the canonical cell pair, the exact box test. Everything but
+ * the exact test reads o's record (lc_hot), and the records of one cell's
+ * objects are neighbours (dense indices, scene.h).
  *
  * The canonical cell pair makes each pair come out once however many cells
  * the two objects share paths in: the point p = max(lo_m, lo_o) (sweep
@@ -34,8 +37,11 @@ static int cell_holds(const locd_grid *g, uint64_t pm, uint32_t level, const uin
            lc_morton_compact3(m >> 2) == (p[2] >> sh);
 }
 
-/* Tests the candidate entry eo against the query entry eq (object m). */
-static void consider(find_ctx *c, uint32_t t, uint64_t eq, uint64_t eo)
+#define FIELD(w, a) ((uint32_t)(((w) >> ((a)*LC_SBITS)) & LC_SMASK))
+
+/* Tests the candidate entry eo against the query entry eq (object m, hot
+ * record hm). Only o's hot record is read until the exact test. */
+static void consider(find_ctx *c, uint32_t t, uint64_t eq, const lc_hot *hm, uint64_t eo)
 {
     const locd_scene *s = c->s;
     const locd_grid *g = &s->grid;
@@ -43,23 +49,31 @@ static void consider(find_ctx *c, uint32_t t, uint64_t eq, uint64_t eo)
     const uint64_t imask = ((uint64_t)1 << ib) - 1;
     uint32_t m = (uint32_t)(eq & imask), o = (uint32_t)(eo & imask);
     uint32_t lm = (uint32_t)(eq >> ib) & 31u, lo = (uint32_t)(eo >> ib) & 31u, p[3], a;
-    const uint32_t *qm, *qo;
+    const lc_hot *ho;
     locd_id *row;
-    if (o == m)
+    if (o == m || o == (uint32_t)imask) /* itself, or a tombstone */
         return;
-    if ((s->flags[o] & LC_SLOT_DIRTY) && s->id[o] < s->id[m])
-        return;
+    ho = &s->hot[o];
     c->cand[t]++;
-    if (!lc_scene_may_pair(s, m, o))
+    /* both moved: the one with the smaller id reports the pair */
+    if ((ho->flags & LC_SLOT_DIRTY) && s->id[ho->slot] < s->id[hm->slot])
         return;
-    qm = (const uint32_t *)(s->qbox + 2 * (size_t)m);
-    qo = (const uint32_t *)(s->qbox + 2 * (size_t)o);
-    for (a = 0; a < 3; a++)
-        p[a] = qm[a] > qo[a] ? qm[a] : qo[a];
+    /* the filter, before any box test */
+    if ((hm->flags & ho->flags & LC_SLOT_STATIC) || !(hm->cat & ho->mask) || !(ho->cat & hm->mask) ||
+        (hm->group == ho->group && hm->group != 0))
+        return;
+    /* the quantized boxes (conservative: they overlap whenever the boxes do),
+       then the canonical cell pair */
+    for (a = 0; a < 3; a++) {
+        uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(ho->qlo, a);
+        if (ml > FIELD(ho->qhi, a) || ol > FIELD(hm->qhi, a))
+            return;
+        p[a] = ml > ol ? ml : ol;
+    }
     if (lm >= lo ? !cell_holds(g, eq >> (ib + LC_LEVEL_BITS), lm, p)
                  : !cell_holds(g, eo >> (ib + LC_LEVEL_BITS), lo, p))
         return;
-    if (!lc_box_overlap(s->box + 6 * (size_t)m, s->box + 6 * (size_t)o))
+    if (!lc_box_overlap(s->box + 6 * (size_t)hm->slot, s->box + 6 * (size_t)ho->slot))
         return;
     if (c->st[t] == LOCD_OK &&
         lc_buf_reserve(s->alloc, &c->rows[t], 2 * sizeof(locd_id), c->count[t] + 1) != LOCD_OK) {
@@ -69,37 +83,46 @@ static void consider(find_ctx *c, uint32_t t, uint64_t eq, uint64_t eo)
     if (c->st[t] != LOCD_OK)
         return;
     row = (locd_id *)c->rows[t].data + 2 * c->count[t]++;
-    row[0] = s->id[m] < s->id[o] ? s->id[m] : s->id[o];
-    row[1] = s->id[m] < s->id[o] ? s->id[o] : s->id[m];
+    {
+        locd_id im = s->id[hm->slot], io = s->id[ho->slot];
+        row[0] = im < io ? im : io;
+        row[1] = im < io ? io : im;
+    }
 }
 
-/* Every entry of tree t on a common path with the cell of entry eq. */
-static void search(find_ctx *c, uint32_t t, const lc_tree *tr, uint64_t eq)
+/* Every entry of e[0, n) on a common path with the cell of entry eq. */
+static void search_array(find_ctx *c, uint32_t t, const size_t *per_level, const uint64_t *e, size_t n, uint64_t eq,
+                         const lc_hot *hm)
 {
     const locd_grid *g = &c->s->grid;
     const uint32_t ib = g->index_bits;
-    const uint64_t *e = tr->ent.data;
     const uint64_t key = eq >> ib, pm = key >> LC_LEVEL_BITS;
     const uint32_t level = (uint32_t)key & 31u;
     size_t i;
     uint32_t l;
-    if (!tr->count)
+    if (!n)
         return;
     /* the cell itself and its descendants: keys in [key, (pm + span) << 5) */
     {
         const uint64_t end = (pm + ((uint64_t)1 << (3u * (g->depth - level)))) << LC_LEVEL_BITS;
-        for (i = lc_lower_bound(e, tr->count, key << ib); i < tr->count && (e[i] >> ib) < end; i++)
-            consider(c, t, eq, e[i]);
+        for (i = lc_lower_bound(e, n, key << ib); i < n && (e[i] >> ib) < end; i++)
+            consider(c, t, eq, hm, e[i]);
     }
     /* its ancestors, at the levels that hold entries */
     for (l = 0; l < level; l++) {
         uint64_t ka;
-        if (!tr->per_level[l])
+        if (!per_level[l])
             continue;
         ka = ((pm & ~(((uint64_t)1 << (3u * (g->depth - l))) - 1)) << LC_LEVEL_BITS) | l;
-        for (i = lc_lower_bound(e, tr->count, ka << ib); i < tr->count && (e[i] >> ib) == ka; i++)
-            consider(c, t, eq, e[i]);
+        for (i = lc_lower_bound(e, n, ka << ib); i < n && (e[i] >> ib) == ka; i++)
+            consider(c, t, eq, hm, e[i]);
     }
+}
+
+static void search(find_ctx *c, uint32_t t, const lc_tree *tr, uint64_t eq, const lc_hot *hm)
+{
+    search_array(c, t, tr->per_level, tr->ent.data, tr->count, eq, hm);
+    search_array(c, t, tr->per_level, tr->ovf.data, tr->novf, eq, hm);
 }
 
 static void task_find(void *arg, uint32_t t, uint32_t k)
@@ -108,10 +131,10 @@ static void task_find(void *arg, uint32_t t, uint32_t k)
     const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
     size_t b = c->nq * t / k, e = c->nq * (t + 1) / k, i;
     for (i = b; i < e; i++) {
-        uint32_t m = (uint32_t)(c->q[i] & imask);
-        search(c, t, c->dyn, c->q[i]);
-        if (!(c->s->flags[m] & LC_SLOT_STATIC))
-            search(c, t, c->sta, c->q[i]);
+        const lc_hot *hm = &c->s->hot[c->q[i] & imask];
+        search(c, t, c->dyn, c->q[i], hm);
+        if (!(hm->flags & LC_SLOT_STATIC))
+            search(c, t, c->sta, c->q[i], hm);
     }
 }
 

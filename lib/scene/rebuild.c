@@ -49,20 +49,34 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     return st;
 }
 
-/* Every live object's cells on grid g into cells/qbox (slot-indexed arrays
- * of the caller), and the two entry lists, sorted. */
-locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint64_t *qbox, lc_tree *dyn,
-                                 lc_tree *sta)
+void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *h)
+{
+    h->qlo = qbox[0];
+    h->qhi = qbox[1];
+    h->cat = s->cat[k];
+    h->mask = s->mask[k];
+    h->group = s->group[k];
+    h->slot = (uint32_t)k;
+    h->flags = s->flags[k] & LC_SLOT_STATIC;
+}
+
+/* Every live object's cells, dense index and record, and the two entry
+ * lists sorted by key (rebuild). */
+locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint32_t *dense, lc_hot *hot,
+                                 size_t *ndense, lc_tree *dyn, lc_tree *sta)
 {
     const locd_allocator *a = s->alloc;
-    size_t k, nd = 0, ns = 0, cap;
-    uint64_t *scratch;
-    locd_status st = LOCD_OK;
+    const uint64_t imask = ((uint64_t)1 << g->index_bits) - 1;
+    size_t k, nd = 0, ns = 0, cap, qcap = 2 * (s->nslots ? s->nslots : 1), next = 0, j;
+    uint64_t *scratch, *qb = lc_alloc(a, qcap * sizeof *qb);
+    lc_tree *ts[2];
+    int i;
     for (k = 0; k < s->nslots; k++) {
         uint32_t n;
         if (!(s->flags[k] & LC_SLOT_LIVE))
             continue;
-        lc_cells_of(g, s->box + 6 * k, &cells[k], (uint32_t *)(qbox + 2 * k));
+        if (qb)
+            lc_cells_of(g, s->box + 6 * k, &cells[k], qb + 2 * k);
         n = (1u + (cells[k].span & 1u)) * (1u + ((cells[k].span >> 1) & 1u)) * (1u + ((cells[k].span >> 2) & 1u));
         if (s->flags[k] & LC_SLOT_STATIC)
             ns += n;
@@ -73,11 +87,12 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
     memset(sta, 0, sizeof *sta);
     cap = nd > ns ? nd : ns;
     scratch = lc_alloc(a, (cap ? cap : 1) * sizeof *scratch);
-    if (!scratch || lc_buf_reserve(a, &dyn->ent, sizeof(uint64_t), nd ? nd : 1) != LOCD_OK ||
+    if (!qb || !scratch || lc_buf_reserve(a, &dyn->ent, sizeof(uint64_t), nd ? nd : 1) != LOCD_OK ||
         lc_buf_reserve(a, &sta->ent, sizeof(uint64_t), ns ? ns : 1) != LOCD_OK) {
+        lc_free(a, qb, qcap * sizeof *qb);
         lc_free(a, scratch, (cap ? cap : 1) * sizeof *scratch);
-        lc_buf_release(a, &dyn->ent, sizeof(uint64_t));
-        lc_buf_release(a, &sta->ent, sizeof(uint64_t));
+        lc_tree_release(a, dyn);
+        lc_tree_release(a, sta);
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's entry lists");
     }
     /* Slot order, so that equal keys are in index order, as the radix sort wants. */
@@ -88,17 +103,32 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
         t = (s->flags[k] & LC_SLOT_STATIC) ? sta : dyn;
         t->count += lc_cells_entries(g, &cells[k], (uint32_t)k, (uint64_t *)t->ent.data + t->count);
     }
-    {
-        lc_tree *ts[2];
-        int i;
-        ts[0] = dyn, ts[1] = sta;
-        for (i = 0; i < 2; i++) {
-            uint64_t *r = lc_radix_sort(ts[i]->ent.data, scratch, ts[i]->count, g->index_bits);
-            if (r != ts[i]->ent.data)
-                memcpy(ts[i]->ent.data, r, ts[i]->count * sizeof *r);
-            lc_tree_count_levels(g, ts[i]);
-        }
+    ts[0] = dyn, ts[1] = sta;
+    for (i = 0; i < 2; i++) {
+        uint64_t *r = lc_radix_sort(ts[i]->ent.data, scratch, ts[i]->count, g->index_bits);
+        if (r != ts[i]->ent.data)
+            memcpy(ts[i]->ent.data, r, ts[i]->count * sizeof *r);
     }
+    /* Number the objects in entry order and put the numbers in the entries.
+       Keys stay sorted; within one key the order may change, which nothing
+       relies on (tree.c). */
+    for (k = 0; k < s->nslots; k++)
+        dense[k] = UINT32_MAX;
+    for (i = 0; i < 2; i++) {
+        uint64_t *e = ts[i]->ent.data;
+        for (j = 0; j < ts[i]->count; j++) {
+            uint32_t slot = (uint32_t)(e[j] & imask);
+            if (dense[slot] == UINT32_MAX) {
+                dense[slot] = (uint32_t)next;
+                lc_hot_fill(s, slot, qb + 2 * (size_t)slot, &hot[next]);
+                next++;
+            }
+            e[j] = (e[j] & ~imask) | dense[slot];
+        }
+        lc_tree_count_levels(g, ts[i]);
+    }
+    *ndense = next;
+    lc_free(a, qb, qcap * sizeof *qb);
     lc_free(a, scratch, (cap ? cap : 1) * sizeof *scratch);
-    return st;
+    return LOCD_OK;
 }

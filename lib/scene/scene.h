@@ -38,11 +38,32 @@ typedef struct lc_cells {
     uint8_t level, span, pad[2];
 } lc_cells;
 
-/* A sorted list of entries (octree key << index_bits | slot) and how many
- * entries it holds per level (a level with none is never searched). */
+/* What the search reads of a candidate, 48 bytes: the packed sweep box
+ * (lc_pack_qbox), the filter, the slot and the flags. The records are
+ * indexed by a dense index that the entries carry instead of the slot:
+ * a rebuild numbers the objects in the order of the sorted entry lists,
+ * so the objects of one cell have neighbouring records and a search reads
+ * them in a few cache lines. Objects added later take the next indices. */
+typedef struct lc_hot {
+    uint64_t qlo, qhi;
+    uint64_t cat, mask, group;
+    uint32_t slot;
+    uint32_t flags; /* LC_SLOT_STATIC; LC_SLOT_DIRTY while an update runs */
+} lc_hot;
+
+/* An entry list: a main array sorted by entry, in which a deleted entry is
+ * a tombstone (its slot bits all set: the key, hence the order of keys,
+ * stays), and a small sorted overflow array of the entries added since the
+ * last compaction. Both are searched; a compaction merges them when the
+ * overflow and the tombstones pass a fraction of the main array. per_level
+ * counts the live entries of each level (a level with none is never
+ * searched). */
 typedef struct lc_tree {
-    lc_buf ent; /* uint64 */
+    lc_buf ent; /* uint64, main */
     size_t count;
+    lc_buf ovf; /* uint64, overflow */
+    size_t novf;
+    size_t dead; /* tombstones in main */
     size_t per_level[32];
 } lc_tree;
 
@@ -72,7 +93,9 @@ struct locd_scene {
     uint32_t *stamp;     /* duplicate check of a batch */
     uint32_t stamp_now;
     lc_cells *cell;      /* per slot, valid with LC_SLOT_INTREE */
-    uint64_t *qbox;      /* 2 per slot: packed sweep box at the tree's grid (valid with LC_SLOT_INTREE) */
+    uint32_t *dense;     /* per slot: its dense index, valid with LC_SLOT_INTREE */
+    lc_hot *hot;         /* per dense index (hot_cap of them; ndense issued since the last rebuild) */
+    size_t hot_cap, ndense;
     lc_buf free_slots;   /* uint32 stack */
     size_t nfree;
     uint32_t serial;     /* serials issued */
@@ -147,17 +170,38 @@ void lc_plist_merge(const locd_id *a, size_t na, const locd_id *b, size_t nb, lo
 
 /* ---- broad phase (rebuild.c, tree.c, find.c) ---- */
 void lc_scene_tree_fini(locd_scene *s);
-/* An object's cells on grid g, and its low corner in sweep coordinates. */
-void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint32_t qlo[3]);
+/* An object's cells on grid g, and its packed sweep box (lc_pack_qbox). */
+void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t qbox[2]);
 int lc_cells_same(const lc_cells *a, const lc_cells *b);
 /* Writes the object's entries (1 to 8) from its cells; returns how many. */
 uint32_t lc_cells_entries(const locd_grid *g, const lc_cells *c, uint32_t slot, uint64_t *out);
 void lc_sort_u64(uint64_t *v, size_t n);
+/* The same with a radix sort past a few hundred values (scratch allocated). */
+locd_status lc_sort_u64_radix(const locd_allocator *a, uint64_t *v, size_t n);
 /* Counts t's entries per level. */
 void lc_tree_count_levels(const locd_grid *g, lc_tree *t);
-/* out = (t without del) merged with add; del (entries of t) and add sorted. */
-locd_status lc_tree_repair(const locd_allocator *a, const locd_grid *g, const lc_tree *t, const uint64_t *del,
-                           size_t ndel, const uint64_t *add, size_t nadd, lc_tree *out);
+void lc_tree_release(const locd_allocator *a, lc_tree *t);
+/* The tombstone of an entry, and whether an entry is one. */
+#define LC_TOMB(g, e) ((e) | ((((uint64_t)1) << (g)->index_bits) - 1))
+#define LC_IS_TOMB(g, e) ((~(e) & ((((uint64_t)1) << (g)->index_bits) - 1)) == 0)
+/* Where a tree change is written: tombstones in place (positions and old
+ * values kept for undo), or a new tree when the change compacts. */
+typedef struct lc_tree_edit {
+    int compacted;     /* the new tree is `out`; t is untouched */
+    lc_tree out;       /* compacted: the new tree; else only its ovf/novf/per_level are new */
+    size_t *pos;       /* tombstoned positions of t's main array */
+    uint64_t *old;     /* and the entries they held */
+    size_t npos, pos_cap;
+} lc_tree_edit;
+/* Applies del (entries of t, sorted) and add (sorted) to t: tombstones in
+ * t's main array (undone by lc_tree_undo) and a new overflow in e->out,
+ * or a compacted new tree in e->out. */
+locd_status lc_tree_edit_apply(const locd_allocator *a, const locd_grid *g, lc_tree *t, const uint64_t *del,
+                               size_t ndel, const uint64_t *add, size_t nadd, lc_tree_edit *e);
+void lc_tree_edit_undo(lc_tree *t, lc_tree_edit *e);
+/* Makes the edit t's state (t takes e->out's buffers). */
+void lc_tree_edit_commit(const locd_allocator *a, lc_tree *t, lc_tree_edit *e);
+void lc_tree_edit_free(const locd_allocator *a, lc_tree_edit *e);
 /* A grid fitted to the live boxes with a margin, with index bits for twice the slots. */
 locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g);
 /* 1 if box b quantizes inside the root cube without clamping. */
@@ -166,9 +210,15 @@ int lc_grid_holds(const locd_grid *g, const double *b);
  * lists dyn and sta, into *out (sorted); adds to *candidates. */
 locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q,
                                 size_t nq, lc_plist *out, uint64_t *candidates);
-/* Every live object's cells on g into cells/qbox and both entry lists, sorted. */
-locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint64_t *qbox, lc_tree *dyn,
-                                 lc_tree *sta);
+/* Every live object's cells on g into cells, its dense index into dense
+ * and its record into hot (numbered in entry order; *ndense receives the
+ * count), and both entry lists, sorted by key. */
+locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint32_t *dense, lc_hot *hot,
+                                 size_t *ndense, lc_tree *dyn, lc_tree *sta);
+/* The dense indices a rebuild of n slots makes room for. */
+size_t lc_scene_dense_room(size_t nslots);
+/* The hot record of slot k from its slot arrays and packed box. */
+void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *h);
 /* Computes the pairs of the live objects from scratch into *out (sorted). */
 locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates);
 

@@ -59,7 +59,7 @@ locd_status lc_scene_reserve(locd_scene *s, size_t more)
     arrays[6] = (void **)&s->flags, elems[6] = sizeof(uint8_t);
     arrays[7] = (void **)&s->stamp, elems[7] = sizeof(uint32_t);
     arrays[8] = (void **)&s->cell, elems[8] = sizeof(lc_cells);
-    arrays[9] = (void **)&s->qbox, elems[9] = 2 * sizeof(uint64_t);
+    arrays[9] = (void **)&s->dense, elems[9] = sizeof(uint32_t);
     arrays[10] = NULL, elems[10] = sizeof(uint32_t); /* the free list's room */
     /* All or nothing: allocate every new array first, then swap them in. */
     for (k = 0; k < nk; k++) {
@@ -136,7 +136,8 @@ void lc_scene_slots_fini(locd_scene *s)
     lc_free(s->alloc, s->flags, c * sizeof(uint8_t));
     lc_free(s->alloc, s->stamp, c * sizeof(uint32_t));
     lc_free(s->alloc, s->cell, c * sizeof(lc_cells));
-    lc_free(s->alloc, s->qbox, c * 2 * sizeof(uint64_t));
+    lc_free(s->alloc, s->dense, c * sizeof(uint32_t));
+    lc_free(s->alloc, s->hot, s->hot_cap * sizeof(lc_hot));
     lc_buf_release(s->alloc, &s->free_slots, sizeof(uint32_t));
     lc_buf_release(s->alloc, &s->dirty, sizeof(uint32_t));
     lc_buf_release(s->alloc, &s->removed, sizeof(uint32_t));

@@ -23,14 +23,19 @@ typedef struct upd {
     lc_tree dyn, sta;   /* the new lists */
     lc_plist next, cr, lo;
     lc_cells *cells;    /* rebuild: new per-slot cells (slot_cap) */
-    uint64_t *qbox;     /* rebuild: new per-slot sweep corners (2 * slot_cap) */
+    lc_hot *hot;        /* rebuild: new records (hot_cap) */
+    size_t hot_cap, ndense;
+    uint32_t *dense;    /* rebuild: new per-slot dense indices (slot_cap) */
     locd_grid grid;     /* rebuild: the new grid */
     /* incremental: undo of the per-slot cells written early */
     uint32_t *undo_slot;
     lc_cells *undo_cells;
-    uint64_t *undo_q;
+    lc_hot *undo_hot;
+    uint32_t *undo_dense;
+    size_t ndense_before;
     uint8_t *undo_flags;
     size_t nundo, undo_cap;
+    lc_tree_edit edit[2]; /* incremental: of the dynamic and the static list */
     uint64_t *buf; /* del/add/query entries */
     size_t buf_cap;
     uint64_t candidates, moved, reencoded;
@@ -55,33 +60,43 @@ static void swap_tree(lc_tree *a, lc_tree *b)
 static void upd_free(upd *u)
 {
     const locd_allocator *a = u->s->alloc;
-    lc_buf_release(a, &u->dyn.ent, sizeof(uint64_t));
-    lc_buf_release(a, &u->sta.ent, sizeof(uint64_t));
+    lc_tree_release(a, &u->dyn);
+    lc_tree_release(a, &u->sta);
+    lc_tree_edit_free(a, &u->edit[0]);
+    lc_tree_edit_free(a, &u->edit[1]);
     lc_plist_fini(a, &u->next);
     lc_plist_fini(a, &u->cr);
     lc_plist_fini(a, &u->lo);
     lc_free(a, u->cells, u->s->slot_cap * sizeof *u->cells);
-    lc_free(a, u->qbox, u->s->slot_cap * 2 * sizeof *u->qbox);
+    lc_free(a, u->hot, u->hot_cap * sizeof *u->hot);
+    lc_free(a, u->dense, u->s->slot_cap * sizeof *u->dense);
     lc_free(a, u->undo_slot, u->undo_cap * sizeof *u->undo_slot);
     lc_free(a, u->undo_cells, u->undo_cap * sizeof *u->undo_cells);
-    lc_free(a, u->undo_q, u->undo_cap * 2 * sizeof *u->undo_q);
+    lc_free(a, u->undo_hot, u->undo_cap * sizeof *u->undo_hot);
+    lc_free(a, u->undo_dense, u->undo_cap * sizeof *u->undo_dense);
     lc_free(a, u->undo_flags, u->undo_cap * sizeof *u->undo_flags);
     lc_free(a, u->buf, u->buf_cap * sizeof *u->buf);
 }
 
-/* Puts back the cells written early by a failed incremental update. */
+/* Puts back what a failed incremental update wrote early: the cells and
+ * hot records of the moved objects, the tombstones. */
 static void undo(upd *u)
 {
     locd_scene *s = u->s;
     size_t k;
     for (k = u->nundo; k-- > 0;) {
         uint32_t slot = u->undo_slot[k];
+        uint32_t di = (u->undo_flags[k] & LC_SLOT_INTREE) ? u->undo_dense[k] : s->dense[slot];
+        s->hot[di] = u->undo_hot[k];
         s->cell[slot] = u->undo_cells[k];
-        s->qbox[2 * (size_t)slot] = u->undo_q[2 * k];
-        s->qbox[2 * (size_t)slot + 1] = u->undo_q[2 * k + 1];
+        s->dense[slot] = u->undo_dense[k];
         s->flags[slot] = u->undo_flags[k];
     }
+    if (u->nundo)
+        s->ndense = u->ndense_before;
     u->nundo = 0;
+    lc_tree_edit_undo(&s->dyn, &u->edit[0]);
+    lc_tree_edit_undo(&s->sta, &u->edit[1]);
 }
 
 /* 1 when this update should start from scratch. */
@@ -91,8 +106,13 @@ static int want_rebuild(const locd_scene *s, size_t moved)
     const uint32_t *d = s->dirty.data;
     if (!s->have_tree)
         return 1;
-    if (s->nslots > ((size_t)1 << s->grid.index_bits))
-        return 1;
+    {
+        size_t fresh = 0; /* objects new to the lists: each takes a dense index */
+        for (k = 0; k < s->ndirty; k++)
+            fresh += (s->flags[d[k]] & (LC_SLOT_LIVE | LC_SLOT_INTREE)) == LC_SLOT_LIVE;
+        if (s->ndense + fresh > s->hot_cap)
+            return 1;
+    }
     if ((double)moved > LC_REBUILD_FRACTION * (double)s->live && moved > 64)
         return 1;
     for (k = 0; k < s->ndirty; k++)
@@ -121,13 +141,15 @@ static locd_status rebuild(upd *u)
     double t0 = lc_now_ms(), t1;
     u->rebuilt = 1;
     u->cells = lc_alloc(a, s->slot_cap * sizeof *u->cells);
-    u->qbox = lc_alloc(a, s->slot_cap * 2 * sizeof *u->qbox);
-    if (!u->cells || !u->qbox)
+    u->hot_cap = lc_scene_dense_room(s->nslots);
+    u->hot = lc_alloc(a, u->hot_cap * sizeof *u->hot);
+    u->dense = lc_alloc(a, s->slot_cap * sizeof *u->dense);
+    if (!u->cells || !u->hot || !u->dense)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's cells");
     memset(u->cells, 0, s->slot_cap * sizeof *u->cells);
-    memset(u->qbox, 0, s->slot_cap * 2 * sizeof *u->qbox);
     if ((st = lc_scene_fit_grid(s, &u->grid)) != LOCD_OK ||
-        (st = lc_scene_build_trees(s, &u->grid, u->cells, u->qbox, &u->dyn, &u->sta)) != LOCD_OK)
+        (st = lc_scene_build_trees(s, &u->grid, u->cells, u->dense, u->hot, &u->ndense, &u->dyn, &u->sta)) !=
+            LOCD_OK)
         return st;
     t1 = lc_now_ms();
     u->ms_encode = t1 - t0;
@@ -140,6 +162,20 @@ static locd_status rebuild(upd *u)
         return st;
     u->ms_events = lc_now_ms() - t1;
     return LOCD_OK;
+}
+
+/* What the lists will be after edit e of t, without copying: a view. */
+static void view_tree(const lc_tree *t, const lc_tree_edit *e, lc_tree *v)
+{
+    if (e->compacted) {
+        *v = e->out;
+        v->ovf.data = NULL, v->novf = 0;
+    } else {
+        *v = *t;
+        if (e->out.novf != (size_t)-1)
+            v->ovf = e->out.ovf, v->novf = e->out.novf;
+    }
+    memcpy(v->per_level, e->out.per_level, sizeof v->per_level);
 }
 
 /* Room for n more entries in u->buf at *len. */
@@ -160,42 +196,127 @@ static locd_status buf_room(upd *u, size_t len, size_t n)
     return LOCD_OK;
 }
 
+/* The carry pass, split over the pool: thread t takes rows [b[t], b[t+1])
+ * of the previous set and the new rows whose keys fall in its key range,
+ * counts (pass 1) then writes (pass 2) its kept rows merged with those new
+ * rows, and its dropped rows, at offsets the counts give. */
+typedef struct carry_ctx {
+    const locd_scene *s;
+    const uint64_t *changed; /* bitmap of changed slots */
+    const locd_id *p;        /* previous rows */
+    const locd_id *n;        /* new rows */
+    size_t pb[LC_MAX_THREADS + 1], nb[LC_MAX_THREADS + 1]; /* row ranges */
+    size_t ndrop[LC_MAX_THREADS], out_off[LC_MAX_THREADS], drop_off[LC_MAX_THREADS];
+    locd_id *out, *drop;
+    int pass;
+} carry_ctx;
+
+LC_INLINE int row_changed(const uint64_t *bits, const locd_id *r)
+{
+    uint32_t a = LC_ID_SLOT(r[0]), b = LC_ID_SLOT(r[1]);
+    return (int)(((bits[a >> 6] >> (a & 63)) | (bits[b >> 6] >> (b & 63))) & 1u);
+}
+
+static void task_carry(void *arg, uint32_t t, uint32_t k)
+{
+    carry_ctx *c = arg;
+    size_t i, j = c->nb[t], w = c->out_off[t], dw = c->drop_off[t];
+    (void)k;
+    if (c->pass == 1) {
+        size_t nd = 0;
+        for (i = c->pb[t]; i < c->pb[t + 1]; i++)
+            nd += (size_t)row_changed(c->changed, c->p + 2 * i);
+        c->ndrop[t] = nd;
+        return;
+    }
+    for (i = c->pb[t]; i < c->pb[t + 1]; i++) {
+        const locd_id *r = c->p + 2 * i;
+        uint64_t key;
+        if (row_changed(c->changed, r)) {
+            c->drop[2 * dw] = r[0], c->drop[2 * dw + 1] = r[1], dw++;
+            continue;
+        }
+        key = lc_pair_key(r);
+        while (j < c->nb[t + 1] && lc_pair_key(c->n + 2 * j) < key) {
+            c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1], w++, j++;
+        }
+        c->out[2 * w] = r[0], c->out[2 * w + 1] = r[1], w++;
+    }
+    for (; j < c->nb[t + 1]; j++)
+        c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1], w++;
+}
+
+/* The first row of sorted rows[0, n) whose key is >= key. */
+static size_t rows_lower_bound(const locd_id *rows, size_t n, uint64_t key)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (lc_pair_key(rows + 2 * mid) < key)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
 /* The rows of the previous set that neither end changed (kept), the others
  * (dropped, into *dropped), merged with the new rows n. */
 static locd_status carry(upd *u, const lc_plist *n, lc_plist *dropped)
 {
     locd_scene *s = u->s;
-    const locd_id *p = s->pairs.rows.data;
-    locd_id *out, *dr;
-    size_t i, j = 0, w = 0, nd = 0;
-    locd_status st;
-    if ((st = lc_plist_reserve(s->alloc, &u->next, s->pairs.count + n->count + 1)) != LOCD_OK ||
-        (st = lc_plist_reserve(s->alloc, dropped, s->pairs.count + 1)) != LOCD_OK)
-        return st;
-    out = u->next.rows.data;
-    dr = dropped->rows.data;
-    for (i = 0; i < s->pairs.count; i++) {
-        const locd_id *r = p + 2 * i;
-        if ((s->flags[LC_ID_SLOT(r[0])] | s->flags[LC_ID_SLOT(r[1])]) & (LC_SLOT_DIRTY | LC_SLOT_REMOVED)) {
-            dr[2 * nd] = r[0], dr[2 * nd + 1] = r[1], nd++;
-            continue;
-        }
-        {
-            uint64_t k = lc_pair_key(r);
-            const locd_id *nr = n->rows.data;
-            while (j < n->count && lc_pair_key(nr + 2 * j) < k) {
-                out[2 * w] = nr[2 * j], out[2 * w + 1] = nr[2 * j + 1], w++, j++;
-            }
-        }
-        out[2 * w] = r[0], out[2 * w + 1] = r[1], w++;
+    const locd_allocator *a = s->alloc;
+    const uint32_t *d = s->dirty.data, *r = s->removed.data;
+    size_t words = (s->nslots + 63) / 64 + 1, np = s->pairs.count, k, nd = 0;
+    uint32_t kk = s->threads ? s->threads : 1, t;
+    carry_ctx *c = lc_alloc(a, sizeof *c);
+    uint64_t *bits = lc_alloc(a, words * sizeof *bits);
+    locd_status st = LOCD_OK;
+    if (!c || !bits) {
+        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the carry pass");
+        goto done;
     }
-    for (; j < n->count; j++) {
-        const locd_id *nr = n->rows.data;
-        out[2 * w] = nr[2 * j], out[2 * w + 1] = nr[2 * j + 1], w++;
+    memset(c, 0, sizeof *c);
+    memset(bits, 0, words * sizeof *bits);
+    for (k = 0; k < s->ndirty; k++)
+        bits[d[k] >> 6] |= (uint64_t)1 << (d[k] & 63);
+    for (k = 0; k < s->nremoved; k++)
+        bits[r[k] >> 6] |= (uint64_t)1 << (r[k] & 63);
+    if (np < 65536)
+        kk = 1;
+    c->s = s, c->changed = bits, c->p = s->pairs.rows.data, c->n = n->rows.data;
+    for (t = 0; t <= kk; t++) {
+        c->pb[t] = np * t / kk;
+        c->nb[t] = t == 0 ? 0 : t == kk ? n->count : rows_lower_bound(n->rows.data, n->count, lc_pair_key(c->p + 2 * c->pb[t]));
     }
-    u->next.count = w;
+    c->pass = 1;
+    if (kk > 1)
+        lc_pool_run(s->pool, kk, task_carry, c);
+    else
+        task_carry(c, 0, 1);
+    for (t = 0; t < kk; t++) {
+        c->drop_off[t] = nd;
+        nd += c->ndrop[t];
+    }
+    for (t = 0, k = 0; t < kk; t++) {
+        c->out_off[t] = k;
+        k += (c->pb[t + 1] - c->pb[t]) - c->ndrop[t] + (c->nb[t + 1] - c->nb[t]);
+    }
+    if ((st = lc_plist_reserve(a, &u->next, k + 1)) != LOCD_OK || (st = lc_plist_reserve(a, dropped, nd + 1)) != LOCD_OK)
+        goto done;
+    c->out = u->next.rows.data;
+    c->drop = dropped->rows.data;
+    c->pass = 2;
+    if (kk > 1)
+        lc_pool_run(s->pool, kk, task_carry, c);
+    else
+        task_carry(c, 0, 1);
+    u->next.count = k;
     dropped->count = nd;
-    return LOCD_OK;
+done:
+    lc_free(a, c, sizeof *c);
+    lc_free(a, bits, words * sizeof *bits);
+    return st;
 }
 
 static locd_status incremental(upd *u)
@@ -213,30 +334,32 @@ static locd_status incremental(upd *u)
     u->undo_cap = s->ndirty ? s->ndirty : 1;
     u->undo_slot = lc_alloc(a, u->undo_cap * sizeof *u->undo_slot);
     u->undo_cells = lc_alloc(a, u->undo_cap * sizeof *u->undo_cells);
-    u->undo_q = lc_alloc(a, u->undo_cap * 2 * sizeof *u->undo_q);
+    u->undo_hot = lc_alloc(a, u->undo_cap * sizeof *u->undo_hot);
+    u->undo_dense = lc_alloc(a, u->undo_cap * sizeof *u->undo_dense);
+    u->ndense_before = s->ndense;
     u->undo_flags = lc_alloc(a, u->undo_cap * sizeof *u->undo_flags);
-    if (!u->undo_slot || !u->undo_cells || !u->undo_q || !u->undo_flags)
+    if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags || !u->undo_dense)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the update's undo list");
     /* Pass 1: count the deltas (deleted and added per list, queries). */
     for (k = 0; k < s->nremoved; k++)
         if (s->flags[r[k]] & LC_SLOT_INTREE)
-            ndel[(s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0] += lc_cells_entries(g, &s->cell[r[k]], r[k], tmp);
+            ndel[(s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0] += lc_cells_entries(g, &s->cell[r[k]], 0, tmp);
     for (k = 0; k < s->ndirty; k++) {
         uint32_t slot = d[k], cnt;
         uint8_t f = s->flags[slot];
         int t = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        uint32_t q[3];
+        uint64_t q[2];
         if (!(f & LC_SLOT_LIVE))
             continue;
         u->moved++;
         lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
-        cnt = lc_cells_entries(g, &c, slot, tmp);
+        cnt = lc_cells_entries(g, &c, 0, tmp);
         nq += cnt;
         if ((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))
             continue;
         if (f & LC_SLOT_INTREE)
-            ndel[t] += lc_cells_entries(g, &s->cell[slot], slot, tmp);
+            ndel[t] += lc_cells_entries(g, &s->cell[slot], 0, tmp);
         nadd[t] += cnt;
     }
     off_del[0] = 0, off_del[1] = ndel[0];
@@ -251,53 +374,64 @@ static locd_status incremental(upd *u)
     for (k = 0; k < s->nremoved; k++)
         if (s->flags[r[k]] & LC_SLOT_INTREE) {
             int t = (s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0;
-            ndel[t] += lc_cells_entries(g, &s->cell[r[k]], r[k], u->buf + off_del[t] + ndel[t]);
+            ndel[t] += lc_cells_entries(g, &s->cell[r[k]], s->dense[r[k]], u->buf + off_del[t] + ndel[t]);
         }
     for (k = 0; k < s->ndirty; k++) {
         uint32_t slot = d[k], cnt;
         uint8_t f = s->flags[slot];
         int t = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        uint32_t q[3];
+        uint64_t q[2];
+        uint32_t di;
         if (!(f & LC_SLOT_LIVE))
             continue;
         lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
+        /* an object new to the lists takes the next dense index */
+        di = (f & LC_SLOT_INTREE) ? s->dense[slot] : (uint32_t)s->ndense++;
         u->undo_slot[u->nundo] = slot;
         u->undo_cells[u->nundo] = s->cell[slot];
-        u->undo_q[2 * u->nundo] = s->qbox[2 * (size_t)slot];
-        u->undo_q[2 * u->nundo + 1] = s->qbox[2 * (size_t)slot + 1];
+        u->undo_dense[u->nundo] = s->dense[slot];
+        u->undo_hot[u->nundo] = s->hot[di];
         u->undo_flags[u->nundo] = f;
         u->nundo++;
-        cnt = lc_cells_entries(g, &c, slot, u->buf + off_q + nq);
+        cnt = lc_cells_entries(g, &c, di, u->buf + off_q + nq);
         if (!((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))) {
             if (f & LC_SLOT_INTREE)
-                ndel[t] += lc_cells_entries(g, &s->cell[slot], slot, u->buf + off_del[t] + ndel[t]);
+                ndel[t] += lc_cells_entries(g, &s->cell[slot], di, u->buf + off_del[t] + ndel[t]);
             memcpy(u->buf + off_add[t] + nadd[t], u->buf + off_q + nq, cnt * sizeof(uint64_t));
             nadd[t] += cnt;
             u->reencoded++;
         }
         nq += cnt;
         s->cell[slot] = c;
-        memcpy(s->qbox + 2 * (size_t)slot, q, sizeof q);
+        s->dense[slot] = di;
+        lc_hot_fill(s, slot, q, &s->hot[di]);
+        s->hot[di].flags |= LC_SLOT_DIRTY;
         s->flags[slot] |= LC_SLOT_INTREE;
     }
-    for (k = 0; k < 2; k++) {
-        lc_sort_u64(u->buf + off_del[k], ndel[k]);
-        lc_sort_u64(u->buf + off_add[k], nadd[k]);
-    }
-    lc_sort_u64(u->buf + off_q, nq);
+    for (k = 0; k < 2; k++)
+        if ((st = lc_sort_u64_radix(a, u->buf + off_del[k], ndel[k])) != LOCD_OK ||
+            (st = lc_sort_u64_radix(a, u->buf + off_add[k], nadd[k])) != LOCD_OK)
+            return st;
+    if ((st = lc_sort_u64_radix(a, u->buf + off_q, nq)) != LOCD_OK)
+        return st;
     t1 = lc_now_ms();
     u->ms_encode = t1 - t0;
     t0 = t1;
-    if ((st = lc_tree_repair(a, g, &s->dyn, u->buf + off_del[0], ndel[0], u->buf + off_add[0], nadd[0], &u->dyn)) !=
-            LOCD_OK ||
-        (st = lc_tree_repair(a, g, &s->sta, u->buf + off_del[1], ndel[1], u->buf + off_add[1], nadd[1], &u->sta)) !=
-            LOCD_OK)
+    if ((st = lc_tree_edit_apply(a, g, &s->dyn, u->buf + off_del[0], ndel[0], u->buf + off_add[0], nadd[0],
+                                 &u->edit[0])) != LOCD_OK ||
+        (st = lc_tree_edit_apply(a, g, &s->sta, u->buf + off_del[1], ndel[1], u->buf + off_add[1], nadd[1],
+                                 &u->edit[1])) != LOCD_OK)
         return st;
+    /* The search sees the lists as they will be: a view of each. */
+    view_tree(&s->dyn, &u->edit[0], &u->dyn);
+    view_tree(&s->sta, &u->edit[1], &u->sta);
     t1 = lc_now_ms();
     u->ms_merge = t1 - t0;
     t0 = t1;
     st = lc_scene_find_moved(s, &u->dyn, &u->sta, u->buf + off_q, nq, &n, &u->candidates);
+    memset(&u->dyn, 0, sizeof u->dyn); /* views: not ours to free */
+    memset(&u->sta, 0, sizeof u->sta);
     t1 = lc_now_ms();
     u->ms_sweep = t1 - t0;
     t0 = t1;
@@ -331,12 +465,17 @@ static void clear_changes(locd_scene *s)
 static void commit(upd *u)
 {
     locd_scene *s = u->s;
+    size_t k;
     if (u->rebuilt) {
         lc_cells *c = s->cell;
-        uint64_t *q = s->qbox;
-        size_t k;
+        lc_hot *h = s->hot;
+        uint32_t *dn = s->dense;
+        size_t hc = s->hot_cap;
         s->cell = u->cells, u->cells = c;
-        s->qbox = u->qbox, u->qbox = q;
+        s->hot = u->hot, u->hot = h;
+        s->hot_cap = u->hot_cap, u->hot_cap = hc;
+        s->dense = u->dense, u->dense = dn;
+        s->ndense = u->ndense;
         s->grid = u->grid;
         s->have_tree = 1;
         for (k = 0; k < s->nslots; k++)
@@ -345,9 +484,15 @@ static void commit(upd *u)
         u->moved = 0;
         for (k = 0; k < s->ndirty; k++)
             u->moved += (s->flags[((const uint32_t *)s->dirty.data)[k]] & LC_SLOT_LIVE) != 0;
+        swap_tree(&s->dyn, &u->dyn);
+        swap_tree(&s->sta, &u->sta);
+    } else {
+        lc_tree_edit_commit(s->alloc, &s->dyn, &u->edit[0]);
+        lc_tree_edit_commit(s->alloc, &s->sta, &u->edit[1]);
+        for (k = 0; k < u->nundo; k++)
+            s->hot[s->dense[u->undo_slot[k]]].flags &= ~(uint32_t)LC_SLOT_DIRTY;
+        u->nundo = 0;
     }
-    swap_tree(&s->dyn, &u->dyn);
-    swap_tree(&s->sta, &u->sta);
     swap_plist(&s->pairs, &u->next);
     swap_plist(&s->created, &u->cr);
     swap_plist(&s->lost, &u->lo);
