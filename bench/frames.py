@@ -30,14 +30,15 @@ bench_run = importlib.machinery.SourceFileLoader("bench_run", str(ROOT / "bench"
 plt = bench_run.plt
 from matplotlib import ticker  # noqa: E402
 
-SYSTEMS = ["locd", "rebuild", "bullet_dbvt", "fcl_dynamic_aabb_tree"]
+SYSTEMS = ["locd", "locd_1t", "rebuild", "bullet_dbvt", "fcl_dynamic_aabb_tree"]
 LABELS = {
     "locd": "locd scene update",
+    "locd_1t": "locd scene update, 1 thread",
     "rebuild": "locd full find_pairs (rebuild)",
     "bullet_dbvt": "Bullet btDbvtBroadphase (setAabb + calculateOverlappingPairs)",
     "fcl_dynamic_aabb_tree": "FCL DynamicAABBTree (update + collide)",
 }
-COLORS = {"locd": "#000000", "rebuild": "#7f7f7f", "bullet_dbvt": "#d62728", "fcl_dynamic_aabb_tree": "#1f77b4"}
+COLORS = {"locd": "#000000", "locd_1t": "#2ca02c", "rebuild": "#7f7f7f", "bullet_dbvt": "#d62728", "fcl_dynamic_aabb_tree": "#1f77b4"}
 
 
 def grid(args):
@@ -109,28 +110,30 @@ def report(args, results, img_dir, meta):
              "absolute 0.05, made for unit-sized boxes: Bullet gets the scene scaled by the power of two that brings "
              "the mean edge nearest to 1 (exact in floating point: the same overlaps). The systems take turns within "
              "each frame; figures are medians per frame (of %d interleaved repetitions of the grid). "
-             "locd runs on %s threads; Bullet and FCL have no threads on these paths." % (
+             "locd runs on %s threads, and on one thread in a second scene (like for like: Bullet and FCL have no "
+             "threads on these paths)." % (
                  meta["reps"], meta.get("threads", "?")))
     L.append("")
-    L.append("| n | static | moving | moved / frame | locd update | rebuild | update / rebuild | Bullet Dbvt | FCL "
-             "DynamicAABBTree | best peer / locd update |")
-    L.append("|---|---|---|---|---|---|---|---|---|---|")
+    L.append("| n | static | moving | moved / frame | locd update | rebuild | update / rebuild | locd update, 1 thread "
+             "| Bullet Dbvt | FCL DynamicAABBTree | best peer / locd update | best peer / locd 1 thread |")
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in table:
         peers = [r[s] for s in ("bullet_dbvt", "fcl_dynamic_aabb_tree") if r[s] is not None]
         best = min(peers) if peers else None
-        L.append("| %s | %s | %s | %s | %s | %s | %.3f | %s | %s | %s |" % (
+        L.append("| %s | %s | %s | %s | %s | %s | %.3f | %s | %s | %s | %s | %s |" % (
             bench_run.fmt_n(r["n"]), pct(r["static"]), pct(r["moving"]), "{:,}".format(r["moved"]),
-            fmt(r["locd"]), fmt(r["rebuild"]), r["locd"] / r["rebuild"], fmt(r["bullet_dbvt"]),
-            fmt(r["fcl_dynamic_aabb_tree"]), "%.2f" % (best / r["locd"]) if best else "-"))
+            fmt(r["locd"]), fmt(r["rebuild"]), r["locd"] / r["rebuild"], fmt(r["locd_1t"]), fmt(r["bullet_dbvt"]),
+            fmt(r["fcl_dynamic_aabb_tree"]), "%.2f" % (best / r["locd"]) if best else "-",
+            "%.2f" % (best / r["locd_1t"]) if best and r["locd_1t"] else "-"))
     L.append("")
     L.append("Pairs held after the last frame (n = 10^6 rows): locd and FCL report exactly the overlapping pairs "
              "(static-static pairs excluded); the rebuild's count includes static-static pairs; Bullet's pair cache "
              "keeps a pair until its own cleanup finds the (margin-fattened) tree volumes apart, so it holds more.")
     L.append("")
-    L.append("| n | static | moving | locd | rebuild | Bullet | FCL |")
-    L.append("|---|---|---|---|---|---|---|")
+    L.append("| n | static | moving | locd | locd, 1 thread | rebuild | Bullet | FCL |")
+    L.append("|---|---|---|---|---|---|---|---|")
     for r in table:
-        L.append("| %s | %s | %s | %s | %s | %s | %s |" % (
+        L.append("| %s | %s | %s | %s | %s | %s | %s | %s |" % (
             bench_run.fmt_n(r["n"]), pct(r["static"]), pct(r["moving"]),
             *["{:,}".format(r[s + "_pairs"]) if r[s + "_pairs"] is not None else "-" for s in SYSTEMS]))
     L.append("")

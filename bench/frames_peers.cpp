@@ -10,6 +10,7 @@
 // fraction P of the non-static boxes; then, in turn (the order rotating from
 // frame to frame, so no system always runs first):
 //   locd     locd_scene_move_f32 + locd_scene_update (pairs and created/lost)
+//   locd_1t  the same on an engine of one thread
 //   rebuild  locd_engine_find_pairs_f32 on all the boxes (no scene)
 //   bullet   btDbvtBroadphase::setAabb for each moved proxy, then
 //            calculateOverlappingPairs (its pair cache holds the pairs);
@@ -91,7 +92,8 @@ struct locd_sys : system_base {
     locd_scene *scene = nullptr;
     std::vector<locd_id> ids, mid;
     std::vector<float> mbox;
-    locd_sys(locd_engine *e, const frames_motion &m, const float *boxes) : eng(e)
+    const char *label;
+    locd_sys(locd_engine *e, const frames_motion &m, const float *boxes, const char *name_) : eng(e), label(name_)
     {
         ok(locd_scene_create(eng, nullptr, &scene), "scene");
         ids.resize(m.n);
@@ -114,7 +116,7 @@ struct locd_sys : system_base {
         ok(locd_scene_update(scene, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS), "update");
     }
     ~locd_sys() override { locd_scene_destroy(scene); }
-    const char *name() const override { return "locd"; }
+    const char *name() const override { return label; }
     void frame(const frames_motion &m, const float *boxes) override
     {
         mid.resize(m.moved);
@@ -279,7 +281,7 @@ struct args {
     std::size_t frames = 0;
     std::uint32_t threads = 0;
     std::uint64_t seed = 1;
-    std::string peers = "locd,rebuild,bullet,fcl";
+    std::string peers = "locd,locd_1t,rebuild,bullet,fcl";
     std::string label;
 };
 
@@ -291,7 +293,7 @@ args parse(int argc, char **argv)
         const char *v = i + 1 < argc ? argv[i + 1] : nullptr;
         if (o == "--help" || o == "-h") {
             std::printf("usage: frames_peers SCENE.aabb --moving P --frames F [--static S] [--threads T] [--seed N]\n"
-                        "                    [--peers locd,rebuild,bullet,fcl] [--label TEXT]\n");
+                        "                    [--peers locd,locd_1t,rebuild,bullet,fcl] [--label TEXT]\n");
             std::exit(0);
         }
         if (o.rfind("--", 0) == 0 && !v)
@@ -339,11 +341,13 @@ int main(int argc, char **argv)
     frames_motion m;
     if (frames_motion_init(&m, boxes.data(), sc.n, a.static_frac, a.moving, a.seed) != 0)
         die("out of memory");
-    locd_engine *eng = nullptr;
+    locd_engine *eng = nullptr, *eng1 = nullptr;
     locd_engine_config cfg;
     locd_engine_config_init(&cfg);
     cfg.threads = a.threads;
     ok(locd_engine_create(&cfg, &eng), "engine");
+    cfg.threads = 1; // like for like with the single-threaded peers
+    ok(locd_engine_create(&cfg, &eng1), "engine");
 
     std::vector<std::unique_ptr<system_base>> sys;
     std::vector<double> setup_ms;
@@ -354,7 +358,9 @@ int main(int argc, char **argv)
         };
         double t0;
         if (wants(a, "locd"))
-            t0 = peer_now_ms(), add(new locd_sys(eng, m, boxes.data()), t0);
+            t0 = peer_now_ms(), add(new locd_sys(eng, m, boxes.data(), "locd"), t0);
+        if (wants(a, "locd_1t"))
+            t0 = peer_now_ms(), add(new locd_sys(eng1, m, boxes.data(), "locd_1t"), t0);
         if (wants(a, "rebuild"))
             t0 = peer_now_ms(), add(new rebuild_sys(eng, sc.n), t0);
         if (wants(a, "bullet"))
@@ -386,6 +392,7 @@ int main(int argc, char **argv)
     std::printf("}}\n");
     sys.clear();
     locd_engine_destroy(eng);
+    locd_engine_destroy(eng1);
     frames_motion_free(&m);
     cli_free_scene(&sc);
     return 0;
