@@ -130,13 +130,13 @@ static void same_rows(const char *what, const locd_id *want, size_t nwant, const
 
 static unsigned g_updates, g_incremental;
 
-/* Updates the scene and checks pairs, created and lost against the model. */
-static void check_update(locd_scene *s, model *m)
+/* Checks the lists of the update just made (pairs, created and lost)
+ * against the model, and moves the model's previous set on. */
+static void check_lists(locd_scene *s, model *m)
 {
     const locd_id *p;
     size_t np, nw, nc, nl;
     locd_id *want = m_pairs(m, &nw), *cr, *lo;
-    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s, &p, &np));
     same_rows("pairs", want, nw, p, np);
     cr = minus(want, nw, m->pairs, m->npairs, &nc);
@@ -158,6 +158,13 @@ static void check_update(locd_scene *s, model *m)
         g_updates++;
         g_incremental += st.rebuilt == 0;
     }
+}
+
+/* Updates the scene and checks pairs, created and lost against the model. */
+static void check_update(locd_scene *s, model *m)
+{
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
+    check_lists(s, m);
 }
 
 /* ---- queries against the model ---- */
@@ -615,57 +622,96 @@ static void levels_2_and_3_are_unsupported(void)
 }
 
 /* Every allocation of a change or an update fails in turn: the call gives
- * LOCD_ERR_NO_MEMORY and the scene is as before. */
+ * LOCD_ERR_NO_MEMORY, and the scene then behaves as if the failed call had
+ * not been made (checked against the model by the next, working update). */
 static void allocation_failures_change_nothing(void)
 {
     locd_engine *e = new_engine(1, fa_allocator());
     locd_scene *s = NULL;
-    double b[6 * 64];
-    locd_id ids[64], more[8];
-    uint64_t k, h;
-    int i, round;
+    enum { N0 = 2000 };
+    double *b = malloc(6 * N0 * sizeof *b);
+    locd_id *ids = malloc(N0 * sizeof *ids), more[8];
+    uint64_t k;
+    int i, round, failed_calls = 0;
     world w;
+    model m;
     memset(&w, 0, sizeof w);
+    memset(&m, 0, sizeof m);
     ts_seed(&w.r, 5);
-    w.extent = 20.0, w.size = 3.0;
-    for (i = 0; i < 64; i++)
+    w.extent = 60.0, w.size = 3.0;
+    for (i = 0; i < N0; i++)
         random_box(&w, b + 6 * i);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
-    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b, 64, NULL, ids));
-    for (round = 0; round < 3; round++) {
-        for (k = 1; k < 200; k++) {
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b, N0, NULL, ids));
+    for (i = 0; i < N0; i++)
+        m_add(&m, ids[i], b + 6 * i, 1, ~(uint64_t)0, 0, 0, 0);
+    check_update(s, &m);
+    for (round = 0; round < 4; round++) {
+        for (k = 1; k < 400; k++) {
             locd_status st;
             fa_counts c;
-            for (i = 0; i < 8; i++)
+            for (i = 0; i < 8; i++) {
                 random_box(&w, b + 6 * i);
-            h = fingerprint(s);
+                if (round == 3) { /* far outside the root cube: the update rebuilds */
+                    int a;
+                    for (a = 0; a < 6; a++)
+                        b[6 * i + a] += 1000.0;
+                }
+            }
             fa_arm(k, 0);
-            st = round == 0 ? locd_scene_add_f64(s, b, 8, NULL, more)
-                            : locd_scene_move_f64(s, ids + 8 * round, b, 8);
-            if (st == LOCD_OK)
+            if (round == 0 || round == 3)
+                st = locd_scene_add_f64(s, b, 8, NULL, more);
+            else
+                st = locd_scene_move_f64(s, ids + 8 * (size_t)((50 * round + (int)k) % (N0 / 8)), b, 8);
+            if (st == LOCD_OK) { /* the change went in: the model follows */
+                for (i = 0; i < 8; i++) {
+                    if (round == 0 || round == 3)
+                        m_add(&m, more[i], b + 6 * i, 1, ~(uint64_t)0, 0, 0, 0);
+                    else
+                        memcpy(m_find(&m, ids[8 * (size_t)((50 * round + (int)k) % (N0 / 8)) + (size_t)i])->box, b + 6 * i,
+                               6 * sizeof(double));
+                }
                 st = locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS);
+            }
             fa_counts_get(&c);
             fa_arm(0, 0);
             if (c.failures == 0) {
                 TEST_ASSERT_EQUAL_INT(LOCD_OK, st);
-                if (round == 0)
-                    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, more, 8));
+                check_lists(s, &m);
                 break;
             }
             TEST_ASSERT_EQUAL_INT(LOCD_ERR_NO_MEMORY, st);
-            /* A failed update leaves its changes pending: the next update
-               (fingerprint) must still match a scene that never failed. */
-            if (round == 0 && locd_scene_count(s) > 64)
-                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, more, 8));
-            (void)h;
+            failed_calls++;
+            /* pending changes (if the update failed) go in now; the lists must
+               equal the model's, created and lost against the last good update */
+            check_update(s, &m);
+            if (round == 0 || round == 3) { /* keep the scene small: remove what was added */
+                size_t cnt = 0;
+                locd_id rm[8];
+                for (i = 0; i < 8 && locd_scene_count(s) > N0; i++) {
+                    locd_id id = m.o[m.n - 1].id;
+                    rm[cnt++] = id;
+                    m_remove(&m, id);
+                }
+                if (cnt)
+                    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, rm, cnt));
+                check_update(s, &m);
+            }
         }
     }
+    LT_PRINT("allocation failures: %d failed calls, each left the scene as before\n", failed_calls);
+    TEST_ASSERT_TRUE(failed_calls > 20);
     locd_scene_destroy(s);
     locd_engine_destroy(e);
+    free(m.o);
+    free(m.pairs);
+    free(b);
+    free(ids);
     {
         fa_counts c;
         fa_counts_get(&c);
         TEST_ASSERT_EQUAL_UINT64(0, c.bad_frees);
+        TEST_ASSERT_EQUAL_UINT64(0, c.live_blocks);
     }
 }
 

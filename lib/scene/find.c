@@ -6,7 +6,8 @@
  * order: both moved and not m < o (the other one reports it), the filter
  * (static-static, category/mask, group: filtered pairs are never tested
  * further), the quantized boxes (conservative: they overlap whenever the
- * boxes do), the canonical cell pair, the exact box test. Everything but
+ * boxes do), the canonical cell pair, the exact box test (only when the
+ * quantized boxes touch: strictly overlapping ones overlap). Everything but
  * the exact test reads o's record (lc_hot), and the records of one cell's
  * objects are neighbours (dense indices, scene.h).
  *
@@ -17,15 +18,21 @@
  * is reported at that cell pair only (docs/scene.md). */
 #include "scene/scene.h"
 
+/* One thread's output, on its own stack while it runs (no two threads
+ * write one cache line) and copied to the context at its end. */
+typedef struct find_out {
+    lc_buf rows; /* locd_id, two a row */
+    size_t count;
+    uint64_t cand;
+    locd_status st;
+} find_out;
+
 typedef struct find_ctx {
     const locd_scene *s;
     const lc_tree *dyn, *sta;
     const uint64_t *q; /* sorted entries of the moved objects */
     size_t nq;
-    lc_buf rows[LC_MAX_THREADS]; /* locd_id, two a row */
-    size_t count[LC_MAX_THREADS];
-    uint64_t cand[LC_MAX_THREADS];
-    locd_status st[LC_MAX_THREADS];
+    find_out out[LC_MAX_THREADS];
 } find_ctx;
 
 /* The point p lies in the cell (pm, level). */
@@ -41,20 +48,20 @@ static int cell_holds(const locd_grid *g, uint64_t pm, uint32_t level, const uin
 
 /* Tests the candidate entry eo against the query entry eq (object m, hot
  * record hm). Only o's hot record is read until the exact test. */
-static void consider(find_ctx *c, uint32_t t, uint64_t eq, const lc_hot *hm, uint64_t eo)
+static void consider(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot *hm, uint64_t eo)
 {
     const locd_scene *s = c->s;
     const locd_grid *g = &s->grid;
     const uint32_t ib = g->index_bits;
     const uint64_t imask = ((uint64_t)1 << ib) - 1;
     uint32_t m = (uint32_t)(eq & imask), o = (uint32_t)(eo & imask);
-    uint32_t lm = (uint32_t)(eq >> ib) & 31u, lo = (uint32_t)(eo >> ib) & 31u, p[3], a;
+    uint32_t lm = (uint32_t)(eq >> ib) & 31u, lo = (uint32_t)(eo >> ib) & 31u, p[3], a, tie = 0;
     const lc_hot *ho;
     locd_id *row;
     if (o == m || o == (uint32_t)imask) /* itself, or a tombstone */
         return;
     ho = &s->hot[o];
-    c->cand[t]++;
+    fo->cand++;
     /* both moved: the one with the smaller id reports the pair */
     if ((ho->flags & LC_SLOT_DIRTY) && s->id[ho->slot] < s->id[hm->slot])
         return;
@@ -65,24 +72,27 @@ static void consider(find_ctx *c, uint32_t t, uint64_t eq, const lc_hot *hm, uin
     /* the quantized boxes (conservative: they overlap whenever the boxes do),
        then the canonical cell pair */
     for (a = 0; a < 3; a++) {
-        uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(ho->qlo, a);
-        if (ml > FIELD(ho->qhi, a) || ol > FIELD(hm->qhi, a))
+        uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(ho->qlo, a), mh = FIELD(hm->qhi, a), oh = FIELD(ho->qhi, a);
+        if (ml > oh || ol > mh)
             return;
+        tie |= (ml == oh) | (ol == mh);
         p[a] = ml > ol ? ml : ol;
     }
     if (lm >= lo ? !cell_holds(g, eq >> (ib + LC_LEVEL_BITS), lm, p)
                  : !cell_holds(g, eo >> (ib + LC_LEVEL_BITS), lo, p))
         return;
-    if (!lc_box_overlap(s->box + 6 * (size_t)hm->slot, s->box + 6 * (size_t)ho->slot))
+    /* Strictly overlapping quantized boxes need no exact test: the
+       quantization is monotone, so q(x) < q(y) implies x < y. Only a tie
+       (equal quantized ends) may hide boxes that do not overlap. */
+    if (tie && !lc_box_overlap(s->box + 6 * (size_t)hm->slot, s->box + 6 * (size_t)ho->slot))
         return;
-    if (c->st[t] == LOCD_OK &&
-        lc_buf_reserve(s->alloc, &c->rows[t], 2 * sizeof(locd_id), c->count[t] + 1) != LOCD_OK) {
-        c->st[t] = LOCD_ERR_NO_MEMORY;
+    if (fo->st == LOCD_OK && lc_buf_reserve(s->alloc, &fo->rows, 2 * sizeof(locd_id), fo->count + 1) != LOCD_OK) {
+        fo->st = LOCD_ERR_NO_MEMORY;
         return;
     }
-    if (c->st[t] != LOCD_OK)
+    if (fo->st != LOCD_OK)
         return;
-    row = (locd_id *)c->rows[t].data + 2 * c->count[t]++;
+    row = (locd_id *)fo->rows.data + 2 * fo->count++;
     {
         locd_id im = s->id[hm->slot], io = s->id[ho->slot];
         row[0] = im < io ? im : io;
@@ -90,10 +100,18 @@ static void consider(find_ctx *c, uint32_t t, uint64_t eq, const lc_hot *hm, uin
     }
 }
 
-/* Every entry of e[0, n) on a common path with the cell of entry eq. */
-static void search_array(find_ctx *c, uint32_t t, const size_t *per_level, const uint64_t *e, size_t n, uint64_t eq,
-                         const lc_hot *hm)
+/* The first of e[0, n) >= v: through tr's directory for its main array. */
+static size_t lower(const lc_tree *tr, const uint64_t *e, size_t n, uint64_t v)
 {
+    return e == tr->ent.data ? lc_tree_lower_bound(tr, v) : lc_lower_bound(e, n, v);
+}
+
+/* Every entry of e[0, n) (tr's main array or overflow) on a common path
+ * with the cell of entry eq. */
+static void search_array(const find_ctx *c, find_out *fo, const lc_tree *tr, const uint64_t *e, size_t n,
+                         uint64_t eq, const lc_hot *hm)
+{
+    const size_t *per_level = tr->per_level;
     const locd_grid *g = &c->s->grid;
     const uint32_t ib = g->index_bits;
     const uint64_t key = eq >> ib, pm = key >> LC_LEVEL_BITS;
@@ -105,8 +123,8 @@ static void search_array(find_ctx *c, uint32_t t, const size_t *per_level, const
     /* the cell itself and its descendants: keys in [key, (pm + span) << 5) */
     {
         const uint64_t end = (pm + ((uint64_t)1 << (3u * (g->depth - level)))) << LC_LEVEL_BITS;
-        for (i = lc_lower_bound(e, n, key << ib); i < n && (e[i] >> ib) < end; i++)
-            consider(c, t, eq, hm, e[i]);
+        for (i = lower(tr, e, n, key << ib); i < n && (e[i] >> ib) < end; i++)
+            consider(c, fo, eq, hm, e[i]);
     }
     /* its ancestors, at the levels that hold entries */
     for (l = 0; l < level; l++) {
@@ -114,15 +132,17 @@ static void search_array(find_ctx *c, uint32_t t, const size_t *per_level, const
         if (!per_level[l])
             continue;
         ka = ((pm & ~(((uint64_t)1 << (3u * (g->depth - l))) - 1)) << LC_LEVEL_BITS) | l;
-        for (i = lc_lower_bound(e, n, ka << ib); i < n && (e[i] >> ib) == ka; i++)
-            consider(c, t, eq, hm, e[i]);
+        for (i = lower(tr, e, n, ka << ib); i < n && (e[i] >> ib) == ka; i++)
+            consider(c, fo, eq, hm, e[i]);
     }
 }
 
-static void search(find_ctx *c, uint32_t t, const lc_tree *tr, uint64_t eq, const lc_hot *hm)
+static void search(const find_ctx *c, find_out *fo, const lc_tree *tr, uint64_t eq, const lc_hot *hm)
 {
-    search_array(c, t, tr->per_level, tr->ent.data, tr->count, eq, hm);
-    search_array(c, t, tr->per_level, tr->ovf.data, tr->novf, eq, hm);
+    if (tr->count)
+        search_array(c, fo, tr, tr->ent.data, tr->count, eq, hm);
+    if (tr->novf)
+        search_array(c, fo, tr, tr->ovf.data, tr->novf, eq, hm);
 }
 
 static void task_find(void *arg, uint32_t t, uint32_t k)
@@ -130,12 +150,15 @@ static void task_find(void *arg, uint32_t t, uint32_t k)
     find_ctx *c = arg;
     const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
     size_t b = c->nq * t / k, e = c->nq * (t + 1) / k, i;
+    find_out fo;
+    memset(&fo, 0, sizeof fo);
     for (i = b; i < e; i++) {
         const lc_hot *hm = &c->s->hot[c->q[i] & imask];
-        search(c, t, c->dyn, c->q[i], hm);
+        search(c, &fo, c->dyn, c->q[i], hm);
         if (!(hm->flags & LC_SLOT_STATIC))
-            search(c, t, c->sta, c->q[i], hm);
+            search(c, &fo, c->sta, c->q[i], hm);
     }
+    c->out[t] = fo;
 }
 
 locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q,
@@ -158,25 +181,25 @@ locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const l
     else
         task_find(c, 0, 1);
     for (t = 0; t < k; t++) {
-        if (c->st[t] != LOCD_OK)
+        if (c->out[t].st != LOCD_OK)
             st = lc_error(LOCD_ERR_NO_MEMORY, "could not grow the new pairs");
-        total += c->count[t];
-        *candidates += c->cand[t];
+        total += c->out[t].count;
+        *candidates += c->out[t].cand;
     }
     if (st == LOCD_OK)
         st = lc_plist_reserve(s->alloc, out, total ? total : 1);
     if (st == LOCD_OK) {
         size_t w = 0;
         for (t = 0; t < k; t++) {
-            if (c->count[t])
-                memcpy((locd_id *)out->rows.data + 2 * w, c->rows[t].data, 2 * c->count[t] * sizeof(locd_id));
-            w += c->count[t];
+            if (c->out[t].count)
+                memcpy((locd_id *)out->rows.data + 2 * w, c->out[t].rows.data, 2 * c->out[t].count * sizeof(locd_id));
+            w += c->out[t].count;
         }
         out->count = w;
         st = lc_pairs_sort_rows(s->alloc, out->rows.data, w);
     }
     for (t = 0; t < k; t++)
-        lc_buf_release(s->alloc, &c->rows[t], 2 * sizeof(locd_id));
+        lc_buf_release(s->alloc, &c->out[t].rows, 2 * sizeof(locd_id));
     lc_free(s->alloc, c, sizeof *c);
     return st;
 }

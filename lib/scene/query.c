@@ -1,5 +1,7 @@
 /* Queries: the objects whose box overlaps a box, contains a point, or meets
- * a ray segment, filtered by category & mask. Queries only read the scene
+ * a ray segment, filtered by category & mask. Candidates come from the
+ * entry lists (the cells the query's box covers) or, when that would cost
+ * more, a scan; each is tested exactly. Queries only read the scene
  * (several threads may query at once); their scratch comes from the
  * engine's allocator. */
 #include "scene/scene.h"
@@ -69,51 +71,182 @@ static int hit_one(const locd_scene *s, const lc_ask *q, size_t k, double *t)
     return lc_box_overlap(s->box + 6 * k, q->box);
 }
 
+/* The hits gathered so far. */
+typedef struct lc_hits {
+    const locd_allocator *a;
+    lc_hit *h;
+    size_t n, cap;
+    int failed;
+} lc_hits;
+
+static void add_hit(lc_hits *hs, double t, locd_id id)
+{
+    if (hs->failed)
+        return;
+    if (hs->n == hs->cap) {
+        size_t nc = lc_grow_cap(hs->cap, hs->n + 1);
+        lc_hit *h = lc_alloc(hs->a, nc * sizeof *h);
+        if (!h) {
+            hs->failed = 1;
+            return;
+        }
+        if (hs->h)
+            memcpy(h, hs->h, hs->n * sizeof *h);
+        lc_free(hs->a, hs->h, hs->cap * sizeof *hs->h);
+        hs->h = h, hs->cap = nc;
+    }
+    hs->h[hs->n].t = t;
+    hs->h[hs->n].id = id;
+    hs->n++;
+}
+
+static void try_slot(const locd_scene *s, const lc_ask *q, size_t k, lc_hits *hs)
+{
+    double t;
+    if (hit_one(s, q, k, &t))
+        add_hit(hs, t, s->id[k]);
+}
+
+/* Above this many cells per object of the scene, a scan is cheaper. */
+#define LC_QUERY_CELLS_PER_OBJECT 0.05
+
+/* The query's box (for a ray, its segment's box widened by a margin far
+ * above the rounding of o + max_t * d: candidates may only be too many),
+ * or 0 when it has none (an unbounded ray). */
+static int query_bounds(const lc_ask *q, double *b)
+{
+    int a;
+    if (!q->ray) {
+        memcpy(b, q->box, 6 * sizeof *b);
+        return 1;
+    }
+    if (!isfinite(q->max_t))
+        return 0;
+    for (a = 0; a < 3; a++) {
+        double e = q->o[a] + q->max_t * q->d[a];
+        double lo = q->o[a] < e ? q->o[a] : e, hi = q->o[a] < e ? e : q->o[a];
+        double m = (fabs(lo) + fabs(hi) + fabs(q->max_t * q->d[a])) * 1e-9 + 1e-300;
+        b[a] = lo - m;
+        b[a + 3] = hi + m;
+        if (!isfinite(b[a]) || !isfinite(b[a + 3]))
+            return 0;
+    }
+    return 1;
+}
+
+/* The objects in the cells the query's box covers, at every level that
+ * holds entries, through the entry lists (their cells are those of the
+ * last update: the objects changed since are tried one by one). Returns 0
+ * when walking the cells would cost more than a scan. An object overlapping
+ * the box has, at its level, the cell that holds max(its low corner, the
+ * box's) in the box's cell range (the quantization is monotone), so it is
+ * met at least once; duplicates are removed after the sort. */
+static int tree_candidates(const locd_scene *s, const lc_ask *q, lc_hits *hs)
+{
+    const locd_grid *g = &s->grid;
+    const uint32_t ib = g->index_bits;
+    const uint64_t imask = ((uint64_t)1 << ib) - 1;
+    const lc_tree *trees[2];
+    uint32_t lo[3], hi[3], l, a;
+    double b[6], cells = 0.0;
+    int t;
+    size_t k;
+    if (!s->have_tree || !query_bounds(q, b))
+        return 0;
+    for (a = 0; a < 3; a++) {
+        lo[a] = (uint32_t)lc_quantize(g, (int)a, b[a]);
+        hi[a] = (uint32_t)lc_quantize(g, (int)a, b[a + 3]);
+    }
+    trees[0] = &s->dyn, trees[1] = &s->sta;
+    for (l = 0; l <= g->depth; l++) {
+        if (!s->dyn.per_level[l] && !s->sta.per_level[l])
+            continue;
+        {
+            double c = 1.0;
+            for (a = 0; a < 3; a++)
+                c *= (double)((hi[a] >> (LC_QBITS - l)) - (lo[a] >> (LC_QBITS - l)) + 1u);
+            cells += c;
+        }
+    }
+    if (cells > LC_QUERY_CELLS_PER_OBJECT * (double)s->nslots + 64.0)
+        return 0;
+    for (t = 0; t < 2; t++) {
+        const lc_tree *tr = trees[t];
+        for (l = 0; l <= g->depth; l++) {
+            uint32_t c0[3], c1[3], x, y, z;
+            if (!tr->per_level[l])
+                continue;
+            for (a = 0; a < 3; a++)
+                c0[a] = lo[a] >> (LC_QBITS - l), c1[a] = hi[a] >> (LC_QBITS - l);
+            for (z = c0[2]; z <= c1[2]; z++)
+                for (y = c0[1]; y <= c1[1]; y++)
+                    for (x = c0[0]; x <= c1[0]; x++) {
+                        uint64_t m = lc_morton_split3(x) | lc_morton_split3(y) << 1 | lc_morton_split3(z) << 2;
+                        uint64_t key = ((m << (3u * (g->depth - l))) << LC_LEVEL_BITS) | l;
+                        int part;
+                        for (part = 0; part < 2; part++) {
+                            const uint64_t *e = part ? tr->ovf.data : tr->ent.data;
+                            size_t n = part ? tr->novf : tr->count, i;
+                            i = part ? lc_lower_bound(e, n, key << ib) : lc_tree_lower_bound(tr, key << ib);
+                            for (; i < n && (e[i] >> ib) == key; i++) {
+                                uint32_t slot;
+                                if ((e[i] & imask) == imask)
+                                    continue; /* a tombstone */
+                                slot = s->hot[e[i] & imask].slot;
+                                if ((s->flags[slot] & (LC_SLOT_LIVE | LC_SLOT_DIRTY)) == LC_SLOT_LIVE)
+                                    try_slot(s, q, slot, hs);
+                            }
+                        }
+                    }
+        }
+    }
+    {
+        const uint32_t *d = s->dirty.data;
+        for (k = 0; k < s->ndirty; k++)
+            if (s->flags[d[k]] & LC_SLOT_LIVE)
+                try_slot(s, q, d[k], hs);
+    }
+    return 1;
+}
+
 static locd_status run(const locd_scene *s, const lc_ask *q, locd_id *ids_out, double *t_out, size_t capacity,
                        size_t *count)
 {
     const locd_allocator *a = s->alloc;
-    size_t k, n = 0, cap = 0;
-    lc_hit *hits = NULL;
+    size_t k, n = 0;
+    lc_hits hs;
     if (!count)
         return lc_error(LOCD_ERR_NULL_POINTER, "count is NULL");
     if (capacity && !ids_out)
         return lc_error(LOCD_ERR_NULL_POINTER, "ids_out is NULL");
     if (capacity && q->ray && !t_out)
         return lc_error(LOCD_ERR_NULL_POINTER, "t_out is NULL");
-    for (k = 0; k < s->nslots; k++) {
-        double t;
-        if (!(s->flags[k] & LC_SLOT_LIVE) || !hit_one(s, q, k, &t))
-            continue;
-        if (n == cap) {
-            size_t nc = lc_grow_cap(cap, n + 1);
-            lc_hit *h = lc_alloc(a, nc * sizeof *h);
-            if (!h) {
-                lc_free(a, hits, cap * sizeof *hits);
-                return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the query's hits");
-            }
-            if (hits)
-                memcpy(h, hits, n * sizeof *h);
-            lc_free(a, hits, cap * sizeof *hits);
-            hits = h, cap = nc;
-        }
-        hits[n].t = t;
-        hits[n].id = s->id[k];
-        n++;
+    memset(&hs, 0, sizeof hs);
+    hs.a = a;
+    if (!tree_candidates(s, q, &hs))
+        for (k = 0; k < s->nslots; k++)
+            if (s->flags[k] & LC_SLOT_LIVE)
+                try_slot(s, q, k, &hs);
+    if (hs.failed) {
+        lc_free(a, hs.h, hs.cap * sizeof *hs.h);
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the query's hits");
     }
+    if (hs.n)
+        qsort(hs.h, hs.n, sizeof *hs.h, cmp_hit);
+    for (k = 0; k < hs.n; k++) /* an object met in several cells: once */
+        if (n == 0 || hs.h[k].id != hs.h[n - 1].id)
+            hs.h[n++] = hs.h[k];
     *count = n;
     if (n > capacity) {
-        lc_free(a, hits, cap * sizeof *hits);
+        lc_free(a, hs.h, hs.cap * sizeof *hs.h);
         return lc_error(LOCD_ERR_BUFFER_TOO_SMALL, "%zu hits do not fit a buffer of %zu", n, capacity);
     }
-    if (n)
-        qsort(hits, n, sizeof *hits, cmp_hit);
     for (k = 0; k < n; k++) {
-        ids_out[k] = hits[k].id;
+        ids_out[k] = hs.h[k].id;
         if (t_out)
-            t_out[k] = hits[k].t;
+            t_out[k] = hs.h[k].t;
     }
-    lc_free(a, hits, cap * sizeof *hits);
+    lc_free(a, hs.h, hs.cap * sizeof *hs.h);
     lc_clear_error();
     return LOCD_OK;
 }

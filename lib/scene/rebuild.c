@@ -126,6 +126,7 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
             e[j] = (e[j] & ~imask) | dense[slot];
         }
         lc_tree_count_levels(g, ts[i]);
+        lc_tree_build_dir(a, g, ts[i]);
     }
     *ndense = next;
     lc_free(a, qb, qcap * sizeof *qb);

@@ -61,6 +61,11 @@ typedef struct lc_hot {
 typedef struct lc_tree {
     lc_buf ent; /* uint64, main */
     size_t count;
+    /* A directory of the main array: dir[j] is the first position whose
+     * entry has j in its top dir_bits bits (of the bits entries use), so a
+     * lookup is a binary search within one bucket. NULL for a small array. */
+    uint32_t *dir;
+    uint32_t dir_bits, dir_shift;
     lc_buf ovf; /* uint64, overflow */
     size_t novf;
     size_t dead; /* tombstones in main */
@@ -181,6 +186,12 @@ locd_status lc_sort_u64_radix(const locd_allocator *a, uint64_t *v, size_t n);
 /* Counts t's entries per level. */
 void lc_tree_count_levels(const locd_grid *g, lc_tree *t);
 void lc_tree_release(const locd_allocator *a, lc_tree *t);
+/* Builds t's directory (none for a small main array; nothing changes on
+ * failure, the directory is only a shortcut). */
+void lc_tree_build_dir(const locd_allocator *a, const locd_grid *g, lc_tree *t);
+/* The first position of t's main array whose entry is >= v, where v is a
+ * key << index_bits (the order of the main array is by key). */
+size_t lc_tree_lower_bound(const lc_tree *t, uint64_t v);
 /* The tombstone of an entry, and whether an entry is one. */
 #define LC_TOMB(g, e) ((e) | ((((uint64_t)1) << (g)->index_bits) - 1))
 #define LC_IS_TOMB(g, e) ((~(e) & ((((uint64_t)1) << (g)->index_bits) - 1)) == 0)

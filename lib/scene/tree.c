@@ -19,6 +19,9 @@
 
 void lc_tree_release(const locd_allocator *a, lc_tree *t)
 {
+    if (t->dir)
+        lc_free(a, t->dir, (((size_t)1 << t->dir_bits) + 1) * sizeof *t->dir);
+    t->dir = NULL;
     lc_buf_release(a, &t->ent, sizeof(uint64_t));
     lc_buf_release(a, &t->ovf, sizeof(uint64_t));
     t->count = t->novf = t->dead = 0;
@@ -118,13 +121,55 @@ void lc_tree_count_levels(const locd_grid *g, lc_tree *t)
         t->per_level[(e[k] >> g->index_bits) & 31u]++;
 }
 
+void lc_tree_build_dir(const locd_allocator *a, const locd_grid *g, lc_tree *t)
+{
+    const uint64_t *e = t->ent.data;
+    uint32_t used = 3u * g->depth + LC_LEVEL_BITS + g->index_bits, bits = 0, shift;
+    size_t n = t->count, j, i = 0, len;
+    if (t->dir)
+        lc_free(a, t->dir, (((size_t)1 << t->dir_bits) + 1) * sizeof *t->dir);
+    t->dir = NULL;
+    if (n < 4096 || n > UINT32_MAX)
+        return;
+    while (((size_t)1 << (bits + 3)) < n && bits < 22)
+        bits++; /* about 8 entries a bucket */
+    if (used <= bits || used > 64)
+        return;
+    shift = used - bits;
+    len = ((size_t)1 << bits) + 1;
+    if (!(t->dir = lc_alloc(a, len * sizeof *t->dir)))
+        return;
+    for (j = 0; j < len; j++) {
+        while (i < n && (e[i] >> shift) < j)
+            i++;
+        t->dir[j] = (uint32_t)i;
+    }
+    t->dir_bits = bits;
+    t->dir_shift = shift;
+}
+
+size_t lc_tree_lower_bound(const lc_tree *t, uint64_t v)
+{
+    const uint64_t *e = t->ent.data;
+    size_t j, lo, hi;
+    if (!t->dir)
+        return lc_lower_bound(e, t->count, v);
+    j = (size_t)(v >> t->dir_shift);
+    if (j >= ((size_t)1 << t->dir_bits))
+        return j == ((size_t)1 << t->dir_bits) ? t->dir[j] + lc_lower_bound(e + t->dir[j], t->count - t->dir[j], v)
+                                                 : t->count;
+    lo = t->dir[j];
+    hi = t->dir[j + 1];
+    return lo + lc_lower_bound(e + lo, hi - lo, v);
+}
+
 /* The position of entry v in t's main array, or (size_t)-1 (then it is in
  * the overflow). Equal keys are few: one binary search, a short scan. */
 static size_t find_main(const locd_grid *g, const lc_tree *t, uint64_t v)
 {
     const uint64_t *e = t->ent.data;
     const uint32_t ib = g->index_bits;
-    size_t i = lc_lower_bound(e, t->count, (v >> ib) << ib);
+    size_t i = lc_tree_lower_bound(t, (v >> ib) << ib);
     for (; i < t->count && (e[i] >> ib) == (v >> ib); i++)
         if (e[i] == v)
             return i;
@@ -225,6 +270,7 @@ locd_status lc_tree_edit_apply(const locd_allocator *a, const locd_grid *g, lc_t
             goto nomem;
         e->out.count = merge_by_key(g, m, t->count, e->out.ovf.data, e->out.novf, ent.data);
         e->out.ent = ent;
+        lc_tree_build_dir(a, g, &e->out);
         lc_buf_release(a, &e->out.ovf, sizeof(uint64_t));
         e->out.novf = 0;
         e->compacted = 1;
@@ -257,9 +303,11 @@ void lc_tree_edit_commit(const locd_allocator *a, lc_tree *t, lc_tree_edit *e)
         lc_tree_release(a, t);
         t->ent = e->out.ent;
         t->count = e->out.count;
+        t->dir = e->out.dir, t->dir_bits = e->out.dir_bits, t->dir_shift = e->out.dir_shift;
         t->dead = 0;
         t->novf = 0;
         memset(&e->out.ent, 0, sizeof e->out.ent);
+        e->out.dir = NULL;
     } else if (e->out.novf != (size_t)-1) {
         lc_buf tmp = t->ovf;
         t->ovf = e->out.ovf;
@@ -272,6 +320,9 @@ void lc_tree_edit_commit(const locd_allocator *a, lc_tree *t, lc_tree_edit *e)
 
 void lc_tree_edit_free(const locd_allocator *a, lc_tree_edit *e)
 {
+    if (e->out.dir)
+        lc_free(a, e->out.dir, (((size_t)1 << e->out.dir_bits) + 1) * sizeof *e->out.dir);
+    e->out.dir = NULL;
     lc_buf_release(a, &e->out.ent, sizeof(uint64_t));
     lc_buf_release(a, &e->out.ovf, sizeof(uint64_t));
     lc_free(a, e->pos, e->pos_cap * sizeof *e->pos);
