@@ -130,6 +130,13 @@ static void same_rows(const char *what, const locd_id *want, size_t nwant, const
 
 static unsigned g_updates, g_incremental;
 
+/* LOCD_TEST_HEAVY=0 (the sanitizer runs) shortens the sequences. */
+static int steps(int n)
+{
+    const char *v = getenv("LOCD_TEST_HEAVY");
+    return v && v[0] == '0' ? (n + 4) / 5 : n;
+}
+
 /* Checks the lists of the update just made (pairs, created and lost)
  * against the model, and moves the model's previous set on. */
 static void check_lists(locd_scene *s, model *m)
@@ -503,6 +510,7 @@ static void random_sequences(void)
     int shape;
     for (shape = 0; shape < 3; shape++) {
         run_opts ro = {1, 1500, 60, 0, 2, 0};
+        ro.steps = steps(ro.steps);
         ro.shape = shape;
         ro.seed = 100 + (uint64_t)shape;
         g_updates = g_incremental = 0;
@@ -516,13 +524,16 @@ static void random_sequences(void)
 static void bigger_scene_two_threads(void)
 {
     run_opts ro = {2, 200, 3000, 0, 1, 7};
+    ro.steps = steps(ro.steps);
     run_sequence(&ro);
 }
 
 static void thread_counts_give_identical_lists(void)
 {
     run_opts ro = {1, 300, 2000, 0, 0, 99};
-    uint64_t h1 = run_sequence(&ro), h2;
+    uint64_t h1, h2;
+    ro.steps = steps(ro.steps);
+    h1 = run_sequence(&ro);
     ro.threads = 2;
     h2 = run_sequence(&ro);
     TEST_ASSERT_EQUAL_UINT64(h1, h2);
@@ -675,10 +686,14 @@ static void allocation_failures_change_nothing(void)
             }
             fa_counts_get(&c);
             fa_arm(0, 0);
-            if (c.failures == 0) {
+            if (c.failures == 0 || st == LOCD_OK) {
+                /* a failure may be absorbed (the lists' directory is only a
+                   shortcut): the answer must still be exact */
                 TEST_ASSERT_EQUAL_INT(LOCD_OK, st);
                 check_lists(s, &m);
-                break;
+                if (c.failures == 0)
+                    break;
+                continue;
             }
             TEST_ASSERT_EQUAL_INT(LOCD_ERR_NO_MEMORY, st);
             failed_calls++;
@@ -792,7 +807,7 @@ static void large_scene_threads_and_fresh(void)
     TEST_ASSERT_EQUAL_MEMORY(ids1, ids2, n * sizeof *ids1);
     for (k = 0; k < n; k++)
         m_add(&m, ids1[k], b + 6 * k, 1, ~(uint64_t)0, 0, 0, k < n / 3);
-    for (step = 0; step < 12; step++) {
+    for (step = 0; step < steps(12); step++) {
         const locd_id *p1, *p2;
         size_t n1, n2, nf;
         locd_id *want;
@@ -840,7 +855,102 @@ static void large_scene_threads_and_fresh(void)
     free(b), free(ids1), free(ids2), free(mv), free(m.o), free(m.pairs);
 }
 
+/* Adds n boxes (dynamic, or static) to scene and model. */
+static void add_boxes(locd_scene *s, model *m, const double *b, size_t n, int stat, locd_id *ids)
+{
+    locd_scene_add_options o;
+    size_t k;
+    locd_scene_add_options_init(&o);
+    o.flags = stat ? LOCD_OBJECT_STATIC : 0;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b, n, &o, ids));
+    for (k = 0; k < n; k++)
+        m_add(m, ids[k], b + 6 * k, 1, ~(uint64_t)0, 0, 0, stat);
+}
+
+static void move_box(locd_scene *s, model *m, locd_id id, const double *b)
+{
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s, &id, b, 1));
+    memcpy(m_find(m, id)->box, b, 6 * sizeof *b);
+}
+
+/* Identical boxes, touching faces, zero-size boxes, huge next to tiny, far
+ * from the origin, -0, and a box that grows the root cube and comes back:
+ * each update against the model, with queries. */
+static void hard_cases(void)
+{
+    static const double scales[] = {1.0, 1e-6, 1e30, 3.5e-300};
+    size_t si;
+    for (si = 0; si < sizeof scales / sizeof scales[0]; si++) {
+        const double u = scales[si];
+        locd_engine *e = new_engine(2, NULL);
+        locd_scene *s = NULL;
+        model m;
+        double b[6 * 64];
+        locd_id ids[64];
+        int i, a, step;
+        memset(&m, 0, sizeof m);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+        /* 20 identical boxes */
+        for (i = 0; i < 20; i++)
+            for (a = 0; a < 3; a++)
+                b[6 * i + a] = 1.0 * u, b[6 * i + 3 + a] = 2.0 * u;
+        add_boxes(s, &m, b, 20, 0, ids);
+        /* a lattice of touching unit boxes, some static */
+        for (i = 0; i < 27; i++)
+            for (a = 0; a < 3; a++) {
+                int c = (i / (a == 0 ? 1 : a == 1 ? 3 : 9)) % 3;
+                b[6 * i + a] = (3.0 + c) * u, b[6 * i + 3 + a] = (4.0 + c) * u;
+            }
+        add_boxes(s, &m, b, 14, 1, ids + 20);
+        add_boxes(s, &m, b + 6 * 14, 13, 0, ids + 34);
+        /* zero-size boxes on the lattice's corners and faces, -0 */
+        for (i = 0; i < 6; i++)
+            for (a = 0; a < 3; a++)
+                b[6 * i + a] = b[6 * i + 3 + a] = (3.0 + (double)((i + a) % 4)) * u;
+        b[0] = b[3] = -0.0;
+        add_boxes(s, &m, b, 6, 0, ids + 47);
+        /* huge next to tiny */
+        for (a = 0; a < 3; a++) {
+            b[a] = -1e3 * u, b[3 + a] = 1e3 * u;
+            b[6 + a] = 3.5 * u, b[9 + a] = 3.5 * u + 1e-9 * u;
+        }
+        add_boxes(s, &m, b, 2, 0, ids + 53);
+        check_update(s, &m);
+        for (step = 0; step < 30; step++) {
+            locd_id id = ids[(size_t)(step * 7) % 55];
+            double nb[6], q[7];
+            const m_obj *o = m_find(&m, id);
+            memcpy(nb, o->box, sizeof nb);
+            if (step % 10 == 3) { /* far out: the root cube must grow */
+                for (a = 0; a < 6; a++)
+                    nb[a] += 1e6 * u;
+            } else if (step % 10 == 4) { /* and back */
+                for (a = 0; a < 6; a++)
+                    nb[a] -= 1e6 * u;
+            } else { /* onto a neighbour's face */
+                double d = (double)(step % 3) * 1.0 * u;
+                for (a = 0; a < 6; a++)
+                    nb[a] += d;
+            }
+            if (isfinite(nb[0]) && isfinite(nb[5]) && nb[0] <= nb[3] && nb[1] <= nb[4] && nb[2] <= nb[5])
+                move_box(s, &m, id, nb);
+            check_update(s, &m);
+            for (a = 0; a < 3; a++)
+                q[a] = 3.0 * u, q[a + 3] = 4.0 * u;
+            check_query(s, &m, 0, q, ~(uint64_t)0);
+            check_query(s, &m, 1, q + 3, ~(uint64_t)0);
+            q[0] = 0.0, q[1] = 3.5 * u, q[2] = 3.5 * u, q[3] = 1.0, q[4] = 0.0, q[5] = 0.0, q[6] = 10.0 * u;
+            check_query(s, &m, 2, q, ~(uint64_t)0);
+        }
+        locd_scene_destroy(s);
+        locd_engine_destroy(e);
+        free(m.o);
+        free(m.pairs);
+    }
+}
+
 static const lt_test tests[] = {
+    LT_TEST(hard_cases),
     LT_TEST(large_scene_threads_and_fresh),
     LT_TEST(bad_batches_change_nothing),
     LT_TEST(levels_2_and_3_are_unsupported),

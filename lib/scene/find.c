@@ -3,11 +3,12 @@
  * root-to-leaf path with c are the entries of c's subtree (one range of the
  * sorted list: same cell and descendants) and of c's ancestors (one exact
  * key per level that holds any entry). Each candidate is tested in this
- * order: both moved and not m < o (the other one reports it), the filter
- * (static-static, category/mask, group: filtered pairs are never tested
- * further), the quantized boxes (conservative: they overlap whenever the
- * boxes do), the canonical cell pair, the exact box test (only when the
- * quantized boxes touch: strictly overlapping ones overlap). Everything but
+ * order: the quantized boxes (conservative: they overlap whenever the boxes
+ * do) and the canonical cell pair, from 16 bytes of o; then o's record:
+ * both moved and not m < o (the other one reports it), the filter
+ * (static-static, category/mask, group: a filtered pair is never box-tested
+ * nor reported); the exact box test only when the quantized boxes touch
+ * (strictly overlapping ones overlap). Everything but
  * the exact test reads o's record (lc_hot), and the records of one cell's
  * objects are neighbours (dense indices, scene.h).
  *
@@ -57,22 +58,16 @@ static void consider(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot 
     uint32_t m = (uint32_t)(eq & imask), o = (uint32_t)(eo & imask);
     uint32_t lm = (uint32_t)(eq >> ib) & 31u, lo = (uint32_t)(eo >> ib) & 31u, p[3], a, tie = 0;
     const lc_hot *ho;
+    const uint64_t *qo;
     locd_id *row;
     if (o == m || o == (uint32_t)imask) /* itself, or a tombstone */
         return;
-    ho = &s->hot[o];
+    qo = s->hq + 2 * (size_t)o;
     fo->cand++;
-    /* both moved: the one with the smaller id reports the pair */
-    if ((ho->flags & LC_SLOT_DIRTY) && s->id[ho->slot] < s->id[hm->slot])
-        return;
-    /* the filter, before any box test */
-    if ((hm->flags & ho->flags & LC_SLOT_STATIC) || !(hm->cat & ho->mask) || !(ho->cat & hm->mask) ||
-        (hm->group == ho->group && hm->group != 0))
-        return;
-    /* the quantized boxes (conservative: they overlap whenever the boxes do),
-       then the canonical cell pair */
+    /* the quantized boxes (conservative: they overlap whenever the boxes
+       do), then the canonical cell pair: 16 bytes of o, four to a line */
     for (a = 0; a < 3; a++) {
-        uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(ho->qlo, a), mh = FIELD(hm->qhi, a), oh = FIELD(ho->qhi, a);
+        uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(qo[0], a), mh = FIELD(hm->qhi, a), oh = FIELD(qo[1], a);
         if (ml > oh || ol > mh)
             return;
         tie |= (ml == oh) | (ol == mh);
@@ -80,6 +75,14 @@ static void consider(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot 
     }
     if (lm >= lo ? !cell_holds(g, eq >> (ib + LC_LEVEL_BITS), lm, p)
                  : !cell_holds(g, eo >> (ib + LC_LEVEL_BITS), lo, p))
+        return;
+    ho = &s->hot[o];
+    /* both moved: the one with the smaller id reports the pair */
+    if ((ho->flags & LC_SLOT_DIRTY) && s->id[ho->slot] < s->id[hm->slot])
+        return;
+    /* the filter, before the box test */
+    if ((hm->flags & ho->flags & LC_SLOT_STATIC) || !(hm->cat & ho->mask) || !(ho->cat & hm->mask) ||
+        (hm->group == ho->group && hm->group != 0))
         return;
     /* Strictly overlapping quantized boxes need no exact test: the
        quantization is monotone, so q(x) < q(y) implies x < y. Only a tie

@@ -87,19 +87,3 @@ size_t lc_plist_minus(const locd_id *a, size_t na, const locd_id *b, size_t nb, 
     }
     return w;
 }
-
-void lc_plist_merge(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out)
-{
-    size_t i = 0, j = 0, w = 0;
-    while (i < na && j < nb) {
-        if (lc_pair_key(a + 2 * i) < lc_pair_key(b + 2 * j)) {
-            out[w++] = a[2 * i], out[w++] = a[2 * i + 1], i++;
-        } else {
-            out[w++] = b[2 * j], out[w++] = b[2 * j + 1], j++;
-        }
-    }
-    for (; i < na; i++)
-        out[w++] = a[2 * i], out[w++] = a[2 * i + 1];
-    for (; j < nb; j++)
-        out[w++] = b[2 * j], out[w++] = b[2 * j + 1];
-}

@@ -5,47 +5,65 @@
 locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates)
 {
     const locd_allocator *a = s->alloc;
-    size_t n = 0, k, w = 0, cap = s->nslots ? s->nslots : 1;
-    uint32_t *live = lc_alloc(a, cap * sizeof *live);
-    double *boxes = lc_alloc(a, cap * 6 * sizeof *boxes);
+    size_t n = 0, k, w = 0, cap = s->nslots ? s->nslots : 1, ncap = (size_t)s->serial + 1;
+    int dense = s->live == s->nslots; /* no free slot: the slot array is the box array */
+    uint32_t *live = lc_alloc(a, cap * sizeof *live), *by_serial = lc_alloc(a, ncap * sizeof *by_serial);
+    double *boxes = dense ? s->box : lc_alloc(a, cap * 6 * sizeof *boxes);
+    uint64_t *keys = NULL, *scratch = NULL, *sorted;
     locd_pairs found;
     locd_stats st_find;
     locd_status st;
-    if (!live || !boxes) {
-        lc_free(a, live, cap * sizeof *live);
-        lc_free(a, boxes, cap * 6 * sizeof *boxes);
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's rebuild buffers");
+    if (!live || !boxes || !by_serial) {
+        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's rebuild buffers");
+        goto done0;
     }
     for (k = 0; k < s->nslots; k++)
         if (s->flags[k] & LC_SLOT_LIVE) {
-            memcpy(boxes + 6 * n, s->box + 6 * k, 6 * sizeof *boxes);
+            if (!dense)
+                memcpy(boxes + 6 * n, s->box + 6 * k, 6 * sizeof *boxes);
             live[n++] = (uint32_t)k;
+            by_serial[LC_ID_SERIAL(s->id[k])] = (uint32_t)k;
         }
     lc_pairs_init_embedded(&found, a);
     memset(&st_find, 0, sizeof st_find);
     st_find.size = sizeof st_find;
     st = s->engine->ops->find(s->engine, boxes, n, 1, 0, &found, &st_find);
+    if (st == LOCD_OK) {
+        keys = lc_alloc(a, (found.count ? found.count : 1) * sizeof *keys);
+        scratch = lc_alloc(a, (found.count ? found.count : 1) * sizeof *scratch);
+        if (!keys || !scratch)
+            st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair keys");
+    }
     if (st == LOCD_OK)
-        st = lc_plist_reserve(a, out, found.count);
+        st = lc_plist_reserve(a, out, found.count ? found.count : 1);
     if (st == LOCD_OK) {
         locd_id *rows = out->rows.data;
+        /* The filter, then the order key of each row (serials: unique, and
+           ordered as the ids); the keys alone are sorted (11-bit digits
+           over the bits that vary) and the rows written back from them. */
         for (k = 0; k < found.count; k++) {
             uint32_t i = live[found.data[2 * k]], j = live[found.data[2 * k + 1]];
+            uint64_t si = LC_ID_SERIAL(s->id[i]), sj = LC_ID_SERIAL(s->id[j]);
             if (!lc_scene_may_pair(s, i, j))
                 continue;
-            if (s->id[i] < s->id[j])
-                rows[2 * w] = s->id[i], rows[2 * w + 1] = s->id[j];
-            else
-                rows[2 * w] = s->id[j], rows[2 * w + 1] = s->id[i];
-            w++;
+            keys[w++] = si < sj ? si << 32 | sj : sj << 32 | si;
+        }
+        sorted = lc_radix_sort(keys, scratch, w, 0);
+        for (k = 0; k < w; k++) {
+            rows[2 * k] = s->id[by_serial[sorted[k] >> 32]];
+            rows[2 * k + 1] = s->id[by_serial[sorted[k] & 0xffffffffu]];
         }
         out->count = w;
-        st = lc_pairs_sort_rows(a, rows, w);
         *candidates = found.count;
     }
+    lc_free(a, keys, (found.count ? found.count : 1) * sizeof *keys);
+    lc_free(a, scratch, (found.count ? found.count : 1) * sizeof *scratch);
     lc_pairs_fini_embedded(&found);
+done0:
     lc_free(a, live, cap * sizeof *live);
-    lc_free(a, boxes, cap * 6 * sizeof *boxes);
+    lc_free(a, by_serial, ncap * sizeof *by_serial);
+    if (!dense)
+        lc_free(a, boxes, cap * 6 * sizeof *boxes);
     return st;
 }
 
@@ -60,54 +78,130 @@ void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *
     h->flags = s->flags[k] & LC_SLOT_STATIC;
 }
 
+/* The parallel steps of a rebuild's lists: thread t takes slots
+ * [b[t], b[t+1]), computes their cells and packed boxes and counts their
+ * entries (pass 1), then writes and radix-sorts its entries in its own
+ * region of each list (pass 2). The k sorted runs are merged after. */
+typedef struct build_ctx {
+    locd_scene *s;
+    const locd_grid *g;
+    lc_cells *cells;
+    uint64_t *qb;
+    size_t b[LC_MAX_THREADS + 1];
+    size_t cnt[2][LC_MAX_THREADS], off[2][LC_MAX_THREADS];
+    uint64_t *ent[2], *scr[2];
+    const uint64_t *run[2][LC_MAX_THREADS];
+    int pass;
+} build_ctx;
+
+static void task_build(void *arg, uint32_t t, uint32_t k)
+{
+    build_ctx *c = arg;
+    const locd_scene *s = c->s;
+    size_t j;
+    int i;
+    (void)k;
+    if (c->pass == 1) {
+        size_t n[2] = {0, 0};
+        for (j = c->b[t]; j < c->b[t + 1]; j++) {
+            const lc_cells *cl = &c->cells[j];
+            if (!(s->flags[j] & LC_SLOT_LIVE))
+                continue;
+            lc_cells_of(c->g, s->box + 6 * j, &c->cells[j], c->qb + 2 * j);
+            n[(s->flags[j] & LC_SLOT_STATIC) ? 1 : 0] +=
+                (1u + (cl->span & 1u)) * (1u + ((cl->span >> 1) & 1u)) * (1u + ((cl->span >> 2) & 1u));
+        }
+        c->cnt[0][t] = n[0], c->cnt[1][t] = n[1];
+        return;
+    }
+    {
+        size_t w[2] = {0, 0};
+        for (j = c->b[t]; j < c->b[t + 1]; j++) {
+            int kind;
+            if (!(s->flags[j] & LC_SLOT_LIVE))
+                continue;
+            kind = (s->flags[j] & LC_SLOT_STATIC) ? 1 : 0;
+            w[kind] += lc_cells_entries(c->g, &c->cells[j], (uint32_t)j, c->ent[kind] + c->off[kind][t] + w[kind]);
+        }
+        /* Slot order within the region: equal keys in index order, as the
+           radix sort wants. */
+        for (i = 0; i < 2; i++)
+            c->run[i][t] = lc_radix_sort(c->ent[i] + c->off[i][t], c->scr[i] + c->off[i][t], c->cnt[i][t],
+                                         c->g->index_bits);
+    }
+}
+
 /* Every live object's cells, dense index and record, and the two entry
  * lists sorted by key (rebuild). */
 locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint32_t *dense, lc_hot *hot,
-                                 size_t *ndense, lc_tree *dyn, lc_tree *sta)
+                                 uint64_t *hq, size_t *ndense, lc_tree *dyn, lc_tree *sta)
 {
     const locd_allocator *a = s->alloc;
     const uint64_t imask = ((uint64_t)1 << g->index_bits) - 1;
-    size_t k, nd = 0, ns = 0, cap, qcap = 2 * (s->nslots ? s->nslots : 1), next = 0, j;
-    uint64_t *scratch, *qb = lc_alloc(a, qcap * sizeof *qb);
+    size_t k, nk, n[2] = {0, 0}, qcap = 2 * (s->nslots ? s->nslots : 1), next = 0, j;
+    uint64_t *qb = lc_alloc(a, qcap * sizeof *qb), *scr = NULL;
+    build_ctx *c = lc_alloc(a, sizeof *c);
     lc_tree *ts[2];
+    uint32_t kk = s->threads ? s->threads : 1, t;
     int i;
-    for (k = 0; k < s->nslots; k++) {
-        uint32_t n;
-        if (!(s->flags[k] & LC_SLOT_LIVE))
-            continue;
-        if (qb)
-            lc_cells_of(g, s->box + 6 * k, &cells[k], qb + 2 * k);
-        n = (1u + (cells[k].span & 1u)) * (1u + ((cells[k].span >> 1) & 1u)) * (1u + ((cells[k].span >> 2) & 1u));
-        if (s->flags[k] & LC_SLOT_STATIC)
-            ns += n;
-        else
-            nd += n;
-    }
     memset(dyn, 0, sizeof *dyn);
     memset(sta, 0, sizeof *sta);
-    cap = nd > ns ? nd : ns;
-    scratch = lc_alloc(a, (cap ? cap : 1) * sizeof *scratch);
-    if (!qb || !scratch || lc_buf_reserve(a, &dyn->ent, sizeof(uint64_t), nd ? nd : 1) != LOCD_OK ||
-        lc_buf_reserve(a, &sta->ent, sizeof(uint64_t), ns ? ns : 1) != LOCD_OK) {
-        lc_free(a, qb, qcap * sizeof *qb);
-        lc_free(a, scratch, (cap ? cap : 1) * sizeof *scratch);
-        lc_tree_release(a, dyn);
-        lc_tree_release(a, sta);
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's entry lists");
-    }
-    /* Slot order, so that equal keys are in index order, as the radix sort wants. */
-    for (k = 0; k < s->nslots; k++) {
-        lc_tree *t;
-        if (!(s->flags[k] & LC_SLOT_LIVE))
-            continue;
-        t = (s->flags[k] & LC_SLOT_STATIC) ? sta : dyn;
-        t->count += lc_cells_entries(g, &cells[k], (uint32_t)k, (uint64_t *)t->ent.data + t->count);
-    }
+    if (!qb || !c)
+        goto nomem;
+    memset(c, 0, sizeof *c);
+    if (s->nslots < 16384)
+        kk = 1;
+    c->s = s, c->g = g, c->cells = cells, c->qb = qb;
+    for (t = 0; t <= kk; t++)
+        c->b[t] = s->nslots * t / kk;
+    c->pass = 1;
+    if (kk > 1)
+        lc_pool_run(s->pool, kk, task_build, c);
+    else
+        task_build(c, 0, 1);
+    for (i = 0; i < 2; i++)
+        for (t = 0; t < kk; t++) {
+            c->off[i][t] = n[i];
+            n[i] += c->cnt[i][t];
+        }
+    nk = n[0] + n[1];
+    if (!(scr = lc_alloc(a, (nk ? nk : 1) * sizeof *scr)) ||
+        lc_buf_reserve(a, &dyn->ent, sizeof(uint64_t), n[0] ? n[0] : 1) != LOCD_OK ||
+        lc_buf_reserve(a, &sta->ent, sizeof(uint64_t), n[1] ? n[1] : 1) != LOCD_OK)
+        goto nomem;
     ts[0] = dyn, ts[1] = sta;
+    /* Each thread writes its entries into its region of scr (dyn's part,
+       then sta's) and sorts them with the same region of the list as
+       scratch; the sorted runs, in either buffer, are merged into the
+       lists below. */
+    c->ent[0] = scr, c->ent[1] = scr + n[0];
+    c->scr[0] = dyn->ent.data, c->scr[1] = sta->ent.data;
+    c->pass = 2;
+    if (kk > 1)
+        lc_pool_run(s->pool, kk, task_build, c);
+    else
+        task_build(c, 0, 1);
     for (i = 0; i < 2; i++) {
-        uint64_t *r = lc_radix_sort(ts[i]->ent.data, scratch, ts[i]->count, g->index_bits);
-        if (r != ts[i]->ent.data)
-            memcpy(ts[i]->ent.data, r, ts[i]->count * sizeof *r);
+        size_t begin[LC_MAX_THREADS], end[LC_MAX_THREADS];
+        uint64_t *out = ts[i]->ent.data, *tmp = i ? scr + n[0] : scr;
+        for (t = 0; t < kk; t++) {
+            begin[t] = c->off[i][t];
+            end[t] = begin[t] + c->cnt[i][t];
+        }
+        if (kk == 1) {
+            if (c->run[i][0] != out)
+                memcpy(out, c->run[i][0], n[i] * sizeof *out);
+        } else {
+            /* each run is in its region of either buffer: bring them all to tmp, then merge into out */
+            const uint64_t *runs[LC_MAX_THREADS];
+            for (t = 0; t < kk; t++) {
+                if (c->run[i][t] != tmp + c->off[i][t])
+                    memcpy(tmp + c->off[i][t], c->run[i][t], c->cnt[i][t] * sizeof *tmp);
+                runs[t] = tmp;
+            }
+            lc_merge_ranges(runs, begin, end, kk, out);
+        }
+        ts[i]->count = n[i];
     }
     /* Number the objects in entry order and put the numbers in the entries.
        Keys stay sorted; within one key the order may change, which nothing
@@ -121,6 +215,7 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
             if (dense[slot] == UINT32_MAX) {
                 dense[slot] = (uint32_t)next;
                 lc_hot_fill(s, slot, qb + 2 * (size_t)slot, &hot[next]);
+                hq[2 * next] = hot[next].qlo, hq[2 * next + 1] = hot[next].qhi;
                 next++;
             }
             e[j] = (e[j] & ~imask) | dense[slot];
@@ -130,6 +225,15 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
     }
     *ndense = next;
     lc_free(a, qb, qcap * sizeof *qb);
-    lc_free(a, scratch, (cap ? cap : 1) * sizeof *scratch);
+    lc_free(a, scr, (nk ? nk : 1) * sizeof *scr);
+    lc_free(a, c, sizeof *c);
     return LOCD_OK;
+nomem:
+    lc_free(a, qb, qcap * sizeof *qb);
+    if (c)
+        lc_free(a, scr, (n[0] + n[1] ? n[0] + n[1] : 1) * sizeof *scr);
+    lc_free(a, c, sizeof *c);
+    lc_tree_release(a, dyn);
+    lc_tree_release(a, sta);
+    return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's entry lists");
 }

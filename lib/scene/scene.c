@@ -213,6 +213,7 @@ locd_status locd_scene_set_filter(locd_scene *s, const locd_id *ids, size_t n, c
         s->mask[slot] = attr(masks, s->mask[slot], i);
         s->group[slot] = attr(groups, s->group[slot], i);
         lc_scene_mark_dirty(s, slot);
+        s->flags[slot] |= LC_SLOT_REFILTER;
     }
     lc_clear_error();
     return LOCD_OK;

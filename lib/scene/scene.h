@@ -4,10 +4,11 @@
  * coordinates. Private; not installed.
  *
  * Files: slots.c (ids, slots), validate.c (batch checks), scene.c (create,
- * the changes), tree.c (the two sorted entry lists and their repair),
- * find.c (pairs of the moved objects), rebuild.c (everything from scratch),
- * pairset.c (sorted pair lists: sort, merge, difference), update.c,
- * query.c, stats.c. */
+ * the changes), tree.c (cells, the two entry lists: tombstones, overflow,
+ * compaction, directory), find.c (pairs of the moved objects), rebuild.c
+ * (everything from scratch, the numbering), pairset.c (sorted pair lists),
+ * update.c (the update: both paths, undo, the carry pass), query.c,
+ * stats.c. docs/scene.md explains the design. */
 #ifndef LOCD_SCENE_IMPL_H
 #define LOCD_SCENE_IMPL_H
 
@@ -21,6 +22,7 @@
 #define LC_SLOT_DIRTY 0x4u   /* added, moved or re-filtered since the last update (in scene->dirty) */
 #define LC_SLOT_REMOVED 0x8u /* removed since the last update; freed by the next one */
 #define LC_SLOT_INTREE 0x10u /* has entries in a tree list (its cells are in slot->cell) */
+#define LC_SLOT_REFILTER 0x20u /* its filter changed since the last update (its record is written again) */
 
 /* An id: the serial number of the add (1, 2, ...: never reused) in the high
  * 32 bits, the slot in the low 32. Serials grow with every add, so sorting
@@ -100,6 +102,8 @@ struct locd_scene {
     lc_cells *cell;      /* per slot, valid with LC_SLOT_INTREE */
     uint32_t *dense;     /* per slot: its dense index, valid with LC_SLOT_INTREE */
     lc_hot *hot;         /* per dense index (hot_cap of them; ndense issued since the last rebuild) */
+    uint64_t *hq;        /* per dense index, 2: the packed sweep box again, 16 bytes (4 a cache line)
+                            for the search's first test */
     size_t hot_cap, ndense;
     lc_buf free_slots;   /* uint32 stack */
     size_t nfree;
@@ -170,8 +174,6 @@ LC_INLINE uint64_t lc_pair_key(const locd_id *row)
 locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n);
 /* out = a \ b (both sorted); out has room for na rows. Returns rows written. */
 size_t lc_plist_minus(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out);
-/* out = a merged with b (both sorted, disjoint); room for na + nb rows. */
-void lc_plist_merge(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out);
 
 /* ---- broad phase (rebuild.c, tree.c, find.c) ---- */
 void lc_scene_tree_fini(locd_scene *s);
@@ -225,7 +227,7 @@ locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const l
  * and its record into hot (numbered in entry order; *ndense receives the
  * count), and both entry lists, sorted by key. */
 locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *cells, uint32_t *dense, lc_hot *hot,
-                                 size_t *ndense, lc_tree *dyn, lc_tree *sta);
+                                 uint64_t *hq, size_t *ndense, lc_tree *dyn, lc_tree *sta);
 /* The dense indices a rebuild of n slots makes room for. */
 size_t lc_scene_dense_room(size_t nslots);
 /* The hot record of slot k from its slot arrays and packed box. */

@@ -24,6 +24,7 @@ typedef struct upd {
     lc_plist next, cr, lo;
     lc_cells *cells;    /* rebuild: new per-slot cells (slot_cap) */
     lc_hot *hot;        /* rebuild: new records (hot_cap) */
+    uint64_t *hq;       /* rebuild: their packed boxes (2 * hot_cap) */
     size_t hot_cap, ndense;
     uint32_t *dense;    /* rebuild: new per-slot dense indices (slot_cap) */
     locd_grid grid;     /* rebuild: the new grid */
@@ -32,6 +33,8 @@ typedef struct upd {
     lc_cells *undo_cells;
     lc_hot *undo_hot;
     uint32_t *undo_dense;
+    lc_cells *new_cells; /* pass 1's cells and packed boxes of the dirty objects, for pass 2 */
+    uint64_t *new_q;
     size_t ndense_before;
     uint8_t *undo_flags;
     size_t nundo, undo_cap;
@@ -69,11 +72,14 @@ static void upd_free(upd *u)
     lc_plist_fini(a, &u->lo);
     lc_free(a, u->cells, u->s->slot_cap * sizeof *u->cells);
     lc_free(a, u->hot, u->hot_cap * sizeof *u->hot);
+    lc_free(a, u->hq, u->hot_cap * 2 * sizeof *u->hq);
     lc_free(a, u->dense, u->s->slot_cap * sizeof *u->dense);
     lc_free(a, u->undo_slot, u->undo_cap * sizeof *u->undo_slot);
     lc_free(a, u->undo_cells, u->undo_cap * sizeof *u->undo_cells);
     lc_free(a, u->undo_hot, u->undo_cap * sizeof *u->undo_hot);
     lc_free(a, u->undo_dense, u->undo_cap * sizeof *u->undo_dense);
+    lc_free(a, u->new_cells, u->undo_cap * sizeof *u->new_cells);
+    lc_free(a, u->new_q, u->undo_cap * 2 * sizeof *u->new_q);
     lc_free(a, u->undo_flags, u->undo_cap * sizeof *u->undo_flags);
     lc_free(a, u->buf, u->buf_cap * sizeof *u->buf);
 }
@@ -88,6 +94,7 @@ static void undo(upd *u)
         uint32_t slot = u->undo_slot[k];
         uint32_t di = (u->undo_flags[k] & LC_SLOT_INTREE) ? u->undo_dense[k] : s->dense[slot];
         s->hot[di] = u->undo_hot[k];
+        s->hq[2 * (size_t)di] = u->undo_hot[k].qlo, s->hq[2 * (size_t)di + 1] = u->undo_hot[k].qhi;
         s->cell[slot] = u->undo_cells[k];
         s->dense[slot] = u->undo_dense[k];
         s->flags[slot] = u->undo_flags[k];
@@ -143,12 +150,14 @@ static locd_status rebuild(upd *u)
     u->cells = lc_alloc(a, s->slot_cap * sizeof *u->cells);
     u->hot_cap = lc_scene_dense_room(s->nslots);
     u->hot = lc_alloc(a, u->hot_cap * sizeof *u->hot);
+    u->hq = lc_alloc(a, u->hot_cap * 2 * sizeof *u->hq);
     u->dense = lc_alloc(a, s->slot_cap * sizeof *u->dense);
-    if (!u->cells || !u->hot || !u->dense)
+    if (!u->cells || !u->hot || !u->hq || !u->dense)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's cells");
     memset(u->cells, 0, s->slot_cap * sizeof *u->cells);
     if ((st = lc_scene_fit_grid(s, &u->grid)) != LOCD_OK ||
-        (st = lc_scene_build_trees(s, &u->grid, u->cells, u->dense, u->hot, &u->ndense, &u->dyn, &u->sta)) !=
+        (st = lc_scene_build_trees(s, &u->grid, u->cells, u->dense, u->hot, u->hq, &u->ndense, &u->dyn,
+                                                &u->sta)) !=
             LOCD_OK)
         return st;
     t1 = lc_now_ms();
@@ -336,9 +345,12 @@ static locd_status incremental(upd *u)
     u->undo_cells = lc_alloc(a, u->undo_cap * sizeof *u->undo_cells);
     u->undo_hot = lc_alloc(a, u->undo_cap * sizeof *u->undo_hot);
     u->undo_dense = lc_alloc(a, u->undo_cap * sizeof *u->undo_dense);
+    u->new_cells = lc_alloc(a, u->undo_cap * sizeof *u->new_cells);
+    u->new_q = lc_alloc(a, u->undo_cap * 2 * sizeof *u->new_q);
     u->ndense_before = s->ndense;
     u->undo_flags = lc_alloc(a, u->undo_cap * sizeof *u->undo_flags);
-    if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags || !u->undo_dense)
+    if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags || !u->undo_dense || !u->new_cells ||
+        !u->new_q)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the update's undo list");
     /* Pass 1: count the deltas (deleted and added per list, queries). */
     for (k = 0; k < s->nremoved; k++)
@@ -349,11 +361,12 @@ static locd_status incremental(upd *u)
         uint8_t f = s->flags[slot];
         int t = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        uint64_t q[2];
+        uint64_t *q = u->new_q + 2 * k;
         if (!(f & LC_SLOT_LIVE))
             continue;
         u->moved++;
         lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
+        u->new_cells[k] = c;
         cnt = lc_cells_entries(g, &c, 0, tmp);
         nq += cnt;
         if ((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))
@@ -381,11 +394,11 @@ static locd_status incremental(upd *u)
         uint8_t f = s->flags[slot];
         int t = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        uint64_t q[2];
+        const uint64_t *q = u->new_q + 2 * k;
         uint32_t di;
         if (!(f & LC_SLOT_LIVE))
             continue;
-        lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
+        c = u->new_cells[k];
         /* an object new to the lists takes the next dense index */
         di = (f & LC_SLOT_INTREE) ? s->dense[slot] : (uint32_t)s->ndense++;
         u->undo_slot[u->nundo] = slot;
@@ -405,8 +418,13 @@ static locd_status incremental(upd *u)
         nq += cnt;
         s->cell[slot] = c;
         s->dense[slot] = di;
-        lc_hot_fill(s, slot, q, &s->hot[di]);
+        if ((f & (LC_SLOT_INTREE | LC_SLOT_REFILTER)) == LC_SLOT_INTREE) { /* moved only: the filter is as it was */
+            s->hot[di].qlo = q[0], s->hot[di].qhi = q[1];
+        } else {
+            lc_hot_fill(s, slot, q, &s->hot[di]);
+        }
         s->hot[di].flags |= LC_SLOT_DIRTY;
+        s->hq[2 * (size_t)di] = q[0], s->hq[2 * (size_t)di + 1] = q[1];
         s->flags[slot] |= LC_SLOT_INTREE;
     }
     for (k = 0; k < 2; k++)
@@ -457,7 +475,7 @@ static void clear_changes(locd_scene *s)
     size_t k;
     const uint32_t *d = s->dirty.data;
     for (k = 0; k < s->ndirty; k++)
-        s->flags[d[k]] &= (uint8_t)~LC_SLOT_DIRTY;
+        s->flags[d[k]] &= (uint8_t) ~(LC_SLOT_DIRTY | LC_SLOT_REFILTER);
     s->ndirty = 0;
     lc_scene_free_removed(s);
 }
@@ -473,6 +491,10 @@ static void commit(upd *u)
         size_t hc = s->hot_cap;
         s->cell = u->cells, u->cells = c;
         s->hot = u->hot, u->hot = h;
+        {
+            uint64_t *hq = s->hq;
+            s->hq = u->hq, u->hq = hq;
+        }
         s->hot_cap = u->hot_cap, u->hot_cap = hc;
         s->dense = u->dense, u->dense = dn;
         s->ndense = u->ndense;
