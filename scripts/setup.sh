@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 APT_PKGS="build-essential pkg-config ninja-build libccd-dev libfcl-dev libeigen3-dev liboctomap-dev \
-libcmocka-dev abigail-tools mono-mcs valgrind libopenmpi-dev openmpi-bin \
+abigail-tools mono-mcs valgrind libopenmpi-dev openmpi-bin \
 libbullet-dev libcgal-dev libgmp-dev libmpfr-dev python3-venv time"
 
 missing=""

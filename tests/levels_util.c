@@ -328,19 +328,15 @@ int lu_wait_file_contains(const char *path, const char *text, int timeout_ms)
 
 static double t_start;
 
-int lu_timer_start(void **state)
+void lu_timer_start(void)
 {
-    (void)state;
     t_start = lu_now_ms();
-    return 0;
 }
 
-int lu_timer_print(void **state)
+void lu_timer_print(void)
 {
-    (void)state;
     fprintf(stdout, "# %.0f ms\n", lu_now_ms() - t_start);
     fflush(stdout);
-    return 0;
 }
 
 int lu_heavy(void)

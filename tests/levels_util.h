@@ -47,9 +47,9 @@ int lu_count_processes_with(const char *a, const char *b);
 int lu_file_contains(const char *path, const char *text);
 int lu_wait_file_contains(const char *path, const char *text, int timeout_ms);
 
-/* Per-test setup/teardown that print the test's wall time. */
-int lu_timer_start(void **state);
-int lu_timer_print(void **state);
+/* Per-test setup/teardown (LT_TEST_FIXTURE) that print the test's wall time. */
+void lu_timer_start(void);
+void lu_timer_print(void);
 
 /* Exactly equal pair lists (same pairs, same order). */
 int lu_same_pairs(const locd_pairs *a, const locd_pairs *b);

@@ -9,16 +9,14 @@
  *
  * LOCD_TEST_HEAVY=0 (set by the sanitizer runs) shrinks the scenes, keeping
  * them large enough for the engine to split the work between threads. */
-#include <setjmp.h>
 #include <signal.h>
-#include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include <cmocka.h>
+#include "runner.h"
 
 #include "fail_alloc.h"
 #include "levels_util.h"
@@ -66,13 +64,13 @@ static void scene_make(scene *s, int kind, size_t n, uint64_t seed)
     s->n = n;
     s->f = ts_scene(kind, n, seed);
     s->d = malloc(6 * n * sizeof(double));
-    assert_non_null(s->d);
+    TEST_ASSERT_NOT_NULL(s->d);
     for (i = 0; i < 6 * n; i++)
         s->d[i] = (double)s->f[i];
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
-    assert_int_equal(locd_brute_force_f32(s->f, n, p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_brute_force_f32(s->f, n, p));
     s->ref = ts_sorted_copy(p, &s->m);
-    assert_true(s->m > 0);
+    TEST_ASSERT_TRUE(s->m > 0);
     locd_pairs_destroy(p);
 }
 
@@ -91,7 +89,7 @@ static int pairs_match(const uint32_t *data, size_t count, const scene *s)
     if (count != s->m)
         return 0;
     c = malloc((count ? count : 1) * 2 * sizeof(uint32_t));
-    assert_non_null(c);
+    TEST_ASSERT_NOT_NULL(c);
     if (count)
         memcpy(c, data, count * 2 * sizeof(uint32_t));
     qsort(c, count, 2 * sizeof(uint32_t), cmp_pair);
@@ -141,12 +139,12 @@ static uint64_t drive(const scenario *sc, void *ctx)
             fa_arm(0, 0);
             if (st != LOCD_OK) {
                 if (st != LOCD_ERR_NO_MEMORY)
-                    fail_msg("%s: allocation %llu%s failed: status %d (%s: %s), expected LOCD_ERR_NO_MEMORY",
-                             sc->name, (unsigned long long)k, sticky ? "+" : "", (int)st, locd_status_string(st),
-                             locd_last_error());
+                    LT_FAIL("%s: allocation %llu%s failed: status %d (%s: %s), expected LOCD_ERR_NO_MEMORY", sc->name,
+                            (unsigned long long)k, sticky ? "+" : "", (int)st, locd_status_string(st),
+                            locd_last_error());
                 if (c.failures == 0)
-                    fail_msg("%s: failed with %d (%s) though no allocation failed", sc->name, (int)st,
-                             locd_last_error());
+                    LT_FAIL("%s: failed with %d (%s) though no allocation failed", sc->name, (int)st,
+                            locd_last_error());
                 if (sc->unchanged)
                     sc->unchanged(ctx);
             } else if (sc->correct) {
@@ -157,28 +155,27 @@ static uint64_t drive(const scenario *sc, void *ctx)
             sc->teardown(ctx);
             fa_counts_get(&after);
             if (after.bad_frees != base.bad_frees)
-                fail_msg("%s: allocation %llu%s: free() with a wrong size or pointer", sc->name,
-                         (unsigned long long)k, sticky ? "+" : "");
+                LT_FAIL("%s: allocation %llu%s: free() with a wrong size or pointer", sc->name, (unsigned long long)k,
+                        sticky ? "+" : "");
             if (after.live_bytes < base.live_bytes || after.live_blocks < base.live_blocks)
-                fail_msg("%s: allocation %llu%s: %lld bytes in %lld blocks allocated before this call were freed "
-                         "during it: an earlier call's memory outlived its destroy (a thread still freeing?)",
-                         sc->name, (unsigned long long)k, sticky ? "+" : "",
-                         (long long)(base.live_bytes - after.live_bytes),
-                         (long long)(base.live_blocks - after.live_blocks));
+                LT_FAIL("%s: allocation %llu%s: %lld bytes in %lld blocks allocated before this call were freed "
+                        "during it: an earlier call's memory outlived its destroy (a thread still freeing?)",
+                        sc->name, (unsigned long long)k, sticky ? "+" : "",
+                        (long long)(base.live_bytes - after.live_bytes),
+                        (long long)(base.live_blocks - after.live_blocks));
             if (after.live_bytes != base.live_bytes || after.live_blocks != base.live_blocks)
-                fail_msg("%s: allocation %llu%s failed: %lld bytes in %lld blocks leaked (status %d)", sc->name,
-                         (unsigned long long)k, sticky ? "+" : "",
-                         (long long)(after.live_bytes - base.live_bytes),
-                         (long long)(after.live_blocks - base.live_blocks), (int)st);
+                LT_FAIL("%s: allocation %llu%s failed: %lld bytes in %lld blocks leaked (status %d)", sc->name,
+                        (unsigned long long)k, sticky ? "+" : "", (long long)(after.live_bytes - base.live_bytes),
+                        (long long)(after.live_blocks - base.live_blocks), (int)st);
             if (c.failures == 0) {
                 if (st != LOCD_OK)
-                    fail_msg("%s: status %d with no failure", sc->name, (int)st);
+                    LT_FAIL("%s: status %d with no failure", sc->name, (int)st);
                 total = c.calls;
                 break;
             }
         }
         if (k > MAX_K)
-            fail_msg("%s: still failing after %u allocations", sc->name, MAX_K);
+            LT_FAIL("%s: still failing after %u allocations", sc->name, MAX_K);
     }
     return total;
 }
@@ -226,7 +223,7 @@ static locd_status create_call(void *p)
 static void create_unchanged(void *p)
 {
     create_ctx *c = p;
-    assert_null(c->e);
+    TEST_ASSERT_NULL(c->e);
 }
 
 static void create_usable(void *p)
@@ -240,11 +237,11 @@ static void create_usable(void *p)
         cfg.service_address = g_addr;
         cfg.threads = c->threads;
         cfg.allocator = *fa_allocator();
-        assert_int_equal(locd_engine_create(&cfg, &c->e), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &c->e));
     }
-    assert_int_equal(locd_pairs_create(fa_allocator(), &out), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f32(c->e, c->s->f, c->s->n, 0, out), LOCD_OK);
-    assert_true(result_match(out, c->s));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(fa_allocator(), &out));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(c->e, c->s->f, c->s->n, 0, out));
+    TEST_ASSERT_TRUE(result_match(out, c->s));
     locd_pairs_destroy(out);
 }
 
@@ -283,13 +280,13 @@ static void find_prepare(void *p)
     cfg.service_address = g_addr;
     cfg.threads = c->threads;
     cfg.allocator = *fa_allocator();
-    assert_int_equal(locd_engine_create(&cfg, &c->e), LOCD_OK);
-    assert_int_equal(locd_pairs_create(fa_allocator(), &c->out), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &c->e));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(fa_allocator(), &c->out));
     /* Output holding an earlier answer; a warm engine has sized its buffers for it. */
     if (c->warm)
-        assert_int_equal(locd_engine_find_pairs_f32(c->e, c->small->f, c->small->n, 0, c->out), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(c->e, c->small->f, c->small->n, 0, c->out));
     else
-        assert_int_equal(locd_brute_force_f32(c->small->f, c->small->n, c->out), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_brute_force_f32(c->small->f, c->small->n, c->out));
     c->before_count = locd_pairs_count(c->out);
     c->before = malloc(c->before_count * 2 * sizeof(uint32_t) + 8);
     memcpy(c->before, locd_pairs_data(c->out), c->before_count * 2 * sizeof(uint32_t));
@@ -317,16 +314,16 @@ static void find_unchanged(void *p)
     find_ctx *c = p;
     if (c->into) {
         size_t i;
-        assert_int_equal(c->count, (size_t)-1); /* *count untouched */
+        TEST_ASSERT_EQUAL_INT64((size_t)-1, c->count); /* *count untouched */
         for (i = 0; i < 2 * c->cap; i++)
             if (c->buf[i])
-                fail_msg("find_into wrote into the caller buffer and failed");
+                LT_FAIL("find_into wrote into the caller buffer and failed");
         return;
     }
     if (locd_pairs_count(c->out) != c->before_count ||
         memcmp(locd_pairs_data(c->out), c->before, c->before_count * 2 * sizeof(uint32_t)) != 0)
-        fail_msg("a failed find (threads %u, %s, flags %u) changed *out (%zu pairs before, %zu after)", c->threads,
-                 c->f64 ? "f64" : "f32", c->flags, c->before_count, locd_pairs_count(c->out));
+        LT_FAIL("a failed find (threads %u, %s, flags %u) changed *out (%zu pairs before, %zu after)", c->threads,
+                c->f64 ? "f64" : "f32", c->flags, c->before_count, locd_pairs_count(c->out));
 }
 
 static void find_correct(void *p)
@@ -334,17 +331,17 @@ static void find_correct(void *p)
     find_ctx *c = p;
     const uint32_t *got = c->into ? c->buf : locd_pairs_data(c->out);
     size_t count = c->into ? c->count : locd_pairs_count(c->out);
-    assert_int_equal(count, c->s->m);
+    TEST_ASSERT_EQUAL_INT64(c->s->m, count);
     if (c->flags & LOCD_FIND_SORTED) /* (i, j) order, element by element, however it was sorted */
-        assert_memory_equal(got, c->s->ref, count * 2 * sizeof(uint32_t));
+        LT_ASSERT_EQUAL_MEMORY(c->s->ref, got, count * 2 * sizeof(uint32_t));
     else
-        assert_true(pairs_match(got, count, c->s));
+        TEST_ASSERT_TRUE(pairs_match(got, count, c->s));
 }
 
 static void find_usable(void *p)
 {
     find_ctx *c = p;
-    assert_int_equal(find_run(c), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, find_run(c));
     find_correct(c);
 }
 
@@ -384,16 +381,16 @@ static locd_status pcreate_call(void *v)
 
 static void pcreate_unchanged(void *v)
 {
-    assert_null(((pairs_ctx *)v)->p);
+    TEST_ASSERT_NULL(((pairs_ctx *)v)->p);
 }
 
 static void pcreate_usable(void *v)
 {
     pairs_ctx *c = v;
     if (!c->p)
-        assert_int_equal(locd_pairs_create(fa_allocator(), &c->p), LOCD_OK);
-    assert_int_equal(locd_brute_force_f32(c->s->f, c->s->n, c->p), LOCD_OK);
-    assert_true(result_match(c->p, c->s));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(fa_allocator(), &c->p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_brute_force_f32(c->s->f, c->s->n, c->p));
+    TEST_ASSERT_TRUE(result_match(c->p, c->s));
 }
 
 static void pairs_teardown(void *v)
@@ -410,9 +407,9 @@ static void psort_prepare(void *v)
 {
     pairs_ctx *c = v;
     locd_engine *e;
-    assert_int_equal(locd_pairs_create(fa_allocator(), &c->p), LOCD_OK);
-    assert_int_equal(locd_engine_create(NULL, &e), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f32(e, c->s->f, c->s->n, 0, c->p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(fa_allocator(), &c->p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(NULL, &e));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, c->s->f, c->s->n, 0, c->p));
     locd_engine_destroy(e);
     c->before_count = locd_pairs_count(c->p);
     c->before = malloc(c->before_count * 2 * sizeof(uint32_t) + 8);
@@ -429,21 +426,21 @@ static void pairs_unchanged(void *v)
     pairs_ctx *c = v;
     if (locd_pairs_count(c->p) != c->before_count ||
         memcmp(locd_pairs_data(c->p), c->before, c->before_count * 2 * sizeof(uint32_t)) != 0)
-        fail_msg("a failed call changed the pairs buffer");
+        LT_FAIL("a failed call changed the pairs buffer");
 }
 
 /* Sorted means exactly the reference, element by element. */
 static void psort_correct(void *v)
 {
     pairs_ctx *c = v;
-    assert_int_equal(locd_pairs_count(c->p), c->s->m);
-    assert_memory_equal(locd_pairs_data(c->p), c->s->ref, c->s->m * 2 * sizeof(uint32_t));
+    TEST_ASSERT_EQUAL_INT64(c->s->m, locd_pairs_count(c->p));
+    LT_ASSERT_EQUAL_MEMORY(c->s->ref, locd_pairs_data(c->p), c->s->m * 2 * sizeof(uint32_t));
 }
 
 static void psort_usable(void *v)
 {
     pairs_ctx *c = v;
-    assert_int_equal(locd_pairs_sort(c->p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_sort(c->p));
     psort_correct(c);
 }
 
@@ -460,8 +457,8 @@ typedef struct brute_ctx {
 static void brute_prepare(void *v)
 {
     brute_ctx *c = v;
-    assert_int_equal(locd_pairs_create(fa_allocator(), &c->pc.p), LOCD_OK);
-    assert_int_equal(locd_brute_force_f32(c->small->f, c->small->n, c->pc.p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(fa_allocator(), &c->pc.p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_brute_force_f32(c->small->f, c->small->n, c->pc.p));
     c->pc.before_count = locd_pairs_count(c->pc.p);
     c->pc.before = malloc(c->pc.before_count * 2 * sizeof(uint32_t) + 8);
     memcpy(c->pc.before, locd_pairs_data(c->pc.p), c->pc.before_count * 2 * sizeof(uint32_t));
@@ -481,7 +478,7 @@ static void brute_correct(void *v)
 
 static void brute_usable(void *v)
 {
-    assert_int_equal(brute_call(v), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, brute_call(v));
     brute_correct(v);
 }
 
@@ -516,19 +513,19 @@ static locd_status blocks_run(blocks_ctx *c)
     ent = malloc(cap * sizeof *ent);
     scr = malloc(cap * sizeof *scr);
     merged = malloc(cap * sizeof *merged);
-    assert_true(ent && scr && merged);
+    TEST_ASSERT_TRUE(ent && scr && merged);
     /* fit, encode, sort and merge take caller buffers: they must not need the allocator at all. */
     if (c->f64) {
-        assert_int_equal(locd_grid_fit_f64(s->d, s->n, 0, 1, 0, &g), LOCD_OK);
-        assert_int_equal(locd_encode_f64(&g, s->d, 0, half, ent, cap, &w0), LOCD_OK);
-        assert_int_equal(locd_encode_f64(&g, s->d, half, s->n - half, ent + w0, cap - w0, &w1), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_grid_fit_f64(s->d, s->n, 0, 1, 0, &g));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_encode_f64(&g, s->d, 0, half, ent, cap, &w0));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_encode_f64(&g, s->d, half, s->n - half, ent + w0, cap - w0, &w1));
     } else {
-        assert_int_equal(locd_grid_fit_f32(s->f, s->n, 0, 1, 0, &g), LOCD_OK);
-        assert_int_equal(locd_encode_f32(&g, s->f, 0, half, ent, cap, &w0), LOCD_OK);
-        assert_int_equal(locd_encode_f32(&g, s->f, half, s->n - half, ent + w0, cap - w0, &w1), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_grid_fit_f32(s->f, s->n, 0, 1, 0, &g));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_encode_f32(&g, s->f, 0, half, ent, cap, &w0));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_encode_f32(&g, s->f, half, s->n - half, ent + w0, cap - w0, &w1));
     }
-    assert_int_equal(locd_sort_entries(&g, ent, scr, w0), LOCD_OK);
-    assert_int_equal(locd_sort_entries(&g, ent + w0, scr, w1), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_sort_entries(&g, ent, scr, w0));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_sort_entries(&g, ent + w0, scr, w1));
     {
         const uint64_t *runs[2];
         size_t counts[2];
@@ -536,7 +533,7 @@ static locd_status blocks_run(blocks_ctx *c)
         runs[1] = ent + w0;
         counts[0] = w0;
         counts[1] = w1;
-        assert_int_equal(locd_merge_entries(runs, counts, 2, merged), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_merge_entries(runs, counts, 2, merged));
     }
     locd_stats_init(&st);
     r = c->f64 ? locd_sweep_f64(&g, s->d, s->n, merged, w0 + w1, c->pc.p, &st)
@@ -550,7 +547,7 @@ static locd_status blocks_run(blocks_ctx *c)
 static void blocks_prepare(void *v)
 {
     blocks_ctx *c = v;
-    assert_int_equal(locd_pairs_create(fa_allocator(), &c->pc.p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(fa_allocator(), &c->pc.p));
     c->pc.before_count = 0;
     c->pc.before = NULL;
 }
@@ -562,18 +559,18 @@ static locd_status blocks_call(void *v)
 
 static void blocks_unchanged(void *v)
 {
-    assert_int_equal(locd_pairs_count(((blocks_ctx *)v)->pc.p), 0);
+    TEST_ASSERT_EQUAL_INT64(0, locd_pairs_count(((blocks_ctx *)v)->pc.p));
 }
 
 static void blocks_correct(void *v)
 {
     blocks_ctx *c = v;
-    assert_true(result_match(c->pc.p, c->pc.s));
+    TEST_ASSERT_TRUE(result_match(c->pc.p, c->pc.s));
 }
 
 static void blocks_usable(void *v)
 {
-    assert_int_equal(blocks_run(v), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, blocks_run(v));
     blocks_correct(v);
 }
 
@@ -600,8 +597,8 @@ static void job_prepare(void *v)
     locd_engine_config_init(&cfg);
     cfg.threads = 2;
     cfg.allocator = *fa_allocator();
-    assert_int_equal(locd_engine_create(&cfg, &c->e), LOCD_OK);
-    assert_int_equal(locd_pairs_create(fa_allocator(), &c->out), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &c->e));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(fa_allocator(), &c->out));
 }
 
 static locd_status job_run(job_ctx *c)
@@ -625,18 +622,18 @@ static locd_status job_call(void *v)
 
 static void job_unchanged(void *v)
 {
-    assert_int_equal(locd_pairs_count(((job_ctx *)v)->out), 0);
+    TEST_ASSERT_EQUAL_INT64(0, locd_pairs_count(((job_ctx *)v)->out));
 }
 
 static void job_correct(void *v)
 {
     job_ctx *c = v;
-    assert_true(result_match(c->out, c->s));
+    TEST_ASSERT_TRUE(result_match(c->out, c->s));
 }
 
 static void job_usable(void *v)
 {
-    assert_int_equal(job_run(v), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, job_run(v));
     job_correct(v);
 }
 
@@ -659,12 +656,13 @@ typedef struct scenes {
     scene tiny;  /* for the O(n^2) reference */
 } scenes;
 
-static int setup(void **state)
+/* Made once by the group setup, read by every test. */
+static scenes g_scenes;
+
+static int setup(void)
 {
-    scenes *sc = calloc(1, sizeof *sc);
+    scenes *sc = &g_scenes;
     size_t n = heavy() ? 6000 : PARALLEL_N + 200;
-    if (!sc)
-        return -1;
     lu_setup(); /* LOCD_WORKER: the build's locd-worker */
     lu_temp_dir(g_dir, sizeof g_dir);
     {
@@ -678,30 +676,29 @@ static int setup(void **state)
     scene_make(&sc->big, 2, n, 41);    /* mixed sizes: several octree levels */
     scene_make(&sc->small, 0, 300, 7); /* uniform */
     scene_make(&sc->tiny, 1, heavy() ? 1500 : 600, 5);
-    *state = sc;
     return 0;
 }
 
-static int teardown(void **state)
+static void teardown(void)
 {
-    scenes *sc = *state;
+    scenes *sc = &g_scenes;
     scene_free(&sc->big);
     scene_free(&sc->small);
     scene_free(&sc->tiny);
-    free(sc);
+    memset(sc, 0, sizeof *sc);
     if (g_service > 0)
         lu_stop_service(g_service, SIGTERM);
+    g_service = -1;
     lu_cleanup_dir(g_dir);
-    return 0;
 }
 
-static void engine_create_fails_cleanly(void **state)
+static void engine_create_fails_cleanly(void)
 {
     static const struct {
         int32_t level;
         uint32_t threads;
     } v[] = {{LOCD_LEVEL_INPROCESS, 1}, {LOCD_LEVEL_INPROCESS, 2}, {LOCD_LEVEL_WORKERS, 2}, {LOCD_LEVEL_SERVICE, 0}};
-    const scenes *sc = *state;
+    const scenes *sc = &g_scenes;
     size_t i;
     for (i = 0; i < sizeof v / sizeof v[0]; i++) {
         create_ctx c;
@@ -754,7 +751,7 @@ static void find_variants(const scenes *sc, const find_variant *v, size_t nv, un
     }
 }
 
-static void find_fails_cleanly(void **state)
+static void find_fails_cleanly(void)
 {
     static const find_variant v[] = {
         {0, 1, 0, 0, 0, 0}, {0, 2, 0, 0, 0, 0},
@@ -762,36 +759,36 @@ static void find_fails_cleanly(void **state)
         {0, 2, 0, 0, 1, 0},                     /* warm engine, buffers sized for a smaller scene */
         {0, 2, 0, 1, 0, 0}, {0, 1, 1, 1, 1, 0}, /* into a caller buffer */
     };
-    find_variants(*state, v, sizeof v / sizeof v[0], 0x1u | 0x8u | 0x10u | 0x20u);
+    find_variants(&g_scenes, v, sizeof v / sizeof v[0], 0x1u | 0x8u | 0x10u | 0x20u);
 }
 
 /* The (i, j) ordering allocates after the pairs are found: a failure there
  * must still leave *out as it was. */
-static void find_sorted_fails_cleanly(void **state)
+static void find_sorted_fails_cleanly(void)
 {
     static const find_variant v[] = {
         {0, 1, 0, 0, 0, LOCD_FIND_SORTED}, {0, 2, 1, 0, 1, LOCD_FIND_SORTED},
         {LOCD_LEVEL_WORKERS, 2, 0, 0, 0, LOCD_FIND_SORTED}, {LOCD_LEVEL_SERVICE, 0, 1, 0, 0, LOCD_FIND_SORTED},
     };
-    find_variants(*state, v, sizeof v / sizeof v[0], 0x2u | 0x8u);
+    find_variants(&g_scenes, v, sizeof v / sizeof v[0], 0x2u | 0x8u);
 }
 
 /* Levels 2 and 3: the caller's side of the call (requests, shared memory
  * bookkeeping, results) allocates through the hook too. Worker processes and
  * the service allocate in their own address space and are not injected. */
-static void find_other_levels_fail_cleanly(void **state)
+static void find_other_levels_fail_cleanly(void)
 {
     static const find_variant v[] = {
         {LOCD_LEVEL_WORKERS, 2, 0, 0, 0, 0}, {LOCD_LEVEL_WORKERS, 2, 1, 0, 1, 0},
         {LOCD_LEVEL_WORKERS, 1, 0, 1, 0, 0}, {LOCD_LEVEL_SERVICE, 0, 0, 0, 0, 0},
         {LOCD_LEVEL_SERVICE, 0, 1, 1, 1, 0},
     };
-    find_variants(*state, v, sizeof v / sizeof v[0], 0x1u | 0x10u);
+    find_variants(&g_scenes, v, sizeof v / sizeof v[0], 0x1u | 0x10u);
 }
 
-static void pairs_fail_cleanly(void **state)
+static void pairs_fail_cleanly(void)
 {
-    const scenes *sc = *state;
+    const scenes *sc = &g_scenes;
     pairs_ctx c;
     scenario create = {"pairs_create", pcreate_prepare, pcreate_call, pcreate_unchanged, NULL, pcreate_usable,
                        pairs_teardown};
@@ -804,9 +801,9 @@ static void pairs_fail_cleanly(void **state)
     report(sort.name, drive(&sort, &c));
 }
 
-static void brute_force_fails_cleanly(void **state)
+static void brute_force_fails_cleanly(void)
 {
-    const scenes *sc = *state;
+    const scenes *sc = &g_scenes;
     int f64;
     for (f64 = 0; f64 <= 1; f64++) {
         brute_ctx c;
@@ -820,9 +817,9 @@ static void brute_force_fails_cleanly(void **state)
     }
 }
 
-static void building_blocks_fail_cleanly(void **state)
+static void building_blocks_fail_cleanly(void)
 {
-    const scenes *sc = *state;
+    const scenes *sc = &g_scenes;
     int f64;
     for (f64 = 0; f64 <= 1; f64++) {
         blocks_ctx c;
@@ -835,9 +832,9 @@ static void building_blocks_fail_cleanly(void **state)
     }
 }
 
-static void jobs_fail_cleanly(void **state)
+static void jobs_fail_cleanly(void)
 {
-    const scenes *sc = *state;
+    const scenes *sc = &g_scenes;
     job_ctx c;
     int f64;
     memset(&c, 0, sizeof c);
@@ -853,11 +850,9 @@ static void jobs_fail_cleanly(void **state)
         }
         job_teardown(&c);
         if (st == LOCD_ERR_UNSUPPORTED) {
-            /* Not skip(): cmocka prints "not ok # SKIP", which Meson counts as a failure. */
-            printf("# jobs: not implemented in this build (LOCD_ERR_UNSUPPORTED): nothing to test\n");
-            return;
+            TEST_IGNORE_MESSAGE("jobs: not implemented in this build (LOCD_ERR_UNSUPPORTED): nothing to test");
         }
-        assert_int_equal(st, LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, st);
     }
     for (f64 = 0; f64 <= 1; f64++) {
         scenario s = {f64 ? "submit_f64/wait/take" : "submit_f32/wait/take", job_prepare, job_call, job_unchanged,
@@ -907,7 +902,7 @@ static locd_status world_call(void *v)
 static void world_correct(void *v)
 {
     world_ctx *c = v;
-    assert_int_equal(locd_contacts_count(c->out), c->count);
+    TEST_ASSERT_EQUAL_INT64(c->count, locd_contacts_count(c->out));
 }
 
 static void world_teardown(void *v)
@@ -917,20 +912,17 @@ static void world_teardown(void *v)
     c->w = NULL;
 }
 
-static void world_fails_cleanly(void **state)
+static void world_fails_cleanly(void)
 {
     world_ctx c;
     scenario s = {"world create/add/collide", world_prepare, world_call, NULL, world_correct, NULL, world_teardown};
-    (void)state;
     memset(&c, 0, sizeof c);
-    if (locd_shape_sphere(0.8, &c.sphere) != LOCD_OK) {
-        printf("# world: no narrow phase in this build: nothing to test\n");
-        return;
-    }
-    assert_int_equal(locd_contacts_create(&c.out), LOCD_OK);
-    assert_int_equal(world_call(&c), LOCD_OK); /* unarmed: the reference count, and contacts at full size */
+    if (locd_shape_sphere(0.8, &c.sphere) != LOCD_OK)
+        TEST_IGNORE_MESSAGE("world: no narrow phase in this build: nothing to test");
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_contacts_create(&c.out));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, world_call(&c)); /* unarmed: the reference count, and contacts at full size */
     c.count = locd_contacts_count(c.out);
-    assert_true(c.count > 0);
+    TEST_ASSERT_TRUE(c.count > 0);
     world_teardown(&c);
     report(s.name, drive(&s, &c));
     locd_contacts_destroy(c.out);
@@ -938,43 +930,42 @@ static void world_fails_cleanly(void **state)
 }
 
 /* The allocator itself: a test that cannot fail proves nothing. */
-static void allocator_counts_and_fails(void **state)
+static void allocator_counts_and_fails(void)
 {
     const locd_allocator *a = fa_allocator();
     fa_counts c0, c;
     void *p, *q;
-    (void)state;
     fa_counts_get(&c0);
     fa_arm(2, 0);
     p = a->alloc(100, a->user);
     q = a->alloc(50, a->user);
-    assert_non_null(p);
-    assert_null(q);
-    assert_int_equal(((uintptr_t)p) % 16, 0);
+    TEST_ASSERT_NOT_NULL(p);
+    TEST_ASSERT_NULL(q);
+    TEST_ASSERT_EQUAL_INT64(0, ((uintptr_t)p) % 16);
     fa_counts_get(&c);
-    assert_int_equal(c.calls, 2);
-    assert_int_equal(c.failures, 1);
-    assert_int_equal(c.live_bytes, c0.live_bytes + 100);
+    TEST_ASSERT_EQUAL_INT64(2, c.calls);
+    TEST_ASSERT_EQUAL_INT64(1, c.failures);
+    TEST_ASSERT_EQUAL_INT64(c0.live_bytes + 100, c.live_bytes);
     a->free(p, 100, a->user);
     fa_arm(0, 0);
     fa_counts_get(&c);
-    assert_int_equal(c.live_bytes, c0.live_bytes);
-    assert_int_equal(c.bad_frees, c0.bad_frees);
+    TEST_ASSERT_EQUAL_INT64(c0.live_bytes, c.live_bytes);
+    TEST_ASSERT_EQUAL_INT64(c0.bad_frees, c.bad_frees);
 }
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(allocator_counts_and_fails),
-        cmocka_unit_test(engine_create_fails_cleanly),
-        cmocka_unit_test(find_fails_cleanly),
-        cmocka_unit_test(find_sorted_fails_cleanly),
-        cmocka_unit_test(find_other_levels_fail_cleanly),
-        cmocka_unit_test(pairs_fail_cleanly),
-        cmocka_unit_test(brute_force_fails_cleanly),
-        cmocka_unit_test(building_blocks_fail_cleanly),
-        cmocka_unit_test(jobs_fail_cleanly),
-        cmocka_unit_test(world_fails_cleanly),
+    static const lt_test tests[] = {
+        LT_TEST(allocator_counts_and_fails),
+        LT_TEST(engine_create_fails_cleanly),
+        LT_TEST(find_fails_cleanly),
+        LT_TEST(find_sorted_fails_cleanly),
+        LT_TEST(find_other_levels_fail_cleanly),
+        LT_TEST(pairs_fail_cleanly),
+        LT_TEST(brute_force_fails_cleanly),
+        LT_TEST(building_blocks_fail_cleanly),
+        LT_TEST(jobs_fail_cleanly),
+        LT_TEST(world_fails_cleanly),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return LT_RUN_GROUP(tests, setup, teardown);
 }

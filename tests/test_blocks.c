@@ -112,7 +112,7 @@ static void composed_steps_match_engine_n(size_t n)
         TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_sweep_f32(&g, b, n, merged, total, p1, &st));
         TEST_ASSERT_TRUE(ts_same_as_brute_f32(b, n, p1));
         TEST_ASSERT_EQUAL_INT64(locd_pairs_count(p2), locd_pairs_count(p1));
-        TEST_ASSERT_EQUAL_MEMORY(locd_pairs_data(p2), locd_pairs_data(p1), locd_pairs_count(p1) * 8);
+        LT_ASSERT_EQUAL_MEMORY(locd_pairs_data(p2), locd_pairs_data(p1), locd_pairs_count(p1) * 8);
         TEST_ASSERT_EQUAL_INT64(locd_pairs_count(p1), st.pairs);
         TEST_ASSERT_TRUE(st.candidates >= st.pairs);
         for (r = 0; r < k; r++)

@@ -10,8 +10,6 @@
  * code: not those libccd, FCL or libc make for it. */
 #include <math.h>
 #include <pthread.h>
-#include <setjmp.h>
-#include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -19,7 +17,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include <cmocka.h>
+#include "runner.h"
 
 #include "fail_alloc.h"
 #include "levels_util.h"
@@ -63,23 +61,37 @@ static int narrow_built(void)
     return st == LOCD_OK;
 }
 
-/* Raises a box error (message and index set) on the calling thread. */
+/* Raises a box error (message and index set) on the calling thread; 1 when
+ * it reads as expected. It asserts nothing, so that a thread other than the
+ * test's can call it (a failed Unity assertion must happen on the test's). */
+static int raise_error(void)
+{
+    float bad[6] = {0, 0, 0, 1, NAN, 1};
+    locd_grid g;
+    return locd_grid_fit_f32(bad, 1, 0, LOCD_DEFAULT_CELL_BIAS, 0, &g) == LOCD_ERR_NONFINITE &&
+           locd_last_error_index() == 0 && locd_last_error()[0] != '\0';
+}
+
+/* raise_error on the test's thread, each part checked. */
 static void provoke_error(void)
 {
     float bad[6] = {0, 0, 0, 1, NAN, 1};
     locd_grid g;
-    assert_int_equal(locd_grid_fit_f32(bad, 1, 0, LOCD_DEFAULT_CELL_BIAS, 0, &g), LOCD_ERR_NONFINITE);
-    assert_int_equal(locd_last_error_index(), 0);
-    assert_true(locd_last_error()[0] != '\0');
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NONFINITE, locd_grid_fit_f32(bad, 1, 0, LOCD_DEFAULT_CELL_BIAS, 0, &g));
+    TEST_ASSERT_EQUAL_INT64(0, locd_last_error_index());
+    TEST_ASSERT_TRUE(locd_last_error()[0] != '\0');
 }
 
-static void assert_cleared(const char *what, locd_status st)
+/* The call succeeded and left no last error; a failure is reported at the
+ * caller's line. */
+#define assert_cleared(what, st) assert_cleared_(__LINE__, (what), (st))
+static void assert_cleared_(int line, const char *what, locd_status st)
 {
     if (st < 0)
-        fail_msg("%s failed: %s", what, locd_last_error());
+        lt_fail_(line, "%s failed: %s", what, locd_last_error());
     if (locd_last_error()[0] != '\0' || locd_last_error_index() != -1)
-        fail_msg("%s succeeded (%d) but left the last error \"%s\" (index %lld)", what, (int)st, locd_last_error(),
-                 (long long)locd_last_error_index());
+        lt_fail_(line, "%s succeeded (%d) but left the last error \"%s\" (index %lld)", what, (int)st,
+                 locd_last_error(), (long long)locd_last_error_index());
 }
 
 /* ---- every successful call clears the last error ---- */
@@ -113,28 +125,27 @@ static void ctx_up(ctx *c)
     memset(c, 0, sizeof *c);
     locd_engine_config_init(&cfg);
     cfg.threads = 1;
-    assert_int_equal(locd_engine_create(&cfg, &c->e), LOCD_OK);
-    assert_int_equal(locd_pairs_create(NULL, &c->p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &c->e));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &c->p));
     c->f = ts_scene(0, SCENE_N, 5);
     c->d = malloc(6 * SCENE_N * sizeof *c->d);
     for (i = 0; i < 6 * SCENE_N; i++)
         c->d[i] = c->f[i];
-    assert_int_equal(locd_grid_fit_f32(c->f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, &c->grid), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_grid_fit_f32(c->f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, &c->grid));
     c->entries = malloc(LOCD_MAX_ENTRIES_PER_BOX * SCENE_N * sizeof *c->entries);
     c->scratch = malloc(LOCD_MAX_ENTRIES_PER_BOX * SCENE_N * sizeof *c->scratch);
     c->merged = malloc(LOCD_MAX_ENTRIES_PER_BOX * SCENE_N * sizeof *c->merged);
-    assert_int_equal(locd_encode_f32(&c->grid, c->f, 0, SCENE_N, c->entries, LOCD_MAX_ENTRIES_PER_BOX * SCENE_N,
-                                     &c->nentries),
-                     LOCD_OK);
-    assert_int_equal(locd_sort_entries(&c->grid, c->entries, c->scratch, c->nentries), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_encode_f32(&c->grid, c->f, 0, SCENE_N, c->entries,
+                                                     LOCD_MAX_ENTRIES_PER_BOX * SCENE_N, &c->nentries));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_sort_entries(&c->grid, c->entries, c->scratch, c->nentries));
     locd_stats_init(&c->stats);
     if (narrow_built()) {
-        assert_int_equal(locd_shape_sphere(1.0, &c->sphere), LOCD_OK);
-        assert_int_equal(locd_shape_box(1.0, 1.0, 1.0, &c->box), LOCD_OK);
-        assert_int_equal(locd_world_create(&cfg, &c->world), LOCD_OK);
-        assert_int_equal(locd_world_add(c->world, c->sphere, g_pose, NULL, NULL), LOCD_OK);
-        assert_int_equal(locd_world_add(c->world, c->box, g_pose2, NULL, NULL), LOCD_OK);
-        assert_int_equal(locd_contacts_create(&c->contacts), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_shape_sphere(1.0, &c->sphere));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_shape_box(1.0, 1.0, 1.0, &c->box));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_create(&cfg, &c->world));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_add(c->world, c->sphere, g_pose, NULL, NULL));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_add(c->world, c->box, g_pose2, NULL, NULL));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_contacts_create(&c->contacts));
     }
 }
 
@@ -374,19 +385,18 @@ static const row g_rows[] = {
 #undef ROW
 };
 
-static void every_success_clears_the_last_error(void **state)
+static void every_success_clears_the_last_error(void)
 {
     ctx c;
     size_t i;
     int narrow = narrow_built();
-    (void)state;
     ctx_up(&c);
     for (i = 0; i < sizeof g_rows / sizeof g_rows[0]; i++) {
         const row *r = &g_rows[i];
         if (r->narrow && !narrow)
             continue;
         if (r->job)
-            assert_int_equal(new_job(&c), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, new_job(&c));
         provoke_error();
         assert_cleared(r->name, r->call(&c));
     }
@@ -398,13 +408,14 @@ static void every_success_clears_the_last_error(void **state)
 typedef struct svc_run {
     locd_service *s;
     locd_status st;
+    int provoked; /* raise_error worked on the service's thread */
     int cleared;
 } svc_run;
 
 static void *service_thread(void *arg)
 {
     svc_run *r = arg;
-    provoke_error();
+    r->provoked = raise_error();
     r->st = locd_service_run(r->s);
     r->cleared = locd_last_error()[0] == '\0' && locd_last_error_index() == -1;
     return NULL;
@@ -416,7 +427,7 @@ static void service_start(char *dir, size_t dirlen, svc_run *r, pthread_t *th, c
     char listen[300];
     (void)a;
     snprintf(dir, dirlen, "/tmp/locd-contract-XXXXXX");
-    assert_non_null(mkdtemp(dir));
+    TEST_ASSERT_NOT_NULL(mkdtemp(dir));
     snprintf(listen, sizeof listen, "unix:%s/s.sock", dir);
     locd_service_config_init(&sc);
     sc.listen = listen;
@@ -424,18 +435,19 @@ static void service_start(char *dir, size_t dirlen, svc_run *r, pthread_t *th, c
     memset(r, 0, sizeof *r);
     provoke_error();
     assert_cleared("locd_service_create", locd_service_create(&sc, &r->s));
-    assert_int_equal(pthread_create(th, NULL, service_thread, r), 0);
+    TEST_ASSERT_EQUAL_INT64(0, pthread_create(th, NULL, service_thread, r));
 }
 
 static void service_finish(char *dir, svc_run *r, pthread_t th)
 {
     char path[300];
     locd_service_stop(r->s);
-    assert_int_equal(pthread_join(th, NULL), 0);
+    TEST_ASSERT_EQUAL_INT64(0, pthread_join(th, NULL));
     locd_service_destroy(r->s);
     snprintf(path, sizeof path, "%s/s.sock", dir);
     unlink(path);
     rmdir(dir);
+    TEST_ASSERT_TRUE_MESSAGE(r->provoked, "the service's thread could not raise an error before its run");
 }
 
 static locd_engine *service_engine(const char *address, const locd_allocator *a)
@@ -452,7 +464,7 @@ static locd_engine *service_engine(const char *address, const locd_allocator *a)
     return e;
 }
 
-static void service_calls_clear_the_last_error(void **state)
+static void service_calls_clear_the_last_error(void)
 {
     char dir[64];
     svc_run r;
@@ -461,10 +473,9 @@ static void service_calls_clear_the_last_error(void **state)
     locd_pairs *p;
     locd_job *job;
     float *f = ts_scene(0, SCENE_N, 9);
-    (void)state;
     service_start(dir, sizeof dir, &r, &th, NULL);
     e = service_engine(locd_service_address(r.s), NULL);
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
     provoke_error();
     assert_cleared("locd_engine_find_pairs_f32 (level 3)", locd_engine_find_pairs_f32(e, f, SCENE_N, 0, p));
     provoke_error();
@@ -477,8 +488,8 @@ static void service_calls_clear_the_last_error(void **state)
     locd_pairs_destroy(p);
     locd_engine_destroy(e);
     service_finish(dir, &r, th);
-    assert_int_equal(r.st, LOCD_OK);
-    assert_true(r.cleared);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, r.st);
+    TEST_ASSERT_TRUE(r.cleared);
     free(f);
 }
 
@@ -513,135 +524,132 @@ static uint32_t get_size(const big *b)
     return size;
 }
 
-static void outputs_stop_at_the_callers_size(void **state)
+static void outputs_stop_at_the_callers_size(void)
 {
     ctx c;
     big b;
-    (void)state;
     ctx_up(&c);
-    assert_int_equal(locd_engine_find_pairs_f32(c.e, c.f, SCENE_N, 0, c.p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(c.e, c.f, SCENE_N, 0, c.p));
     /* An older caller's short stats: only its bytes are written. */
     set_size(&b, LOCD_STATS_MIN_SIZE);
-    assert_int_equal(locd_engine_stats(c.e, (locd_stats *)b.bytes), LOCD_OK);
-    assert_int_equal(get_size(&b), LOCD_STATS_MIN_SIZE);
-    assert_true(untouched(&b, LOCD_STATS_MIN_SIZE, sizeof b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_stats(c.e, (locd_stats *)b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_STATS_MIN_SIZE, get_size(&b));
+    TEST_ASSERT_TRUE(untouched(&b, LOCD_STATS_MIN_SIZE, sizeof b.bytes));
     set_size(&b, LOCD_STATS_MIN_SIZE - 1);
-    assert_int_equal(locd_engine_stats(c.e, (locd_stats *)b.bytes), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_stats(c.e, (locd_stats *)b.bytes));
     /* A newer caller's longer stats is refused, untouched. */
     set_size(&b, sizeof(locd_stats) + PAD);
-    assert_int_equal(locd_engine_stats(c.e, (locd_stats *)b.bytes), LOCD_ERR_INVALID_ARGUMENT);
-    assert_true(untouched(&b, sizeof(uint32_t), sizeof b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_stats(c.e, (locd_stats *)b.bytes));
+    TEST_ASSERT_TRUE(untouched(&b, sizeof(uint32_t), sizeof b.bytes));
     /* The library's own size: every field. */
     set_size(&b, sizeof(locd_stats));
-    assert_int_equal(locd_engine_stats(c.e, (locd_stats *)b.bytes), LOCD_OK);
-    assert_int_equal(((locd_stats *)b.bytes)->objects, SCENE_N);
-    assert_true(untouched(&b, sizeof(locd_stats), sizeof b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_stats(c.e, (locd_stats *)b.bytes));
+    TEST_ASSERT_EQUAL_INT64(SCENE_N, ((locd_stats *)b.bytes)->objects);
+    TEST_ASSERT_TRUE(untouched(&b, sizeof(locd_stats), sizeof b.bytes));
     /* The sweep's stats follow the same rule (it used to want the whole struct). */
     set_size(&b, offsetof(locd_stats, candidates));
-    assert_int_equal(
-        locd_sweep_f32(&c.grid, c.f, SCENE_N, c.entries, c.nentries, c.p, (locd_stats *)b.bytes), LOCD_OK);
-    assert_int_equal(((locd_stats *)b.bytes)->entries, c.nentries);
-    assert_true(untouched(&b, offsetof(locd_stats, candidates), sizeof b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_sweep_f32(&c.grid, c.f, SCENE_N, c.entries, c.nentries, c.p, (locd_stats *)b.bytes));
+    TEST_ASSERT_EQUAL_INT64(c.nentries, ((locd_stats *)b.bytes)->entries);
+    TEST_ASSERT_TRUE(untouched(&b, offsetof(locd_stats, candidates), sizeof b.bytes));
     /* A job's stats. */
-    assert_int_equal(new_job(&c), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, new_job(&c));
     set_size(&b, LOCD_STATS_MIN_SIZE);
-    assert_int_equal(locd_job_stats(c.job, (locd_stats *)b.bytes), LOCD_OK);
-    assert_true(untouched(&b, LOCD_STATS_MIN_SIZE, sizeof b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_stats(c.job, (locd_stats *)b.bytes));
+    TEST_ASSERT_TRUE(untouched(&b, LOCD_STATS_MIN_SIZE, sizeof b.bytes));
     ctx_down(&c);
 }
 
-static void grid_fit_bounds_its_write(void **state)
+static void grid_fit_bounds_its_write(void)
 {
     ctx c;
     big b;
     size_t w;
-    (void)state;
     ctx_up(&c);
     /* Uninitialized (here: 0xabababab) or larger than the library's: it
      * writes its own grid and says so in size. */
     set_size(&b, 0xabababab);
-    assert_int_equal(locd_grid_fit_f32(c.f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, (locd_grid *)b.bytes), LOCD_OK);
-    assert_int_equal(get_size(&b), sizeof(locd_grid));
-    assert_true(untouched(&b, sizeof(locd_grid), sizeof b.bytes));
-    assert_memory_equal(b.bytes, &c.grid, sizeof(locd_grid));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_grid_fit_f32(c.f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, (locd_grid *)b.bytes));
+    TEST_ASSERT_EQUAL_INT64(sizeof(locd_grid), get_size(&b));
+    TEST_ASSERT_TRUE(untouched(&b, sizeof(locd_grid), sizeof b.bytes));
+    TEST_ASSERT_EQUAL_MEMORY(&c.grid, b.bytes, sizeof(locd_grid));
     set_size(&b, 0);
-    assert_int_equal(locd_grid_fit_f32(c.f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, (locd_grid *)b.bytes), LOCD_OK);
-    assert_int_equal(get_size(&b), LOCD_GRID_MIN_SIZE);
-    assert_true(untouched(&b, LOCD_GRID_MIN_SIZE, sizeof b.bytes));
-    assert_int_equal(locd_encode_f32((locd_grid *)b.bytes, c.f, 0, SCENE_N, c.scratch,
-                                     LOCD_MAX_ENTRIES_PER_BOX * SCENE_N, &w),
-                     LOCD_OK);
-    assert_int_equal(w, c.nentries);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_grid_fit_f32(c.f, SCENE_N, 0, LOCD_DEFAULT_CELL_BIAS, 0, (locd_grid *)b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_GRID_MIN_SIZE, get_size(&b));
+    TEST_ASSERT_TRUE(untouched(&b, LOCD_GRID_MIN_SIZE, sizeof b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_encode_f32((locd_grid *)b.bytes, c.f, 0, SCENE_N, c.scratch,
+                                     LOCD_MAX_ENTRIES_PER_BOX * SCENE_N, &w));
+    TEST_ASSERT_EQUAL_INT64(c.nentries, w);
     /* A grid whose size says it is not one the library wrote. */
     ((locd_grid *)b.bytes)->size = LOCD_GRID_MIN_SIZE - 8;
-    assert_int_equal(locd_sort_entries((locd_grid *)b.bytes, c.entries, c.scratch, c.nentries),
-                     LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT,
+                            locd_sort_entries((locd_grid *)b.bytes, c.entries, c.scratch, c.nentries));
     ctx_down(&c);
 }
 
-static void inputs_accept_the_minimum_and_reject_outside(void **state)
+static void inputs_accept_the_minimum_and_reject_outside(void)
 {
     big b;
     locd_engine *e = NULL;
     locd_engine_config cfg;
     locd_service_config sc;
     locd_service *s = NULL;
-    (void)state;
     locd_engine_config_init(&cfg);
     cfg.threads = 1;
     memset(b.bytes, 0, sizeof b.bytes);
     memcpy(b.bytes, &cfg, sizeof cfg);
     ((locd_engine_config *)b.bytes)->size = LOCD_ENGINE_CONFIG_MIN_SIZE;
-    assert_int_equal(locd_engine_create((locd_engine_config *)b.bytes, &e), LOCD_OK);
-    assert_int_equal(locd_engine_threads(e), 1);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create((locd_engine_config *)b.bytes, &e));
+    TEST_ASSERT_EQUAL_INT64(1, locd_engine_threads(e));
     locd_engine_destroy(e);
     ((locd_engine_config *)b.bytes)->size = LOCD_ENGINE_CONFIG_MIN_SIZE - 1;
-    assert_int_equal(locd_engine_create((locd_engine_config *)b.bytes, &e), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_create((locd_engine_config *)b.bytes, &e));
     ((locd_engine_config *)b.bytes)->size = sizeof cfg + PAD;
-    assert_int_equal(locd_engine_create((locd_engine_config *)b.bytes, &e), LOCD_ERR_INVALID_ARGUMENT);
-    assert_non_null(strstr(locd_last_error(), "config->size"));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_create((locd_engine_config *)b.bytes, &e));
+    TEST_ASSERT_NOT_NULL(strstr(locd_last_error(), "config->size"));
     locd_service_config_init(&sc);
     sc.size = LOCD_SERVICE_CONFIG_MIN_SIZE - 1;
-    assert_int_equal(locd_service_create(&sc, &s), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_service_create(&sc, &s));
     sc.size = sizeof sc + 1;
-    assert_int_equal(locd_service_create(&sc, &s), LOCD_ERR_INVALID_ARGUMENT);
-    assert_null(s);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_service_create(&sc, &s));
+    TEST_ASSERT_NULL(s);
 }
 
-static void pipeline_structs_follow_the_rules(void **state)
+static void pipeline_structs_follow_the_rules(void)
 {
     locd_world *w;
     locd_shape *sp;
     locd_contacts *ct;
     locd_pipeline_options o;
     big b;
-    (void)state;
     if (!narrow_built())
-        return; /* no narrow phase in this build (cmocka's skip() reads as a failure to Meson) */
-    assert_int_equal(locd_shape_sphere(1.0, &sp), LOCD_OK);
-    assert_int_equal(locd_world_create(NULL, &w), LOCD_OK);
-    assert_int_equal(locd_contacts_create(&ct), LOCD_OK);
-    assert_int_equal(locd_world_add(w, sp, g_pose, NULL, NULL), LOCD_OK);
-    assert_int_equal(locd_world_add(w, sp, g_pose2, NULL, NULL), LOCD_OK);
+        TEST_IGNORE_MESSAGE("no narrow phase in this build");
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_shape_sphere(1.0, &sp));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_create(NULL, &w));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_contacts_create(&ct));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_add(w, sp, g_pose, NULL, NULL));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_add(w, sp, g_pose2, NULL, NULL));
     locd_pipeline_options_init(&o);
     o.size = LOCD_PIPELINE_OPTIONS_MIN_SIZE;
     /* A short struct has no route table to write into. */
-    assert_int_equal(locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED),
-                     LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT,
+                            locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED));
     set_size(&b, LOCD_PIPELINE_STATS_MIN_SIZE + 4);
-    assert_int_equal(locd_world_collide(w, &o, ct, (locd_pipeline_stats *)b.bytes), LOCD_OK);
-    assert_int_equal(locd_contacts_count(ct), 1);
-    assert_int_equal(((locd_pipeline_stats *)b.bytes)->objects, 2);
-    assert_true(untouched(&b, LOCD_PIPELINE_STATS_MIN_SIZE + 4, sizeof b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_collide(w, &o, ct, (locd_pipeline_stats *)b.bytes));
+    TEST_ASSERT_EQUAL_INT64(1, locd_contacts_count(ct));
+    TEST_ASSERT_EQUAL_INT64(2, ((locd_pipeline_stats *)b.bytes)->objects);
+    TEST_ASSERT_TRUE(untouched(&b, LOCD_PIPELINE_STATS_MIN_SIZE + 4, sizeof b.bytes));
     set_size(&b, sizeof(locd_pipeline_stats));
-    assert_int_equal(locd_world_collide(w, NULL, ct, (locd_pipeline_stats *)b.bytes), LOCD_OK);
-    assert_true(untouched(&b, sizeof(locd_pipeline_stats), sizeof b.bytes));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_collide(w, NULL, ct, (locd_pipeline_stats *)b.bytes));
+    TEST_ASSERT_TRUE(untouched(&b, sizeof(locd_pipeline_stats), sizeof b.bytes));
     set_size(&b, sizeof(locd_pipeline_stats) + PAD);
-    assert_int_equal(locd_world_collide(w, NULL, ct, (locd_pipeline_stats *)b.bytes), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_world_collide(w, NULL, ct, (locd_pipeline_stats *)b.bytes));
     o.size = LOCD_PIPELINE_OPTIONS_MIN_SIZE - 1;
-    assert_int_equal(locd_world_collide(w, &o, ct, NULL), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_world_collide(w, &o, ct, NULL));
     set_size(&b, 0);
-    assert_int_equal(locd_world_collide(w, NULL, ct, (locd_pipeline_stats *)b.bytes), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_world_collide(w, NULL, ct, (locd_pipeline_stats *)b.bytes));
     locd_contacts_destroy(ct);
     locd_world_destroy(w);
     locd_shape_destroy(sp);
@@ -649,7 +657,7 @@ static void pipeline_structs_follow_the_rules(void **state)
 
 /* ---- jobs: LOCD_PENDING while running ---- */
 
-static void take_and_stats_say_pending_while_the_job_runs(void **state)
+static void take_and_stats_say_pending_while_the_job_runs(void)
 {
     locd_engine_config cfg;
     locd_engine *e;
@@ -658,31 +666,30 @@ static void take_and_stats_say_pending_while_the_job_runs(void **state)
     locd_stats st;
     size_t n = 1000000;
     float *f = ts_scene(0, n, 13), one[12] = {0, 0, 0, 1, 1, 1, 0, 0, 0, 1, 1, 1};
-    (void)state;
     locd_engine_config_init(&cfg);
     cfg.threads = 1;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f32(e, one, 2, 0, p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, one, 2, 0, p));
     /* The second job waits in the engine's queue behind a long first one. */
-    assert_int_equal(locd_engine_submit_f32(e, f, n, 0, &first), LOCD_OK);
-    assert_int_equal(locd_engine_submit_f32(e, one, 2, 0, &second), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, f, n, 0, &first));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, one, 2, 0, &second));
     locd_stats_init(&st);
     st.objects = 12345;
     provoke_error();
-    assert_int_equal(locd_job_take(second, p), LOCD_PENDING);
+    TEST_ASSERT_EQUAL_INT64(LOCD_PENDING, locd_job_take(second, p));
     assert_cleared("locd_job_take (pending)", LOCD_PENDING);
-    assert_int_equal(locd_pairs_count(p), 1); /* unchanged */
+    TEST_ASSERT_EQUAL_INT64(1, locd_pairs_count(p)); /* unchanged */
     provoke_error();
-    assert_int_equal(locd_job_stats(second, &st), LOCD_PENDING);
+    TEST_ASSERT_EQUAL_INT64(LOCD_PENDING, locd_job_stats(second, &st));
     assert_cleared("locd_job_stats (pending)", LOCD_PENDING);
-    assert_int_equal(st.objects, 12345); /* unchanged */
+    TEST_ASSERT_EQUAL_INT64(12345, st.objects); /* unchanged */
     provoke_error();
-    assert_int_equal(locd_job_poll(second), LOCD_PENDING);
+    TEST_ASSERT_EQUAL_INT64(LOCD_PENDING, locd_job_poll(second));
     assert_cleared("locd_job_poll (pending)", LOCD_PENDING);
-    assert_int_equal(locd_job_wait(second, -1), LOCD_OK);
-    assert_int_equal(locd_job_stats(second, &st), LOCD_OK);
-    assert_int_equal(st.objects, 2);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_wait(second, -1));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_stats(second, &st));
+    TEST_ASSERT_EQUAL_INT64(2, st.objects);
     locd_job_release(first);
     locd_job_release(second);
     locd_pairs_destroy(p);
@@ -692,28 +699,32 @@ static void take_and_stats_say_pending_while_the_job_runs(void **state)
 
 /* ---- errors passed on read like the direct call's ---- */
 
-static void expect_same_error(locd_engine *e, const float *bad, size_t n)
+/* An engine's error read directly, through a job's wait and through its
+ * take: the same text and index. Failures are reported at the caller's line. */
+#define expect_same_error(e, bad, n) expect_same_error_(__LINE__, (e), (bad), (n))
+static void expect_same_error_(int line, locd_engine *e, const float *bad, size_t n)
 {
     char direct[256];
     locd_pairs *p;
     locd_job *job;
     int64_t index;
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f32(e, bad, n, 0, p), LOCD_ERR_INVERTED_BOX);
+    UNITY_TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p), line, "locd_pairs_create");
+    UNITY_TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVERTED_BOX, locd_engine_find_pairs_f32(e, bad, n, 0, p), line,
+                                  "direct call");
     snprintf(direct, sizeof direct, "%s", locd_last_error());
     index = locd_last_error_index();
-    assert_string_equal(direct, "box with min > max: box 3");
-    assert_int_equal(locd_engine_submit_f32(e, bad, n, 0, &job), LOCD_OK);
-    assert_int_equal(locd_job_wait(job, -1), LOCD_ERR_INVERTED_BOX);
-    assert_string_equal(locd_last_error(), direct);
-    assert_int_equal(locd_last_error_index(), index);
-    assert_int_equal(locd_job_take(job, p), LOCD_ERR_INVERTED_BOX);
-    assert_string_equal(locd_last_error(), direct);
+    UNITY_TEST_ASSERT_EQUAL_STRING("box with min > max: box 3", direct, line, "direct call's message");
+    UNITY_TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, bad, n, 0, &job), line, "submit");
+    UNITY_TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVERTED_BOX, locd_job_wait(job, -1), line, "job wait");
+    UNITY_TEST_ASSERT_EQUAL_STRING(direct, locd_last_error(), line, "job wait's message");
+    UNITY_TEST_ASSERT_EQUAL_INT64(index, locd_last_error_index(), line, "job wait's index");
+    UNITY_TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVERTED_BOX, locd_job_take(job, p), line, "job take");
+    UNITY_TEST_ASSERT_EQUAL_STRING(direct, locd_last_error(), line, "job take's message");
     locd_job_release(job);
     locd_pairs_destroy(p);
 }
 
-static void errors_passed_on_keep_their_text(void **state)
+static void errors_passed_on_keep_their_text(void)
 {
     char dir[64];
     svc_run r;
@@ -722,13 +733,12 @@ static void errors_passed_on_keep_their_text(void **state)
     locd_engine_config cfg;
     float bad[30] = {0};
     size_t i;
-    (void)state;
     for (i = 0; i < 5; i++)
         bad[6 * i + 3] = bad[6 * i + 4] = bad[6 * i + 5] = 1;
     bad[6 * 3 + 1] = 2; /* box 3: min y 2 > max y 1 */
     locd_engine_config_init(&cfg);
     cfg.threads = 1;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
     expect_same_error(e, bad, 5);
     locd_engine_destroy(e);
     service_start(dir, sizeof dir, &r, &th, NULL);
@@ -759,7 +769,7 @@ static void window_close(const alloc_window *w, uint64_t *hooked, uint64_t *mall
     *hooked = now.calls - w->before.calls;
     *mallocd = mallocs() - w->mallocs;
     *live = (int64_t)now.live_blocks - (int64_t)w->before.live_blocks;
-    assert_int_equal(now.bad_frees, w->before.bad_frees);
+    TEST_ASSERT_EQUAL_INT64(w->before.bad_frees, now.bad_frees);
 }
 
 /* The world's life: create, add, move, collide (closed forms only: the
@@ -780,60 +790,61 @@ static void world_life(const locd_allocator *a, locd_shape *const *shapes, size_
     o.stages = LOCD_STAGE_SHAPE | LOCD_STAGE_CONTACT;
     o.swept = LOCD_SWEPT_ON;
     o.dt = 0.1;
-    assert_int_equal(locd_pipeline_options_route(&o, LOCD_SHAPE_BOX, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED), LOCD_OK);
-    assert_int_equal(locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED), LOCD_OK);
-    assert_int_equal(locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_SPHERE, LOCD_ROUTE_CLOSED),
-                     LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_pipeline_options_route(&o, LOCD_SHAPE_BOX, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_BOX, LOCD_ROUTE_CLOSED));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                            locd_pipeline_options_route(&o, LOCD_SHAPE_SPHERE, LOCD_SHAPE_SPHERE, LOCD_ROUTE_CLOSED));
     locd_pipeline_stats_init(&ps);
-    assert_int_equal(locd_world_create(&cfg, &w), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_create(&cfg, &w));
     for (i = 0; i < 200; i++) {
         pose[0] = 1.5 * (double)(i % 20);
         pose[1] = 1.5 * (double)(i / 20);
-        assert_int_equal(locd_world_add(w, shapes[i % nshapes], pose, i % 2 ? g_vel : NULL, NULL), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_add(w, shapes[i % nshapes], pose, i % 2 ? g_vel : NULL, NULL));
     }
     pose[0] = 0.5;
-    assert_int_equal(locd_world_set_pose(w, 1, pose), LOCD_OK);
-    assert_int_equal(locd_world_collide(w, &o, ct, &ps), LOCD_OK);
-    assert_true(locd_contacts_count(ct) > 0);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_set_pose(w, 1, pose));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_collide(w, &o, ct, &ps));
+    TEST_ASSERT_TRUE(locd_contacts_count(ct) > 0);
     locd_world_destroy(w);
 }
 
-static void world_memory_comes_from_the_hook(void **state)
+static void world_memory_comes_from_the_hook(void)
 {
     locd_shape *shapes[2];
     locd_contacts *ct;
     alloc_window win;
     uint64_t hooked, mallocd;
     int64_t live;
-    (void)state;
     if (!narrow_built())
-        return; /* no narrow phase in this build (cmocka's skip() reads as a failure to Meson) */
+        TEST_IGNORE_MESSAGE("no narrow phase in this build");
     /* Stated exceptions: shapes and contacts have no allocator; the test
      * sees their malloc calls (if it no longer does, update locd.h). */
     window_open(&win);
-    assert_int_equal(locd_shape_sphere(0.6, &shapes[0]), LOCD_OK);
-    assert_int_equal(locd_shape_box(0.5, 0.5, 0.5, &shapes[1]), LOCD_OK);
-    assert_int_equal(locd_contacts_create(&ct), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_shape_sphere(0.6, &shapes[0]));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_shape_box(0.5, 0.5, 0.5, &shapes[1]));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_contacts_create(&ct));
     window_close(&win, &hooked, &mallocd, &live);
-    assert_true(mallocd >= 3);
+    TEST_ASSERT_TRUE(mallocd >= 3);
     /* Without a hook the world's life calls malloc (the test can see it)... */
     window_open(&win);
     world_life(NULL, shapes, 2, ct); /* also grows the contacts (malloc) once */
     window_close(&win, &hooked, &mallocd, &live);
-    assert_true(mallocd > 0);
+    TEST_ASSERT_TRUE(mallocd > 0);
     /* ...with one, only the hook, and everything is given back. */
     window_open(&win);
     world_life(fa_allocator(), shapes, 2, ct);
     window_close(&win, &hooked, &mallocd, &live);
-    assert_true(hooked > 0);
-    assert_int_equal(mallocd, 0);
-    assert_int_equal(live, 0);
+    TEST_ASSERT_TRUE(hooked > 0);
+    TEST_ASSERT_EQUAL_INT64(0, mallocd);
+    TEST_ASSERT_EQUAL_INT64(0, live);
     locd_contacts_destroy(ct);
     locd_shape_destroy(shapes[0]);
     locd_shape_destroy(shapes[1]);
 }
 
-static void engine_levels_memory_comes_from_the_hook(void **state)
+static void engine_levels_memory_comes_from_the_hook(void)
 {
     char dir[64];
     svc_run r;
@@ -847,16 +858,15 @@ static void engine_levels_memory_comes_from_the_hook(void **state)
     locd_job *job;
     float *f = ts_scene(0, SCENE_N, 17);
     int level;
-    (void)state;
     /* Stated exception: the service has no allocator (nor its runners). */
     window_open(&win);
     service_start(dir, sizeof dir, &r, &th, NULL);
     service_finish(dir, &r, th);
     window_close(&win, &hooked, &mallocd, &live);
-    assert_true(mallocd > 0);
+    TEST_ASSERT_TRUE(mallocd > 0);
     /* An engine at level 1 and at level 3 (the client side; the service in
      * its own process): only the hook. */
-    assert_int_equal(lu_fixture_up(&fx), 0);
+    TEST_ASSERT_EQUAL_INT64(0, lu_fixture_up(&fx));
     for (level = LOCD_LEVEL_INPROCESS; level <= LOCD_LEVEL_SERVICE; level += 2) {
         window_open(&win);
         if (level == LOCD_LEVEL_SERVICE) {
@@ -866,21 +876,21 @@ static void engine_levels_memory_comes_from_the_hook(void **state)
             locd_engine_config_init(&cfg);
             cfg.threads = 2;
             cfg.allocator = *fa_allocator();
-            assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
         }
-        assert_int_equal(locd_pairs_create(fa_allocator(), &p), LOCD_OK);
-        assert_int_equal(locd_engine_find_pairs_f32(e, f, SCENE_N, LOCD_FIND_SORTED, p), LOCD_OK);
-        assert_int_equal(locd_engine_submit_f32(e, f, SCENE_N, 0, &job), LOCD_OK);
-        assert_int_equal(locd_job_wait(job, -1), LOCD_OK);
-        assert_int_equal(locd_job_take(job, p), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(fa_allocator(), &p));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, f, SCENE_N, LOCD_FIND_SORTED, p));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, f, SCENE_N, 0, &job));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_wait(job, -1));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_take(job, p));
         locd_job_release(job);
-        assert_int_equal(locd_pairs_sort(p), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_sort(p));
         locd_pairs_destroy(p);
         locd_engine_destroy(e);
         window_close(&win, &hooked, &mallocd, &live);
-        assert_true(hooked > 0);
-        assert_int_equal(mallocd, 0);
-        assert_int_equal(live, 0);
+        TEST_ASSERT_TRUE(hooked > 0);
+        TEST_ASSERT_EQUAL_INT64(0, mallocd);
+        TEST_ASSERT_EQUAL_INT64(0, live);
     }
     lu_fixture_down(&fx);
     free(f);
@@ -888,17 +898,17 @@ static void engine_levels_memory_comes_from_the_hook(void **state)
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(every_success_clears_the_last_error),
-        cmocka_unit_test(service_calls_clear_the_last_error),
-        cmocka_unit_test(outputs_stop_at_the_callers_size),
-        cmocka_unit_test(grid_fit_bounds_its_write),
-        cmocka_unit_test(inputs_accept_the_minimum_and_reject_outside),
-        cmocka_unit_test(pipeline_structs_follow_the_rules),
-        cmocka_unit_test(take_and_stats_say_pending_while_the_job_runs),
-        cmocka_unit_test(errors_passed_on_keep_their_text),
-        cmocka_unit_test(world_memory_comes_from_the_hook),
-        cmocka_unit_test(engine_levels_memory_comes_from_the_hook),
+    static const lt_test tests[] = {
+        LT_TEST(every_success_clears_the_last_error),
+        LT_TEST(service_calls_clear_the_last_error),
+        LT_TEST(outputs_stop_at_the_callers_size),
+        LT_TEST(grid_fit_bounds_its_write),
+        LT_TEST(inputs_accept_the_minimum_and_reject_outside),
+        LT_TEST(pipeline_structs_follow_the_rules),
+        LT_TEST(take_and_stats_say_pending_while_the_job_runs),
+        LT_TEST(errors_passed_on_keep_their_text),
+        LT_TEST(world_memory_comes_from_the_hook),
+        LT_TEST(engine_levels_memory_comes_from_the_hook),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return LT_RUN(tests);
 }

@@ -6,15 +6,13 @@
  * scripts/ci/steps/45-determinism.sh.
  *
  * LOCD_TEST_HEAVY=0 (set by the sanitizer runs) shrinks the scenes. */
-#include <setjmp.h>
-#include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include <cmocka.h>
+#include "runner.h"
 
 #include "support.h"
 
@@ -44,7 +42,7 @@ static locd_engine *engine_for(uint32_t threads, int32_t bias, uint32_t depth, u
     cfg.cell_bias = bias;
     cfg.max_depth = depth;
     cfg.flags = cfg_flags;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
     return e;
 }
 
@@ -52,7 +50,7 @@ static double *widen(const float *f, size_t n)
 {
     double *d = malloc((n ? n : 1) * 6 * sizeof *d);
     size_t i;
-    assert_non_null(d);
+    TEST_ASSERT_NOT_NULL(d);
     for (i = 0; i < 6 * n; i++)
         d[i] = (double)f[i];
     return d;
@@ -63,11 +61,11 @@ static void same_bytes(const uint32_t *got, size_t got_n, const uint32_t *want, 
 {
     size_t i;
     if (got_n != want_n)
-        fail_msg("%s: %zu pairs, expected %zu", what, got_n, want_n);
+        LT_FAIL("%s: %zu pairs, expected %zu", what, got_n, want_n);
     for (i = 0; i < 2 * got_n; i++)
         if (got[i] != want[i])
-            fail_msg("%s: pair %zu is (%u, %u), expected (%u, %u)", what, i / 2, got[i & ~(size_t)1],
-                     got[i | 1], want[i & ~(size_t)1], want[i | 1]);
+            LT_FAIL("%s: pair %zu is (%u, %u), expected (%u, %u)", what, i / 2, got[i & ~(size_t)1], got[i | 1],
+                    want[i & ~(size_t)1], want[i | 1]);
 }
 
 static void same_pairs(const locd_pairs *got, const locd_pairs *want, const char *what)
@@ -82,19 +80,18 @@ static void both_precisions_give(locd_engine *e, const float *f, const double *d
 {
     char label[160];
     snprintf(label, sizeof label, "%s f32", what);
-    assert_int_equal(locd_engine_find_pairs_f32(e, f, n, flags, p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, f, n, flags, p));
     same_pairs(p, want, label);
     snprintf(label, sizeof label, "%s f64", what);
-    assert_int_equal(locd_engine_find_pairs_f64(e, d, n, flags, p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f64(e, d, n, flags, p));
     same_pairs(p, want, label);
 }
 
 /* Every scene kind, threads 1..8, float32 and float64, pairs buffer and
  * caller buffer, first and second call on the engine: one byte sequence. */
-static void every_thread_count_precision_and_entry_point(void **state)
+static void every_thread_count_precision_and_entry_point(void)
 {
     int kind;
-    (void)state;
     for (kind = 0; kind < TS_SCENE_KINDS; kind++) {
         const size_t n = scene_n(kind);
         float *f = ts_scene(kind, n, 900 + (uint64_t)kind);
@@ -104,28 +101,28 @@ static void every_thread_count_precision_and_entry_point(void **state)
         size_t cap, count;
         uint32_t t;
         char what[96];
-        assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
-        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &ref));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
         {
             locd_engine *e1 = engine_for(1, 1, 0, 0);
-            assert_int_equal(locd_engine_find_pairs_f32(e1, f, n, 0, ref), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e1, f, n, 0, ref));
             locd_engine_destroy(e1);
         }
-        assert_true(locd_pairs_count(ref) > 0); /* the set itself is test_engine's job */
+        TEST_ASSERT_TRUE(locd_pairs_count(ref) > 0); /* the set itself is test_engine's job */
         cap = locd_pairs_count(ref);
         buf = malloc(cap * 2 * sizeof(uint32_t) + 8);
-        assert_non_null(buf);
+        TEST_ASSERT_NOT_NULL(buf);
         for (t = 1; t <= MAX_THREADS; t++) {
             locd_engine *e = engine_for(t, 1, 0, 0);
             snprintf(what, sizeof what, "kind %d threads %u", kind, t);
             both_precisions_give(e, f, d, n, 0, p, ref, what);
             snprintf(what, sizeof what, "kind %d threads %u f32_into", kind, t);
-            assert_int_equal(locd_engine_find_pairs_f32_into(e, f, n, 0, buf, cap, &count), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32_into(e, f, n, 0, buf, cap, &count));
             same_bytes(buf, count, locd_pairs_data(ref), locd_pairs_count(ref), what);
             snprintf(what, sizeof what, "kind %d threads %u f64_into", kind, t);
-            assert_int_equal(locd_engine_find_pairs_f64_into(e, d, n, 0, buf, cap, &count), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f64_into(e, d, n, 0, buf, cap, &count));
             same_bytes(buf, count, locd_pairs_data(ref), locd_pairs_count(ref), what);
-            assert_int_equal(locd_engine_threads(e), t);
+            TEST_ASSERT_EQUAL_INT64(t, locd_engine_threads(e));
             locd_engine_destroy(e);
         }
         free(buf);
@@ -138,7 +135,7 @@ static void every_thread_count_precision_and_entry_point(void **state)
 
 /* Other encodings (cubes, cell bias, a depth limit) change the order but it
  * must still not depend on the thread count. */
-static void every_thread_count_for_other_configs(void **state)
+static void every_thread_count_for_other_configs(void)
 {
     static const struct {
         int32_t bias;
@@ -147,16 +144,15 @@ static void every_thread_count_for_other_configs(void **state)
     const size_t n = scene_n(2);
     float *f = ts_scene(2, n, 4242);
     size_t c;
-    (void)state;
     for (c = 0; c < sizeof cfgs / sizeof cfgs[0]; c++) {
         locd_pairs *ref, *p;
         uint32_t t;
         char what[96];
-        assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
-        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &ref));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
         for (t = 1; t <= MAX_THREADS; t++) {
             locd_engine *e = engine_for(t, cfgs[c].bias, cfgs[c].depth, cfgs[c].flags);
-            assert_int_equal(locd_engine_find_pairs_f32(e, f, n, 0, t == 1 ? ref : p), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, f, n, 0, t == 1 ? ref : p));
             if (t > 1) {
                 snprintf(what, sizeof what, "bias %d depth %u flags %u threads %u", (int)cfgs[c].bias,
                          cfgs[c].depth, cfgs[c].flags, t);
@@ -172,23 +168,22 @@ static void every_thread_count_for_other_configs(void **state)
 
 /* An engine that has run other (larger, smaller) scenes gives the same bytes
  * as a fresh one: nothing left in its reused buffers leaks into a result. */
-static void reused_engine_and_repeated_runs(void **state)
+static void reused_engine_and_repeated_runs(void)
 {
     const size_t n = scene_n(0);
     float *a = ts_scene(0, n, 11), *big = ts_scene(2, 2 * n, 12), *small = ts_scene(3, 4200, 13);
     locd_pairs *ref, *p;
     locd_engine *fresh = engine_for(4, 1, 0, 0), *e = engine_for(4, 1, 0, 0);
     int r;
-    (void)state;
-    assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f32(fresh, a, n, 0, ref), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &ref));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(fresh, a, n, 0, ref));
     for (r = 0; r < 3; r++) {
-        assert_int_equal(locd_engine_find_pairs_f32(e, big, 2 * n, 0, p), LOCD_OK);
-        assert_int_equal(locd_engine_find_pairs_f32(e, a, n, 0, p), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, big, 2 * n, 0, p));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, a, n, 0, p));
         same_pairs(p, ref, "after a larger scene");
-        assert_int_equal(locd_engine_find_pairs_f32(e, small, 4200, 0, p), LOCD_OK);
-        assert_int_equal(locd_engine_find_pairs_f32(e, a, n, 0, p), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, small, 4200, 0, p));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, a, n, 0, p));
         same_pairs(p, ref, "after a smaller scene");
     }
     locd_engine_destroy(fresh);
@@ -201,7 +196,7 @@ static void reused_engine_and_repeated_runs(void **state)
 }
 
 /* LOCD_FIND_SORTED gives brute force's (i, j) order byte for byte, at every thread count. */
-static void sorted_flag_is_brute_force_order(void **state)
+static void sorted_flag_is_brute_force_order(void)
 {
     const size_t n = heavy() ? 8000 : 4500;
     float *f = ts_scene(4, n, 99);
@@ -209,10 +204,9 @@ static void sorted_flag_is_brute_force_order(void **state)
     locd_pairs *ref, *p;
     uint32_t t;
     char what[64];
-    (void)state;
-    assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
-    assert_int_equal(locd_brute_force_f64(d, n, ref), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &ref));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_brute_force_f64(d, n, ref));
     for (t = 1; t <= MAX_THREADS; t++) {
         locd_engine *e = engine_for(t, 1, 0, 0);
         snprintf(what, sizeof what, "sorted threads %u", t);
@@ -229,13 +223,12 @@ static void sorted_flag_is_brute_force_order(void **state)
  * falls back to the next one down) give the scalar kernel's bytes, for every
  * scene kind, both precisions, 1 and 3 threads and the default and cube
  * encodings; and the scalar result is the brute-force set. */
-static void every_kernel_same_bytes(void **state)
+static void every_kernel_same_bytes(void)
 {
     static const char *const kernels[] = {"scalar", "avx2", "avx512"};
     const char *saved = getenv("LOCD_KERNEL");
     char *keep = saved ? strdup(saved) : NULL;
     int kind, k, cubes;
-    (void)state;
     for (kind = 0; kind < TS_SCENE_KINDS; kind++)
         for (cubes = 0; cubes < 2; cubes++) {
             const size_t n = scene_n(kind);
@@ -244,15 +237,15 @@ static void every_kernel_same_bytes(void **state)
             locd_pairs *ref, *p;
             uint32_t t;
             char what[96];
-            assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
-            assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &ref));
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
             setenv("LOCD_KERNEL", "scalar", 1);
             {
                 locd_engine *e1 = engine_for(1, LOCD_DEFAULT_CELL_BIAS, 0, cubes ? LOCD_CONFIG_CUBES : 0);
-                assert_int_equal(locd_engine_find_pairs_f32(e1, f, n, 0, ref), LOCD_OK);
+                TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e1, f, n, 0, ref));
                 locd_engine_destroy(e1);
             }
-            assert_true(ts_same_as_brute_f32(f, n, ref));
+            TEST_ASSERT_TRUE(ts_same_as_brute_f32(f, n, ref));
             for (k = 1; k < 3; k++) {
                 setenv("LOCD_KERNEL", kernels[k], 1);
                 for (t = 1; t <= 3; t += 2) {
@@ -277,12 +270,12 @@ static void every_kernel_same_bytes(void **state)
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(every_thread_count_precision_and_entry_point),
-        cmocka_unit_test(every_thread_count_for_other_configs),
-        cmocka_unit_test(reused_engine_and_repeated_runs),
-        cmocka_unit_test(sorted_flag_is_brute_force_order),
-        cmocka_unit_test(every_kernel_same_bytes),
+    static const lt_test tests[] = {
+        LT_TEST(every_thread_count_precision_and_entry_point),
+        LT_TEST(every_thread_count_for_other_configs),
+        LT_TEST(reused_engine_and_repeated_runs),
+        LT_TEST(sorted_flag_is_brute_force_order),
+        LT_TEST(every_kernel_same_bytes),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return LT_RUN(tests);
 }

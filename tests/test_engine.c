@@ -1,13 +1,11 @@
 /* The whole call (level 1) against brute force on random scenes of every
  * kind, for every thread count, float32 and float64. */
-#include <setjmp.h>
-#include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include <cmocka.h>
+#include "runner.h"
 #include <math.h>
 
 #include "support.h"
@@ -26,17 +24,16 @@ static locd_engine *engine_with(uint32_t threads)
     locd_engine *e = NULL;
     locd_engine_config_init(&cfg);
     cfg.threads = threads;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
     return e;
 }
 
-static void random_scenes_match_brute_force(void **state)
+static void random_scenes_match_brute_force(void)
 {
     static const size_t sizes[] = {2, 3, 17, 200, 1500, 5000};
     locd_pairs *p;
     uint32_t threads;
-    (void)state;
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
     for (threads = 1; threads <= 3; threads++) {
         locd_engine *e = engine_with(threads);
         int kind;
@@ -44,9 +41,9 @@ static void random_scenes_match_brute_force(void **state)
         for (kind = 0; kind < TS_SCENE_KINDS; kind++)
             for (si = 0; si < sizeof sizes / sizeof sizes[0]; si++) {
                 float *b = ts_scene(kind, sizes[si], 1000u * (uint64_t)kind + si);
-                assert_int_equal(locd_engine_find_pairs_f32(e, b, sizes[si], 0, p), LOCD_OK);
+                TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, sizes[si], 0, p));
                 if (!ts_same_as_brute_f32(b, sizes[si], p))
-                    fail_msg("kind %d n %zu threads %u differs from brute force", kind, sizes[si], threads);
+                    LT_FAIL("kind %d n %zu threads %u differs from brute force", kind, sizes[si], threads);
                 free(b);
             }
         locd_engine_destroy(e);
@@ -55,23 +52,22 @@ static void random_scenes_match_brute_force(void **state)
 }
 
 /* Byte-identical output (not just the same set) for every thread count. */
-static void order_is_the_same_for_every_thread_count(void **state)
+static void order_is_the_same_for_every_thread_count(void)
 {
     int kind;
-    (void)state;
     for (kind = 0; kind < TS_SCENE_KINDS; kind++) {
         size_t n = heavy() ? 30000 : 4500;
         float *b = ts_scene(kind, n, 77 + (uint64_t)kind);
         locd_pairs *ref, *p;
         uint32_t t;
-        assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
-        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &ref));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
         for (t = 1; t <= 8; t++) {
             locd_engine *e = engine_with(t);
-            assert_int_equal(locd_engine_find_pairs_f32(e, b, n, 0, t == 1 ? ref : p), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, n, 0, t == 1 ? ref : p));
             if (t > 1) {
-                assert_int_equal(locd_pairs_count(p), locd_pairs_count(ref));
-                assert_memory_equal(locd_pairs_data(p), locd_pairs_data(ref), locd_pairs_count(p) * 8);
+                TEST_ASSERT_EQUAL_INT64(locd_pairs_count(ref), locd_pairs_count(p));
+                LT_ASSERT_EQUAL_MEMORY(locd_pairs_data(ref), locd_pairs_data(p), locd_pairs_count(p) * 8);
             }
             locd_engine_destroy(e);
         }
@@ -82,23 +78,22 @@ static void order_is_the_same_for_every_thread_count(void **state)
 }
 
 /* The same values as float32 and float64 give the same pairs in the same order. */
-static void f32_and_f64_agree(void **state)
+static void f32_and_f64_agree(void)
 {
     size_t n = heavy() ? 20000 : 5000, i;
     float *b = ts_scene(2, n, 5);
     double *d = malloc(n * 6 * sizeof *d);
     locd_engine *e = engine_with(2);
     locd_pairs *p32, *p64;
-    (void)state;
     for (i = 0; i < 6 * n; i++)
         d[i] = b[i];
-    assert_int_equal(locd_pairs_create(NULL, &p32), LOCD_OK);
-    assert_int_equal(locd_pairs_create(NULL, &p64), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f32(e, b, n, 0, p32), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f64(e, d, n, 0, p64), LOCD_OK);
-    assert_int_equal(locd_pairs_count(p32), locd_pairs_count(p64));
-    assert_memory_equal(locd_pairs_data(p32), locd_pairs_data(p64), locd_pairs_count(p32) * 8);
-    assert_true(ts_same_as_brute_f64(d, n, p64));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p32));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p64));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, n, 0, p32));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f64(e, d, n, 0, p64));
+    TEST_ASSERT_EQUAL_INT64(locd_pairs_count(p64), locd_pairs_count(p32));
+    LT_ASSERT_EQUAL_MEMORY(locd_pairs_data(p64), locd_pairs_data(p32), locd_pairs_count(p32) * 8);
+    TEST_ASSERT_TRUE(ts_same_as_brute_f64(d, n, p64));
     locd_pairs_destroy(p32);
     locd_pairs_destroy(p64);
     locd_engine_destroy(e);
@@ -107,7 +102,7 @@ static void f32_and_f64_agree(void **state)
 }
 
 /* Touching faces, edges and corners count; a gap of one float ulp does not. */
-static void touching_boxes_count_and_ulp_gaps_do_not(void **state)
+static void touching_boxes_count_and_ulp_gaps_do_not(void)
 {
     locd_engine *e = engine_with(1);
     locd_pairs *p;
@@ -119,17 +114,16 @@ static void touching_boxes_count_and_ulp_gaps_do_not(void **state)
         0, 0, 0, 0, 0, 0, /* 4: a point on 0's corner */
     };
     float c[12] = {0, 0, 0, 1, 1, 1, 0, 0, 0, 2, 1, 1};
-    (void)state;
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f32(e, b, 5, LOCD_FIND_SORTED, p), LOCD_OK);
-    assert_true(ts_same_as_brute_f32(b, 5, p));
-    assert_int_equal(locd_pairs_count(p), 7); /* 01 02 03 04 12 13 23 */
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, 5, LOCD_FIND_SORTED, p));
+    TEST_ASSERT_TRUE(ts_same_as_brute_f32(b, 5, p));
+    TEST_ASSERT_EQUAL_INT64(7, locd_pairs_count(p)); /* 01 02 03 04 12 13 23 */
     c[6] = nextafterf(1.0f, 2.0f);            /* box 1 starts one ulp past box 0 */
-    assert_int_equal(locd_engine_find_pairs_f32(e, c, 2, 0, p), LOCD_OK);
-    assert_int_equal(locd_pairs_count(p), 0);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, c, 2, 0, p));
+    TEST_ASSERT_EQUAL_INT64(0, locd_pairs_count(p));
     c[6] = 1.0f;
-    assert_int_equal(locd_engine_find_pairs_f32(e, c, 2, 0, p), LOCD_OK);
-    assert_int_equal(locd_pairs_count(p), 1);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, c, 2, 0, p));
+    TEST_ASSERT_EQUAL_INT64(1, locd_pairs_count(p));
     locd_pairs_destroy(p);
     locd_engine_destroy(e);
 }
@@ -141,7 +135,7 @@ static void touching_boxes_count_and_ulp_gaps_do_not(void **state)
  * small cubes in 5% of the world, beside a few world-sized boxes. A depth
  * chosen from n or from sizes alone (about 5 here) would put the cluster in
  * a handful of cells, thousands of candidates per object. */
-static void automatic_depth_keeps_packed_boxes_apart(void **state)
+static void automatic_depth_keeps_packed_boxes_apart(void)
 {
     const size_t n = 20000;
     float *b = malloc(n * 6 * sizeof(float));
@@ -150,7 +144,6 @@ static void automatic_depth_keeps_packed_boxes_apart(void **state)
     locd_pairs *p;
     locd_stats st;
     size_t i;
-    (void)state;
     ts_seed(&r, 4242);
     for (i = 0; i < n; i++) {
         float *o = b + 6 * i;
@@ -166,28 +159,27 @@ static void automatic_depth_keeps_packed_boxes_apart(void **state)
         o[4] = o[1] + 0.0004f;
         o[5] = o[2] + 0.0004f;
     }
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f32(e, b, n, 0, p), LOCD_OK);
-    assert_true(ts_same_as_brute_f32(b, n, p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, n, 0, p));
+    TEST_ASSERT_TRUE(ts_same_as_brute_f32(b, n, p));
     locd_stats_init(&st);
-    assert_int_equal(locd_engine_stats(e, &st), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_stats(e, &st));
     if (st.depth < 8 || st.candidates > 64 * (uint64_t)n)
-        fail_msg("automatic depth %u: %llu candidates for %zu boxes", st.depth, (unsigned long long)st.candidates, n);
+        LT_FAIL("automatic depth %u: %llu candidates for %zu boxes", st.depth, (unsigned long long)st.candidates, n);
     locd_pairs_destroy(p);
     locd_engine_destroy(e);
     free(b);
 }
 
-static void destroy_waits_for_a_released_running_job(void **state)
+static void destroy_waits_for_a_released_running_job(void)
 {
     size_t n = heavy() ? 200000 : 50000;
     float *b = ts_scene(0, n, 4);
     int round;
-    (void)state;
     for (round = 0; round < 3; round++) {
         locd_engine *e = engine_with(2);
         locd_job *job = NULL;
-        assert_int_equal(locd_engine_submit_f32(e, b, n, 0, &job), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, b, n, 0, &job));
         locd_job_release(job);
         locd_engine_destroy(e);
     }
@@ -196,13 +188,13 @@ static void destroy_waits_for_a_released_running_job(void **state)
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(random_scenes_match_brute_force),
-        cmocka_unit_test(order_is_the_same_for_every_thread_count),
-        cmocka_unit_test(f32_and_f64_agree),
-        cmocka_unit_test(touching_boxes_count_and_ulp_gaps_do_not),
-        cmocka_unit_test(automatic_depth_keeps_packed_boxes_apart),
-        cmocka_unit_test(destroy_waits_for_a_released_running_job),
+    static const lt_test tests[] = {
+        LT_TEST(random_scenes_match_brute_force),
+        LT_TEST(order_is_the_same_for_every_thread_count),
+        LT_TEST(f32_and_f64_agree),
+        LT_TEST(touching_boxes_count_and_ulp_gaps_do_not),
+        LT_TEST(automatic_depth_keeps_packed_boxes_apart),
+        LT_TEST(destroy_waits_for_a_released_running_job),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return LT_RUN(tests);
 }

@@ -1,13 +1,11 @@
 /* Bad input gets a specific status, a useful message, and loses nothing. */
 #include <math.h>
-#include <setjmp.h>
-#include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include <cmocka.h>
+#include "runner.h"
 
 #include "support.h"
 
@@ -16,38 +14,37 @@ typedef struct fixture {
     locd_pairs *p;
 } fixture;
 
-static int setup(void **state)
+/* The engine and pairs of a test run with setup/teardown (LT_TEST_FIXTURE). */
+static fixture fx;
+
+static void setup(void)
 {
-    fixture *f = calloc(1, sizeof *f);
     locd_engine_config cfg;
     locd_engine_config_init(&cfg);
     cfg.threads = 2;
-    if (locd_engine_create(&cfg, &f->e) || locd_pairs_create(NULL, &f->p))
-        return -1;
-    *state = f;
-    return 0;
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &fx.e));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &fx.p));
 }
 
-static int teardown(void **state)
+static void teardown(void)
 {
-    fixture *f = *state;
-    locd_pairs_destroy(f->p);
-    locd_engine_destroy(f->e);
-    free(f);
-    return 0;
+    locd_pairs_destroy(fx.p);
+    locd_engine_destroy(fx.e);
+    fx.p = NULL;
+    fx.e = NULL;
 }
 
 /* Fills p with a known result so tests can see it survive an error. */
 static size_t prime(fixture *f)
 {
     float b[12] = {0, 0, 0, 1, 1, 1, 0.5f, 0.5f, 0.5f, 2, 2, 2};
-    assert_int_equal(locd_engine_find_pairs_f32(f->e, b, 2, 0, f->p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(f->e, b, 2, 0, f->p));
     return locd_pairs_count(f->p);
 }
 
-static void bad_box_names_first_index_and_keeps_output(void **state)
+static void bad_box_names_first_index_and_keeps_output(void)
 {
-    fixture *f = *state;
+    fixture *f = &fx;
     static const size_t sizes[] = {10, 5000, 100000};
     size_t si;
     for (si = 0; si < 3; si++) {
@@ -65,73 +62,73 @@ static void bad_box_names_first_index_and_keeps_output(void **state)
             default: c[6 * bad1 + 1] = -INFINITY; want = LOCD_ERR_NONFINITE; break;
             }
             c[6 * bad2 + 3] = NAN; /* a later bad box must not hide the first */
-            assert_int_equal(prime(f), 1);
-            assert_int_equal(locd_engine_find_pairs_f32(f->e, c, n, 0, f->p), want);
-            assert_int_equal(locd_last_error_index(), (int64_t)bad1);
-            assert_non_null(strstr(locd_last_error(), "box"));
-            assert_int_equal(locd_pairs_count(f->p), 1);
+            TEST_ASSERT_EQUAL_INT64(1, prime(f));
+            TEST_ASSERT_EQUAL_INT64(want, locd_engine_find_pairs_f32(f->e, c, n, 0, f->p));
+            TEST_ASSERT_EQUAL_INT64((int64_t)bad1, locd_last_error_index());
+            TEST_ASSERT_NOT_NULL(strstr(locd_last_error(), "box"));
+            TEST_ASSERT_EQUAL_INT64(1, locd_pairs_count(f->p));
             free(c);
         }
         free(b);
     }
 }
 
-static void f64_bad_box_too(void **state)
+static void f64_bad_box_too(void)
 {
-    fixture *f = *state;
+    fixture *f = &fx;
     double b[18] = {0, 0, 0, 1, 1, 1, 0, 0, 0, 1, 1, 1, 0, 0, 0, 1, 1, 1};
     b[6 + 5] = -1; /* box 1: min z 0 > max z -1 */
-    assert_int_equal(locd_engine_find_pairs_f64(f->e, b, 3, 0, f->p), LOCD_ERR_INVERTED_BOX);
-    assert_int_equal(locd_last_error_index(), 1);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVERTED_BOX, locd_engine_find_pairs_f64(f->e, b, 3, 0, f->p));
+    TEST_ASSERT_EQUAL_INT64(1, locd_last_error_index());
     b[6 + 5] = 1;
     b[12] = NAN;
-    assert_int_equal(locd_engine_find_pairs_f64(f->e, b, 3, 0, f->p), LOCD_ERR_NONFINITE);
-    assert_int_equal(locd_last_error_index(), 2);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NONFINITE, locd_engine_find_pairs_f64(f->e, b, 3, 0, f->p));
+    TEST_ASSERT_EQUAL_INT64(2, locd_last_error_index());
 }
 
-static void zero_and_one_box_give_no_pairs(void **state)
+static void zero_and_one_box_give_no_pairs(void)
 {
-    fixture *f = *state;
+    fixture *f = &fx;
     float one[6] = {0, 0, 0, 1, 1, 1}, nan1[6] = {0, 0, 0, 1, NAN, 1};
     prime(f);
-    assert_int_equal(locd_engine_find_pairs_f32(f->e, NULL, 0, 0, f->p), LOCD_OK);
-    assert_int_equal(locd_pairs_count(f->p), 0);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(f->e, NULL, 0, 0, f->p));
+    TEST_ASSERT_EQUAL_INT64(0, locd_pairs_count(f->p));
     prime(f);
-    assert_int_equal(locd_engine_find_pairs_f32(f->e, one, 1, 0, f->p), LOCD_OK);
-    assert_int_equal(locd_pairs_count(f->p), 0);
-    assert_int_equal(locd_engine_find_pairs_f32(f->e, nan1, 1, 0, f->p), LOCD_ERR_NONFINITE);
-    assert_int_equal(locd_last_error_index(), 0);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(f->e, one, 1, 0, f->p));
+    TEST_ASSERT_EQUAL_INT64(0, locd_pairs_count(f->p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NONFINITE, locd_engine_find_pairs_f32(f->e, nan1, 1, 0, f->p));
+    TEST_ASSERT_EQUAL_INT64(0, locd_last_error_index());
 }
 
-static void null_pointers_and_bad_handles(void **state)
+static void null_pointers_and_bad_handles(void)
 {
-    fixture *f = *state;
+    fixture *f = &fx;
     float b[6] = {0, 0, 0, 1, 1, 1};
     locd_engine_config cfg;
     locd_engine *e = (locd_engine *)1;
-    assert_int_equal(locd_engine_find_pairs_f32(f->e, NULL, 5, 0, f->p), LOCD_ERR_NULL_POINTER);
-    assert_int_equal(locd_engine_find_pairs_f32(f->e, b, 1, 0, NULL), LOCD_ERR_NULL_POINTER);
-    assert_int_equal(locd_engine_find_pairs_f32(NULL, b, 1, 0, f->p), LOCD_ERR_INVALID_HANDLE);
-    assert_int_equal(locd_engine_find_pairs_f32(f->e, b, 1, 0x80, f->p), LOCD_ERR_INVALID_ARGUMENT);
-    assert_int_equal(locd_engine_create(NULL, NULL), LOCD_ERR_NULL_POINTER);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_engine_find_pairs_f32(f->e, NULL, 5, 0, f->p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_engine_find_pairs_f32(f->e, b, 1, 0, NULL));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_HANDLE, locd_engine_find_pairs_f32(NULL, b, 1, 0, f->p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_find_pairs_f32(f->e, b, 1, 0x80, f->p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_engine_create(NULL, NULL));
     locd_engine_config_init(&cfg);
     cfg.size = 3;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_INVALID_ARGUMENT);
-    assert_null(e);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_create(&cfg, &e));
+    TEST_ASSERT_NULL(e);
     locd_engine_config_init(&cfg);
     cfg.level = 7;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_create(&cfg, &e));
     locd_engine_config_init(&cfg);
     cfg.cell_bias = -1;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_create(&cfg, &e));
     locd_engine_config_init(&cfg);
     cfg.level = LOCD_LEVEL_SERVICE; /* no address */
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_INVALID_ARGUMENT);
-    assert_true(strlen(locd_last_error()) > 0);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_create(&cfg, &e));
+    TEST_ASSERT_TRUE(strlen(locd_last_error()) > 0);
     locd_engine_destroy(NULL);
     locd_pairs_destroy(NULL);
-    assert_int_equal(locd_pairs_count(NULL), 0);
-    assert_null(locd_pairs_data(NULL));
+    TEST_ASSERT_EQUAL_INT64(0, locd_pairs_count(NULL));
+    TEST_ASSERT_NULL(locd_pairs_data(NULL));
 }
 
 /* One live handle of each kind, and the call that checks a handle of that
@@ -160,9 +157,9 @@ static locd_status check_as(int kind, void *h, locd_world *world)
 
 /* Every kind of handle has its own magic: passed where another kind is
  * expected, it is refused (the narrow-phase kinds only when built). */
-static void each_handle_kind_is_refused_as_another(void **state)
+static void each_handle_kind_is_refused_as_another(void)
 {
-    fixture *f = *state;
+    fixture *f = &fx;
     void *h[K_KINDS] = {0};
     locd_service_config sc;
     locd_job *job;
@@ -172,16 +169,16 @@ static void each_handle_kind_is_refused_as_another(void **state)
     locd_contacts *contacts = NULL;
     locd_status st;
     int have, want;
-    assert_int_equal(locd_engine_submit_f32(f->e, NULL, 0, 0, &job), LOCD_OK);
-    assert_int_equal(locd_job_wait(job, -1), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(f->e, NULL, 0, 0, &job));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_wait(job, -1));
     locd_service_config_init(&sc);
     sc.listen = "tcp:127.0.0.1:0";
     sc.secret = "handles";
     sc.threads = 1;
-    assert_int_equal(locd_service_create(&sc, &svc), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_service_create(&sc, &svc));
     if (locd_shape_sphere(1.0, &shape) == LOCD_OK) {
-        assert_int_equal(locd_world_create(NULL, &world), LOCD_OK);
-        assert_int_equal(locd_contacts_create(&contacts), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_world_create(NULL, &world));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_contacts_create(&contacts));
     }
     h[K_ENGINE] = f->e, h[K_PAIRS] = f->p, h[K_JOB] = job, h[K_SERVICE] = svc;
     h[K_SHAPE] = shape, h[K_WORLD] = world, h[K_CONTACTS] = contacts;
@@ -191,7 +188,7 @@ static void each_handle_kind_is_refused_as_another(void **state)
                 continue;
             st = check_as(want, h[have], world);
             if (st != LOCD_ERR_INVALID_HANDLE)
-                fail_msg("a %s passed as a %s gave status %d", kind_names[have], kind_names[want], (int)st);
+                LT_FAIL("a %s passed as a %s gave status %d", kind_names[have], kind_names[want], (int)st);
         }
     locd_contacts_destroy(contacts);
     locd_world_destroy(world);
@@ -202,7 +199,7 @@ static void each_handle_kind_is_refused_as_another(void **state)
 
 /* LOCD_MAX_DEPTH is accepted, one more is refused, by the engine and by
  * the grid fit alike, and the message names the limit. */
-static void depth_limit_is_checked_everywhere(void **state)
+static void depth_limit_is_checked_everywhere(void)
 {
     float b[12] = {0, 0, 0, 1, 1, 1, 0.5f, 0.5f, 0.5f, 2, 2, 2};
     locd_engine_config cfg;
@@ -210,101 +207,104 @@ static void depth_limit_is_checked_everywhere(void **state)
     locd_grid g;
     uint64_t ent[16];
     size_t written = 0;
-    (void)state;
     locd_engine_config_init(&cfg);
     cfg.threads = 1;
     cfg.max_depth = LOCD_MAX_DEPTH;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
     locd_engine_destroy(e);
     e = NULL;
     cfg.max_depth = LOCD_MAX_DEPTH + 1;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_INVALID_ARGUMENT);
-    assert_null(e);
-    assert_non_null(strstr(locd_last_error(), "LOCD_MAX_DEPTH"));
-    assert_int_equal(locd_grid_fit_f32(b, 2, LOCD_MAX_DEPTH, 2, 0, &g), LOCD_OK);
-    assert_true(g.depth <= LOCD_MAX_DEPTH);
-    assert_int_equal(locd_grid_fit_f32(b, 2, LOCD_MAX_DEPTH + 1, 2, 0, &g), LOCD_ERR_INVALID_ARGUMENT);
-    assert_non_null(strstr(locd_last_error(), "LOCD_MAX_DEPTH"));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_create(&cfg, &e));
+    TEST_ASSERT_NULL(e);
+    TEST_ASSERT_NOT_NULL(strstr(locd_last_error(), "LOCD_MAX_DEPTH"));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_grid_fit_f32(b, 2, LOCD_MAX_DEPTH, 2, 0, &g));
+    TEST_ASSERT_TRUE(g.depth <= LOCD_MAX_DEPTH);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_grid_fit_f32(b, 2, LOCD_MAX_DEPTH + 1, 2, 0, &g));
+    TEST_ASSERT_NOT_NULL(strstr(locd_last_error(), "LOCD_MAX_DEPTH"));
     /* a grid that claims more is refused by the steps that take one */
-    assert_int_equal(locd_grid_fit_f32(b, 2, 0, 2, 0, &g), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_grid_fit_f32(b, 2, 0, 2, 0, &g));
     g.depth = LOCD_MAX_DEPTH + 1;
-    assert_int_equal(locd_encode_f32(&g, b, 0, 2, ent, 16, &written), LOCD_ERR_INVALID_ARGUMENT);
-    assert_non_null(strstr(locd_last_error(), "LOCD_MAX_DEPTH"));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_encode_f32(&g, b, 0, 2, ent, 16, &written));
+    TEST_ASSERT_NOT_NULL(strstr(locd_last_error(), "LOCD_MAX_DEPTH"));
 }
 
-static void too_many_objects(void **state)
+static void too_many_objects(void)
 {
-    fixture *f = *state;
+    fixture *f = &fx;
     float b[6] = {0, 0, 0, 1, 1, 1};
     size_t huge = (size_t)UINT32_MAX + 2u;
-    assert_int_equal(locd_engine_find_pairs_f32(f->e, b, huge, 0, f->p), LOCD_ERR_TOO_MANY_OBJECTS);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_TOO_MANY_OBJECTS, locd_engine_find_pairs_f32(f->e, b, huge, 0, f->p));
 }
 
-static void into_buffer_too_small_keeps_pairs_available(void **state)
+static void into_buffer_too_small_keeps_pairs_available(void)
 {
-    fixture *f = *state;
+    fixture *f = &fx;
     size_t n = 3000, count = 0, m;
     float *b = ts_scene(0, n, 21);
     uint32_t small[4];
     const uint32_t *last;
     uint32_t *big;
-    assert_int_equal(locd_engine_find_pairs_f32_into(f->e, b, n, 0, small, 2, &count), LOCD_ERR_BUFFER_TOO_SMALL);
-    assert_true(count > 2);
-    assert_int_equal(locd_engine_last_pairs(f->e, &last, &m), LOCD_OK);
-    assert_int_equal(m, count);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_BUFFER_TOO_SMALL,
+                            locd_engine_find_pairs_f32_into(f->e, b, n, 0, small, 2, &count));
+    TEST_ASSERT_TRUE(count > 2);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_last_pairs(f->e, &last, &m));
+    TEST_ASSERT_EQUAL_INT64(count, m);
     big = malloc(count * 2 * sizeof *big);
-    assert_int_equal(locd_engine_find_pairs_f32_into(f->e, b, n, 0, big, count, &m), LOCD_OK);
-    assert_int_equal(m, count);
-    assert_int_equal(locd_engine_find_pairs_f32(f->e, b, n, 0, f->p), LOCD_OK);
-    assert_memory_equal(big, locd_pairs_data(f->p), count * 2 * sizeof *big);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32_into(f->e, b, n, 0, big, count, &m));
+    TEST_ASSERT_EQUAL_INT64(count, m);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(f->e, b, n, 0, f->p));
+    LT_ASSERT_EQUAL_MEMORY(locd_pairs_data(f->p), big, count * 2 * sizeof *big);
     free(big);
     free(b);
 }
 
-static void statuses_have_strings_and_version_matches(void **state)
+static void statuses_have_strings_and_version_matches(void)
 {
     locd_status s;
-    (void)state;
     for (s = LOCD_ERR_INTERNAL; s <= LOCD_PENDING; s++)
-        assert_non_null(locd_status_string(s));
-    assert_string_not_equal(locd_status_string(LOCD_ERR_NONFINITE), locd_status_string(LOCD_ERR_INVERTED_BOX));
-    assert_int_equal(locd_version(), LOCD_VERSION);
-    assert_string_equal(locd_version_string(), LOCD_VERSION_STRING);
+        TEST_ASSERT_NOT_NULL(locd_status_string(s));
+    TEST_ASSERT_NOT_NULL(locd_status_string(LOCD_ERR_NONFINITE));
+    TEST_ASSERT_NOT_NULL(locd_status_string(LOCD_ERR_INVERTED_BOX));
+    TEST_ASSERT_TRUE_MESSAGE(
+        strcmp(locd_status_string(LOCD_ERR_NONFINITE), locd_status_string(LOCD_ERR_INVERTED_BOX)) != 0,
+        "two statuses share a string");
+    TEST_ASSERT_EQUAL_INT64(LOCD_VERSION, locd_version());
+    TEST_ASSERT_EQUAL_STRING(LOCD_VERSION_STRING, locd_version_string());
 }
 
-static void stats_report_the_last_call(void **state)
+static void stats_report_the_last_call(void)
 {
-    fixture *f = *state;
+    fixture *f = &fx;
     size_t n = 20000;
     float *b = ts_scene(0, n, 8);
     locd_stats st;
-    assert_int_equal(locd_engine_find_pairs_f32(f->e, b, n, 0, f->p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(f->e, b, n, 0, f->p));
     locd_stats_init(&st);
-    assert_int_equal(locd_engine_stats(f->e, &st), LOCD_OK);
-    assert_int_equal(st.objects, n);
-    assert_int_equal(st.pairs, locd_pairs_count(f->p));
-    assert_true(st.entries >= n && st.entries <= 8 * n);
-    assert_true(st.candidates >= st.pairs);
-    assert_true(st.ms_total > 0);
-    assert_int_equal(st.threads, 2);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_stats(f->e, &st));
+    TEST_ASSERT_EQUAL_INT64(n, st.objects);
+    TEST_ASSERT_EQUAL_INT64(locd_pairs_count(f->p), st.pairs);
+    TEST_ASSERT_TRUE(st.entries >= n && st.entries <= 8 * n);
+    TEST_ASSERT_TRUE(st.candidates >= st.pairs);
+    TEST_ASSERT_TRUE(st.ms_total > 0);
+    TEST_ASSERT_EQUAL_INT64(2, st.threads);
     st.size = 1;
-    assert_int_equal(locd_engine_stats(f->e, &st), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_stats(f->e, &st));
     free(b);
 }
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test_setup_teardown(bad_box_names_first_index_and_keeps_output, setup, teardown),
-        cmocka_unit_test_setup_teardown(f64_bad_box_too, setup, teardown),
-        cmocka_unit_test_setup_teardown(zero_and_one_box_give_no_pairs, setup, teardown),
-        cmocka_unit_test_setup_teardown(null_pointers_and_bad_handles, setup, teardown),
-        cmocka_unit_test_setup_teardown(each_handle_kind_is_refused_as_another, setup, teardown),
-        cmocka_unit_test(depth_limit_is_checked_everywhere),
-        cmocka_unit_test_setup_teardown(too_many_objects, setup, teardown),
-        cmocka_unit_test_setup_teardown(into_buffer_too_small_keeps_pairs_available, setup, teardown),
-        cmocka_unit_test(statuses_have_strings_and_version_matches),
-        cmocka_unit_test_setup_teardown(stats_report_the_last_call, setup, teardown),
+    static const lt_test tests[] = {
+        LT_TEST_FIXTURE(bad_box_names_first_index_and_keeps_output, setup, teardown),
+        LT_TEST_FIXTURE(f64_bad_box_too, setup, teardown),
+        LT_TEST_FIXTURE(zero_and_one_box_give_no_pairs, setup, teardown),
+        LT_TEST_FIXTURE(null_pointers_and_bad_handles, setup, teardown),
+        LT_TEST_FIXTURE(each_handle_kind_is_refused_as_another, setup, teardown),
+        LT_TEST(depth_limit_is_checked_everywhere),
+        LT_TEST_FIXTURE(too_many_objects, setup, teardown),
+        LT_TEST_FIXTURE(into_buffer_too_small_keeps_pairs_available, setup, teardown),
+        LT_TEST(statuses_have_strings_and_version_matches),
+        LT_TEST_FIXTURE(stats_report_the_last_call, setup, teardown),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return LT_RUN(tests);
 }

@@ -15,7 +15,6 @@
 #include <fcntl.h>
 #include <float.h>
 #include <math.h>
-#include <setjmp.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -29,7 +28,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include <cmocka.h>
+#include "runner.h"
 
 #include "support.h"
 
@@ -208,11 +207,10 @@ static void probe_level3(void)
     level3_note = note;
 }
 
-static int group_setup(void **state)
+static int group_setup(void)
 {
     static const uint32_t threads[] = {1, 2, 3, 8};
     size_t i;
-    (void)state;
     verbose = getenv("LOCD_HARD_VERBOSE") != NULL;
     for (i = 0; i < 4; i++)
         add_runner(make_engine(LOCD_LEVEL_INPROCESS, threads[i], 1, 0, 0, NULL, NULL, NULL), 0, 1,
@@ -234,7 +232,7 @@ static int group_setup(void **state)
     add_runner(make_engine(1, 3, 0, 1, 0, NULL, NULL, NULL), 4, 1, "level 1, 3 threads, bias 0, depth 1");
     probe_level2();
     probe_level3();
-    print_message("# %s\n# %s\n", level2_note, level3_note);
+    LT_PRINT("# %s\n# %s\n", level2_note, level3_note);
     return 0;
 }
 
@@ -245,15 +243,15 @@ static void print_service_log(void)
     FILE *f = service_log[0] ? fopen(service_log, "r") : NULL;
     int status;
     if (service_pid > 0 && waitpid(service_pid, &status, WNOHANG) == service_pid) {
-        print_error("locd serve exited: %s %d\n", WIFSIGNALED(status) ? "signal" : "status",
-                    WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status));
+        LT_PRINT("locd serve exited: %s %d\n", WIFSIGNALED(status) ? "signal" : "status",
+                 WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status));
         service_pid = -1;
     }
     if (!f)
         return;
-    print_error("---- %s ----\n", service_log);
+    LT_PRINT("---- %s ----\n", service_log);
     while (fgets(line, sizeof line, f))
-        print_error("%s", line);
+        LT_PRINT("%s", line);
     fclose(f);
 }
 
@@ -266,15 +264,14 @@ static void trim_runners(void)
     for (i = 0; i < nrunners; i++) {
         locd_engine *e = NULL;
         locd_engine_destroy(runners[i].e);
-        assert_int_equal(locd_engine_create(&runners[i].cfg, &e), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&runners[i].cfg, &e));
         runners[i].e = e;
     }
 }
 
-static int group_teardown(void **state)
+static void group_teardown(void)
 {
     int i;
-    (void)state;
     for (i = 0; i < nrunners; i++)
         locd_engine_destroy(runners[i].e);
     nrunners = 0;
@@ -287,7 +284,6 @@ static int group_teardown(void **state)
         unlink(service_log);
         rmdir(service_dir);
     }
-    return 0;
 }
 
 /* ------------------------------------------------------------------ */
@@ -300,8 +296,8 @@ static uint64_t *sorted_keys(const uint32_t *p, size_t m)
 {
     uint64_t *a = malloc((m ? m : 1) * sizeof *a), *b = malloc((m ? m : 1) * sizeof *b), *t;
     size_t k, pass;
-    assert_non_null(a);
-    assert_non_null(b);
+    TEST_ASSERT_NOT_NULL(a);
+    TEST_ASSERT_NOT_NULL(b);
     for (k = 0; k < m; k++)
         a[k] = ((uint64_t)p[2 * k] << 32) | p[2 * k + 1];
     for (pass = 0; pass < 4; pass++) {
@@ -325,8 +321,8 @@ static uint64_t *sorted_keys(const uint32_t *p, size_t m)
 
 static void print_box(const char *tag, const double *b, uint32_t i)
 {
-    print_error("  %s box %u: [%.17g %.17g %.17g] - [%.17g %.17g %.17g]\n", tag, i, b[6 * i], b[6 * i + 1],
-                b[6 * i + 2], b[6 * i + 3], b[6 * i + 4], b[6 * i + 5]);
+    LT_PRINT("  %s box %u: [%.17g %.17g %.17g] - [%.17g %.17g %.17g]\n", tag, i, b[6 * i], b[6 * i + 1],
+             b[6 * i + 2], b[6 * i + 3], b[6 * i + 4], b[6 * i + 5]);
 }
 
 /* Reports the first difference between two sorted key arrays. */
@@ -335,13 +331,13 @@ static void explain_difference(const uint64_t *ref, size_t mr, const uint64_t *g
     size_t a = 0, b = 0;
     while (a < mr || b < mg) {
         if (b >= mg || (a < mr && ref[a] < got[b])) {
-            print_error("  missing pair (%u, %u)\n", (uint32_t)(ref[a] >> 32), (uint32_t)ref[a]);
+            LT_PRINT("  missing pair (%u, %u)\n", (uint32_t)(ref[a] >> 32), (uint32_t)ref[a]);
             print_box("", wide, (uint32_t)(ref[a] >> 32));
             print_box("", wide, (uint32_t)ref[a]);
             return;
         }
         if (a >= mr || got[b] < ref[a]) {
-            print_error("  extra or duplicate pair (%u, %u)\n", (uint32_t)(got[b] >> 32), (uint32_t)got[b]);
+            LT_PRINT("  extra or duplicate pair (%u, %u)\n", (uint32_t)(got[b] >> 32), (uint32_t)got[b]);
             print_box("", wide, (uint32_t)(got[b] >> 32));
             print_box("", wide, (uint32_t)got[b]);
             return;
@@ -365,7 +361,7 @@ static double *widen(const float *b, size_t n)
 {
     double *d = malloc((n ? n : 1) * 6 * sizeof *d);
     size_t k;
-    assert_non_null(d);
+    TEST_ASSERT_NOT_NULL(d);
     for (k = 0; k < 6 * n; k++)
         d[k] = (double)b[k];
     return d;
@@ -375,7 +371,7 @@ static float *narrow(const double *b, size_t n)
 {
     float *f = malloc((n ? n : 1) * 6 * sizeof *f);
     size_t k;
-    assert_non_null(f);
+    TEST_ASSERT_NOT_NULL(f);
     for (k = 0; k < 6 * n; k++)
         f[k] = (float)b[k]; /* round to nearest: monotone, so min <= max stays true */
     return f;
@@ -386,8 +382,8 @@ static uint64_t *reference(const void *boxes, size_t n, int f64, size_t *m)
 {
     locd_pairs *ref;
     uint64_t *k;
-    assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
-    assert_int_equal(f64 ? locd_brute_force_f64(boxes, n, ref) : locd_brute_force_f32(boxes, n, ref), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &ref));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, f64 ? locd_brute_force_f64(boxes, n, ref) : locd_brute_force_f32(boxes, n, ref));
     *m = locd_pairs_count(ref);
     k = sorted_keys(locd_pairs_data(ref), *m);
     locd_pairs_destroy(ref);
@@ -421,7 +417,7 @@ static size_t check_scene(const void *boxes, size_t n, int f64, const char *what
     locd_pairs *p;
     hc_find_fn find = f64 ? find64 : find32;
     int failed = 0;
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
     for (r = 0; r < (size_t)nrunners; r++) {
         const hc_runner *R = &runners[r];
         locd_status st;
@@ -433,8 +429,8 @@ static size_t check_scene(const void *boxes, size_t n, int f64, const char *what
         if (st != LOCD_OK && R->level == 3)
             print_service_log();
         if (st != LOCD_OK)
-            fail_msg("%s (%s, n %zu, %s): status %d %s: %s", what, f64 ? "f64" : "f32", n, R->name, st,
-                     locd_status_string(st), locd_last_error());
+            LT_FAIL("%s (%s, n %zu, %s): status %d %s: %s", what, f64 ? "f64" : "f32", n, R->name, st,
+                    locd_status_string(st), locd_last_error());
         c = locd_pairs_count(p);
         if (first_order[R->group]) {
             /* The same bytes as the group's first engine (already checked
@@ -442,35 +438,35 @@ static size_t check_scene(const void *boxes, size_t n, int f64, const char *what
             if (c == first_count[R->group] &&
                 (!c || !memcmp(first_order[R->group], locd_pairs_data(p), c * 2 * sizeof(uint32_t))))
                 continue;
-            print_error("%s (%s, n %zu, %s): pair order differs from the first engine of its group\n", what,
-                        f64 ? "f64" : "f32", n, R->name);
+            LT_PRINT("%s (%s, n %zu, %s): pair order differs from the first engine of its group\n", what,
+                     f64 ? "f64" : "f32", n, R->name);
             failed = 1;
         }
         got = sorted_keys(locd_pairs_data(p), c);
         if (c != m || (m && memcmp(got, ref, m * sizeof *ref) != 0)) {
-            print_error("%s (%s, n %zu, %s): %zu pairs, brute force %zu\n", what, f64 ? "f64" : "f32", n, R->name, c,
-                        m);
+            LT_PRINT("%s (%s, n %zu, %s): %zu pairs, brute force %zu\n", what, f64 ? "f64" : "f32", n, R->name, c,
+                     m);
             explain_difference(ref, m, got, c, wide);
             failed = 1;
         }
         free(got);
         if (!first_order[R->group]) {
             first_order[R->group] = malloc((c ? c : 1) * 2 * sizeof(uint32_t));
-            assert_non_null(first_order[R->group]);
+            TEST_ASSERT_NOT_NULL(first_order[R->group]);
             if (c)
                 memcpy(first_order[R->group], locd_pairs_data(p), c * 2 * sizeof(uint32_t));
             first_count[R->group] = c;
         }
     }
     /* The sorted variant is exactly the brute force's (i, j) order. */
-    assert_int_equal(find(runners[nrunners > 2 ? 2 : 0].e, boxes, n, LOCD_FIND_SORTED, p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, find(runners[nrunners > 2 ? 2 : 0].e, boxes, n, LOCD_FIND_SORTED, p));
     if (locd_pairs_count(p) != m) {
         failed = 1;
     } else {
         const uint32_t *d = locd_pairs_data(p);
         for (r = 0; r < m; r++)
             if (((uint64_t)d[2 * r] << 32 | d[2 * r + 1]) != ref[r]) {
-                print_error("%s: LOCD_FIND_SORTED order differs at %zu\n", what, r);
+                LT_PRINT("%s: LOCD_FIND_SORTED order differs at %zu\n", what, r);
                 failed = 1;
                 break;
             }
@@ -482,9 +478,9 @@ static size_t check_scene(const void *boxes, size_t n, int f64, const char *what
     if (!f64)
         free(wide);
     if (failed)
-        fail_msg("%s: engine results differ from brute force (details above)", what);
+        LT_FAIL("%s: engine results differ from brute force (details above)", what);
     if (verbose)
-        print_message("# %s (%s): n %zu, %zu pairs\n", what, f64 ? "f64" : "f32", n, m);
+        LT_PRINT("# %s (%s): n %zu, %zu pairs\n", what, f64 ? "f64" : "f32", n, m);
     return m;
 }
 
@@ -505,14 +501,14 @@ static void check_both(const float *b, size_t n, const char *what)
     double *d = widen(b, n);
     size_t m32 = check_f32(b, n, what), m64 = heavy() ? check_f64(d, n, what) : m32;
     locd_pairs *p32, *p64;
-    assert_int_equal(m32, m64);
+    TEST_ASSERT_EQUAL_INT64(m64, m32);
     /* docs/encoding.md: the same values give the same order in either precision. */
-    assert_int_equal(locd_pairs_create(NULL, &p32), LOCD_OK);
-    assert_int_equal(locd_pairs_create(NULL, &p64), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f32(runners[2].e, b, n, 0, p32), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f64(runners[2].e, d, n, 0, p64), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p32));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p64));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(runners[2].e, b, n, 0, p32));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f64(runners[2].e, d, n, 0, p64));
     if (m32 && memcmp(locd_pairs_data(p32), locd_pairs_data(p64), m32 * 2 * sizeof(uint32_t)))
-        fail_msg("%s: float32 and float64 input of the same values give different pair orders", what);
+        LT_FAIL("%s: float32 and float64 input of the same values give different pair orders", what);
     locd_pairs_destroy(p32);
     locd_pairs_destroy(p64);
     free(d);
@@ -532,7 +528,7 @@ static void sc_add(sc *s, double x0, double y0, double z0, double x1, double y1,
     if (s->n == s->cap) {
         s->cap = s->cap ? 2 * s->cap : 1024;
         s->b = realloc(s->b, s->cap * 6 * sizeof(double));
-        assert_non_null(s->b);
+        TEST_ASSERT_NOT_NULL(s->b);
     }
     s->b[6 * s->n + 0] = x0;
     s->b[6 * s->n + 1] = y0;
@@ -620,7 +616,7 @@ static void lattice(sc *s, int m, int parity_mode, double step, double size)
             }
 }
 
-static void touching_faces_edges_corners(void **state)
+static void touching_faces_edges_corners(void)
 {
     static const struct {
         int m, mode;
@@ -629,12 +625,11 @@ static void touching_faces_edges_corners(void **state)
                  {21, 1, "checkerboard: edges and corners only"},
                  {26, 2, "corners only"}};
     size_t c;
-    (void)state;
     for (c = 0; c < 3; c++) {
         sc s = {0};
         float *f;
         lattice(&s, cases[c].m, cases[c].mode, 1.0, 1.0);
-        assert_true(s.n >= HC_PAR);
+        TEST_ASSERT_TRUE(s.n >= HC_PAR);
         f = narrow(s.b, s.n);
         check_both(f, s.n, cases[c].name);
         free(f);
@@ -644,7 +639,7 @@ static void touching_faces_edges_corners(void **state)
 
 /* Non-dyadic coordinates: faces meet at values like 0.1 * k, exact in the
  * input precision but not in binary. */
-static void touching_at_decimal_values(void **state)
+static void touching_at_decimal_values(void)
 {
     double v64[48], v32[48], back[48];
     ts_rng r;
@@ -652,7 +647,6 @@ static void touching_at_decimal_values(void **state)
     sc s = {0};
     float *f;
     double *d;
-    (void)state;
     for (k = 0; k < 48; k++) {
         v64[k] = (double)k * 0.1 - 2.3;
         v32[k] = (float)((float)k * 0.1f - 2.3f);
@@ -710,7 +704,7 @@ static void cell_boundary_scene(sc *s, ts_rng *r, size_t count, double lo, doubl
     }
 }
 
-static void faces_on_cell_boundaries(void **state)
+static void faces_on_cell_boundaries(void)
 {
     static const struct {
         double lo, S;
@@ -727,7 +721,6 @@ static void faces_on_cell_boundaries(void **state)
         {1e6, 1024.0, 45, 1.0, 0, "float64, root [1e6, 1e6 + 1024], levels 0..45"},
     };
     size_t c;
-    (void)state;
     for (c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         sc s = {0};
         ts_rng r;
@@ -737,7 +730,7 @@ static void faces_on_cell_boundaries(void **state)
             float *f = narrow(s.b, s.n);
             size_t k;
             for (k = 0; k < 6 * s.n; k++) /* the fractions are exact in float32 */
-                assert_true((double)f[k] == s.b[k]);
+                TEST_ASSERT_TRUE((double)f[k] == s.b[k]);
             check_both(f, s.n, cases[c].name);
             free(f);
         } else {
@@ -751,11 +744,10 @@ static void faces_on_cell_boundaries(void **state)
 /* 3. Far from the origin, and scaled down                            */
 /* ------------------------------------------------------------------ */
 
-static void translated_far_from_origin(void **state)
+static void translated_far_from_origin(void)
 {
     static const double offsets[] = {1e3, 1e6, 1e10, 1e20, 1e30, -1e30, -1e7};
     size_t c;
-    (void)state;
     /* The light run (sanitizers) takes every third offset: 1e3, 1e20, -1e7. */
     for (c = 0; c < sizeof offsets / sizeof offsets[0]; c += heavy() ? 1 : 3) {
         double v[40];
@@ -802,11 +794,10 @@ static void translated_far_from_origin(void **state)
     }
 }
 
-static void scaled_down_to_1e_30(void **state)
+static void scaled_down_to_1e_30(void)
 {
     static const double scales[] = {1e-30, 0x1p-100, 1e-300};
     size_t c, k;
-    (void)state;
     for (c = 0; c < 3; c += heavy() ? 1 : 2) { /* light run: 1e-30 and 1e-300 */
         sc s = {0};
         char name[96];
@@ -838,14 +829,13 @@ static void scaled_down_to_1e_30(void **state)
 /* 4. Near the largest finite values: max - min overflows             */
 /* ------------------------------------------------------------------ */
 
-static void extent_overflows(void **state)
+static void extent_overflows(void)
 {
     double v[24];
     size_t k;
     ts_rng r;
     sc s = {0};
     float *f;
-    (void)state;
     /* float32: +-FLT_MAX and their neighbours, and a few ordinary values. */
     {
         float x = -FLT_MAX, y = FLT_MAX;
@@ -908,13 +898,12 @@ static void extent_overflows(void **state)
 /* 5. Points, identical boxes, one box containing all                 */
 /* ------------------------------------------------------------------ */
 
-static void points_and_zero_size_boxes(void **state)
+static void points_and_zero_size_boxes(void)
 {
     sc s = {0};
     ts_rng r;
     size_t i;
     float *f;
-    (void)state;
     ts_seed(&r, 700);
     /* Points on an integer lattice (some repeated), next to unit cubes with
        corners and faces on the same lattice. */
@@ -939,18 +928,17 @@ static void points_and_zero_size_boxes(void **state)
     sc_free(&s);
 }
 
-static void many_identical_boxes(void **state)
+static void many_identical_boxes(void)
 {
     const size_t n = heavy() ? 4100 : 1500; /* n(n-1)/2 pairs */
     sc s = {0};
     size_t i, m;
     float *f;
-    (void)state;
     for (i = 0; i < n; i++)
         sc_add(&s, 0.25, -0.5, 3.0, 0.75, 0.5, 3.125);
     f = narrow(s.b, n);
     m = check_f32(f, n, "identical boxes");
-    assert_int_equal(m, n * (n - 1) / 2);
+    TEST_ASSERT_EQUAL_INT64(n * (n - 1) / 2, m);
     free(f);
     /* Identical boxes among ordinary ones. */
     {
@@ -964,18 +952,17 @@ static void many_identical_boxes(void **state)
     trim_runners();
 }
 
-static void one_box_contains_all(void **state)
+static void one_box_contains_all(void)
 {
     const size_t n = 4500;
     size_t at;
-    (void)state;
     for (at = 0; at < n; at += 2249) { /* first, middle, last */
         float *u = ts_scene(2, n, 702 + at);
         float big[6] = {-1, -1, -1, 2, 2, 2};
         size_t m;
         memcpy(u + 6 * at, big, sizeof big);
         m = check_f32(u, n, "one box containing all");
-        assert_true(m >= n - 1);
+        TEST_ASSERT_TRUE(m >= n - 1);
         /* The container exactly equal to the scene's bounds. */
         {
             float lo[3] = {FLT_MAX, FLT_MAX, FLT_MAX}, hi[3] = {-FLT_MAX, -FLT_MAX, -FLT_MAX};
@@ -1001,11 +988,10 @@ static void one_box_contains_all(void **state)
 /* 6. Degenerate worlds: one plane, one line, one point               */
 /* ------------------------------------------------------------------ */
 
-static void degenerate_worlds(void **state)
+static void degenerate_worlds(void)
 {
     const size_t n = 4100, npoint = heavy() ? 4100 : 1500; /* the point world has n(n-1)/2 pairs */
     int kind, axis;
-    (void)state;
     for (kind = 0; kind < 3; kind++)
         for (axis = 0; axis < (kind == 2 || heavy() ? 3 : 1); axis++) { /* light run: axis 0 only */
             const size_t m = kind == 2 ? npoint : n;
@@ -1028,7 +1014,7 @@ static void degenerate_worlds(void **state)
             snprintf(name, sizeof name, "%s world (axis %d)", kind == 0 ? "plane" : kind == 1 ? "line" : "point",
                      axis);
             if (kind == 2) {
-                assert_int_equal(check_f32(u, m, name), m * (m - 1) / 2);
+                TEST_ASSERT_EQUAL_INT64(m * (m - 1) / 2, check_f32(u, m, name));
             } else {
                 check_both(u, m, name);
             }
@@ -1041,14 +1027,13 @@ static void degenerate_worlds(void **state)
 /* 7. Huge next to tiny: twelve orders of magnitude                   */
 /* ------------------------------------------------------------------ */
 
-static void sizes_span_twelve_orders(void **state)
+static void sizes_span_twelve_orders(void)
 {
     const size_t n = 5000;
     sc s = {0};
     ts_rng r;
     size_t i;
     float *f;
-    (void)state;
     ts_seed(&r, 900);
     for (i = 0; i < n; i++) {
         double e = pow(10.0, 12.0 * ts_uniform(&r) - 6.0); /* 1e-6 .. 1e6 */
@@ -1071,12 +1056,11 @@ static void sizes_span_twelve_orders(void **state)
 /* 8. Subnormals and negative zero                                    */
 /* ------------------------------------------------------------------ */
 
-static void subnormals_and_negative_zero(void **state)
+static void subnormals_and_negative_zero(void)
 {
     double v[16];
     ts_rng r;
     int world;
-    (void)state;
     /* world 0: float32 subnormals only (the scene's extent is subnormal);
        1: float32 subnormals beside ordinary values; 2 and 3: the same in
        float64, where a subnormal extent overflows 2^31 / extent. */
@@ -1128,7 +1112,7 @@ static void subnormals_and_negative_zero(void **state)
 /* 9. Float64 values that float32 cannot hold                         */
 /* ------------------------------------------------------------------ */
 
-static void float64_not_representable_in_float32(void **state)
+static void float64_not_representable_in_float32(void)
 {
     static const struct {
         double base, step;
@@ -1136,7 +1120,6 @@ static void float64_not_representable_in_float32(void **state)
     } cases[] = {{1.0, 0x1p-40, "1 + k * 2^-40"}, {1e5, 1e-4, "1e5 + k * 1e-4 (the far scene's scale)"},
                  {-3.0, 0x1p-30, "-3 + k * 2^-30"}};
     size_t c;
-    (void)state;
     for (c = 0; c < 3; c++) {
         double v[32];
         sc s = {0};
@@ -1153,7 +1136,7 @@ static void float64_not_representable_in_float32(void **state)
         f = narrow(s.b, s.n);
         a = reference(s.b, s.n, 1, &m64);
         b = reference(f, s.n, 0, &m32);
-        assert_true(m32 != m64 || memcmp(a, b, m64 * sizeof *a) != 0);
+        TEST_ASSERT_TRUE(m32 != m64 || memcmp(a, b, m64 * sizeof *a) != 0);
         free(a);
         free(b);
         free(f);
@@ -1204,17 +1187,16 @@ static locd_engine *counted_engine(uint32_t threads, hc_counter *c)
     cfg.allocator.alloc = cnt_alloc;
     cfg.allocator.free = cnt_free;
     cfg.allocator.user = c;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
     return e;
 }
 
-static void many_boxes_in_one_cell(void **state)
+static void many_boxes_in_one_cell(void)
 {
     const size_t n = heavy() ? 4100 : 1500; /* n(n-1)/2 pairs */
     float *u = ts_scene(0, n, 1200);
     size_t i, m, want;
     static const uint32_t threads[] = {1, 2, 3, 8};
-    (void)state;
     /* Every box contains the centre: all n(n-1)/2 pairs, distinct boxes. */
     for (i = 0; i < n; i++) {
         int a;
@@ -1225,7 +1207,7 @@ static void many_boxes_in_one_cell(void **state)
     }
     want = n * (n - 1) / 2;
     m = check_f32(u, n, "every box contains the centre");
-    assert_int_equal(m, want);
+    TEST_ASSERT_EQUAL_INT64(want, m);
 
     /* Memory runs out: a clean LOCD_ERR_NO_MEMORY, the old result kept, no
        leak; with enough memory the same engine then succeeds. */
@@ -1236,30 +1218,30 @@ static void many_boxes_in_one_cell(void **state)
         locd_pairs *p;
         float two[12] = {0, 0, 0, 1, 1, 1, 1, 1, 1, 2, 2, 2};
         locd_status st;
-        assert_int_equal(locd_pairs_create(&pa, &p), LOCD_OK);
-        assert_int_equal(locd_engine_find_pairs_f32(e, two, 2, 0, p), LOCD_OK);
-        assert_int_equal(locd_pairs_count(p), 1);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(&pa, &p));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, two, 2, 0, p));
+        TEST_ASSERT_EQUAL_INT64(1, locd_pairs_count(p));
         ce.cap = ce.cur + want * 2; /* a quarter of the pairs' 8 bytes each: not enough */
         st = locd_engine_find_pairs_f32(e, u, n, 0, p);
-        assert_int_equal(st, LOCD_ERR_NO_MEMORY);
-        assert_true(ce.refused > 0);
-        assert_int_equal(locd_pairs_count(p), 1);
-        assert_int_equal(locd_pairs_data(p)[0], 0);
-        assert_int_equal(locd_pairs_data(p)[1], 1);
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NO_MEMORY, st);
+        TEST_ASSERT_TRUE(ce.refused > 0);
+        TEST_ASSERT_EQUAL_INT64(1, locd_pairs_count(p));
+        TEST_ASSERT_EQUAL_INT64(0, locd_pairs_data(p)[0]);
+        TEST_ASSERT_EQUAL_INT64(1, locd_pairs_data(p)[1]);
         /* Enough for the engine, but not for the caller's buffer. */
         ce.cap = (size_t)-1;
         cp.cap = cp.cur + want * 2;
         st = locd_engine_find_pairs_f32(e, u, n, 0, p);
-        assert_int_equal(st, LOCD_ERR_NO_MEMORY);
-        assert_int_equal(locd_pairs_count(p), 1);
-        assert_int_equal(locd_pairs_data(p)[1], 1);
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NO_MEMORY, st);
+        TEST_ASSERT_EQUAL_INT64(1, locd_pairs_count(p));
+        TEST_ASSERT_EQUAL_INT64(1, locd_pairs_data(p)[1]);
         cp.cap = (size_t)-1;
-        assert_int_equal(locd_engine_find_pairs_f32(e, u, n, 0, p), LOCD_OK);
-        assert_int_equal(locd_pairs_count(p), want);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, u, n, 0, p));
+        TEST_ASSERT_EQUAL_INT64(want, locd_pairs_count(p));
         locd_pairs_destroy(p);
         locd_engine_destroy(e);
-        assert_int_equal(ce.cur, 0);
-        assert_int_equal(cp.cur, 0);
+        TEST_ASSERT_EQUAL_INT64(0, ce.cur);
+        TEST_ASSERT_EQUAL_INT64(0, cp.cur);
     }
     free(u);
     trim_runners();
@@ -1267,7 +1249,7 @@ static void many_boxes_in_one_cell(void **state)
 
 /* A scene that would give 2^41 pairs, with one bad box: the call fails at
  * validation, before any quadratic work, and names the right box. */
-static void huge_scene_with_bad_box_fails_fast(void **state)
+static void huge_scene_with_bad_box_fails_fast(void)
 {
     const size_t n = heavy() ? (size_t)1 << 21 : (size_t)1 << 16;
     float *u = malloc(n * 6 * sizeof(float));
@@ -1275,8 +1257,7 @@ static void huge_scene_with_bad_box_fails_fast(void **state)
     size_t i, bad[3] = {n - 1, n / 2 + 3, 1};
     size_t t;
     static const uint32_t threads[] = {1, 2, 3, 8};
-    (void)state;
-    assert_non_null(u);
+    TEST_ASSERT_NOT_NULL(u);
     for (i = 0; i < n; i++) {
         float b[6] = {1, 2, 3, 4, 5, 6};
         memcpy(u + 6 * i, b, sizeof b);
@@ -1286,7 +1267,7 @@ static void huge_scene_with_bad_box_fails_fast(void **state)
         locd_engine *e = counted_engine(threads[t], &ce);
         locd_pairs *p;
         size_t k;
-        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
         for (k = 0; k < 3; k++) {
             size_t before = ce.cur;
             double t0;
@@ -1300,12 +1281,12 @@ static void huge_scene_with_bad_box_fails_fast(void **state)
             ce.peak = ce.cur;
             t0 = (double)clock() / CLOCKS_PER_SEC;
             st = locd_engine_find_pairs_f32(e, u, n, 0, p);
-            assert_int_equal(st, LOCD_ERR_INVERTED_BOX);
-            assert_int_equal(locd_last_error_index(), (int64_t)bad[k]);
-            assert_int_equal(locd_pairs_count(p), 0);
+            TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVERTED_BOX, st);
+            TEST_ASSERT_EQUAL_INT64((int64_t)bad[k], locd_last_error_index());
+            TEST_ASSERT_EQUAL_INT64(0, locd_pairs_count(p));
             /* No entry buffers were grown for a scene that was refused. */
-            assert_true(ce.peak - before < ((size_t)1 << 20));
-            assert_true((double)clock() / CLOCKS_PER_SEC - t0 < 5.0);
+            TEST_ASSERT_TRUE(ce.peak - before < ((size_t)1 << 20));
+            TEST_ASSERT_TRUE((double)clock() / CLOCKS_PER_SEC - t0 < 5.0);
             u[6 * bad[k] + 4] = save;
             u[6 * (n - 1) + 2] = save2;
         }
@@ -1322,11 +1303,11 @@ static void huge_scene_with_bad_box_fails_fast(void **state)
         locd_engine *e = counted_engine(threads[t], &ce);
         locd_pairs *p;
         size_t before = ce.cur;
-        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
         ce.peak = ce.cur;
-        assert_int_equal(locd_engine_find_pairs_f64(e, d, n, 0, p), LOCD_ERR_NONFINITE);
-        assert_int_equal(locd_last_error_index(), 77);
-        assert_true(ce.peak - before < ((size_t)1 << 20));
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NONFINITE, locd_engine_find_pairs_f64(e, d, n, 0, p));
+        TEST_ASSERT_EQUAL_INT64(77, locd_last_error_index());
+        TEST_ASSERT_TRUE(ce.peak - before < ((size_t)1 << 20));
         locd_pairs_destroy(p);
         locd_engine_destroy(e);
     }
@@ -1341,25 +1322,24 @@ static void huge_scene_with_bad_box_fails_fast(void **state)
 static void prime(locd_engine *e, locd_pairs *p)
 {
     float b[18] = {0, 0, 0, 1, 1, 1, 0.5f, 0.5f, 0.5f, 2, 2, 2, 1, 1, 1, 3, 3, 3};
-    assert_int_equal(locd_engine_find_pairs_f32(e, b, 3, LOCD_FIND_SORTED, p), LOCD_OK);
-    assert_int_equal(locd_pairs_count(p), 3);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, 3, LOCD_FIND_SORTED, p));
+    TEST_ASSERT_EQUAL_INT64(3, locd_pairs_count(p));
 }
 
 static void assert_primed(const locd_pairs *p)
 {
     static const uint32_t want[6] = {0, 1, 0, 2, 1, 2};
-    assert_int_equal(locd_pairs_count(p), 3);
-    assert_memory_equal(locd_pairs_data(p), want, sizeof want);
+    TEST_ASSERT_EQUAL_INT64(3, locd_pairs_count(p));
+    TEST_ASSERT_EQUAL_MEMORY(want, locd_pairs_data(p), sizeof want);
 }
 
-static void bad_values_name_the_first_bad_box(void **state)
+static void bad_values_name_the_first_bad_box(void)
 {
     static const size_t sizes[] = {1, 10, 5000};
     size_t si;
     int r;
     locd_pairs *p;
-    (void)state;
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
     for (si = 0; si < 3; si++) {
         size_t n = sizes[si];
         float *u = ts_scene(2, n, 1300 + si);
@@ -1386,14 +1366,14 @@ static void bad_values_name_the_first_bad_box(void **state)
                         prime(runners[r].e, p);
                         if (locd_engine_find_pairs_f32(runners[r].e, u, n, 0, p) != want ||
                             locd_last_error_index() != (int64_t)at)
-                            fail_msg("%s: f32 n %zu bad value kind %d at box %zu coord %d: got index %lld (%s)",
-                                     runners[r].name, n, kind, at, coord, (long long)locd_last_error_index(),
-                                     locd_last_error());
+                            LT_FAIL("%s: f32 n %zu bad value kind %d at box %zu coord %d: got index %lld (%s)",
+                                    runners[r].name, n, kind, at, coord, (long long)locd_last_error_index(),
+                                    locd_last_error());
                         assert_primed(p);
                         if (locd_engine_find_pairs_f64(runners[r].e, d, n, 0, p) != want ||
                             locd_last_error_index() != (int64_t)at)
-                            fail_msg("%s: f64 n %zu bad value kind %d at box %zu coord %d", runners[r].name, n,
-                                     kind, at, coord);
+                            LT_FAIL("%s: f64 n %zu bad value kind %d at box %zu coord %d", runners[r].name, n, kind, at,
+                                    coord);
                         assert_primed(p);
                         u[6 * at + coord] = sf;
                         d[6 * at + coord] = sd;
@@ -1406,8 +1386,8 @@ static void bad_values_name_the_first_bad_box(void **state)
                 u[6 * lo] = u[6 * lo + 3] + 1.0f; /* inverted at lo */
                 u[6 * hi + 4] = NAN;              /* NaN at hi */
                 prime(runners[r].e, p);
-                assert_int_equal(locd_engine_find_pairs_f32(runners[r].e, u, n, 0, p), LOCD_ERR_INVERTED_BOX);
-                assert_int_equal(locd_last_error_index(), (int64_t)lo);
+                TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVERTED_BOX, locd_engine_find_pairs_f32(runners[r].e, u, n, 0, p));
+                TEST_ASSERT_EQUAL_INT64((int64_t)lo, locd_last_error_index());
                 assert_primed(p);
                 u[6 * lo] = a;
                 u[6 * hi + 4] = b;
@@ -1415,14 +1395,14 @@ static void bad_values_name_the_first_bad_box(void **state)
                 b = u[6 * hi + 1];
                 u[6 * lo + 2] = INFINITY;
                 u[6 * hi + 1] = u[6 * hi + 4] + 1.0f;
-                assert_int_equal(locd_engine_find_pairs_f32(runners[r].e, u, n, 0, p), LOCD_ERR_NONFINITE);
-                assert_int_equal(locd_last_error_index(), (int64_t)lo);
+                TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NONFINITE, locd_engine_find_pairs_f32(runners[r].e, u, n, 0, p));
+                TEST_ASSERT_EQUAL_INT64((int64_t)lo, locd_last_error_index());
                 assert_primed(p);
                 u[6 * lo + 2] = a;
                 u[6 * hi + 1] = b;
             }
             /* The fixed scene is valid again. */
-            assert_int_equal(locd_engine_find_pairs_f32(runners[r].e, u, n, 0, p), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(runners[r].e, u, n, 0, p));
         }
         free(u);
         free(d);
@@ -1430,7 +1410,7 @@ static void bad_values_name_the_first_bad_box(void **state)
     locd_pairs_destroy(p);
 }
 
-static void empty_single_and_null_arguments(void **state)
+static void empty_single_and_null_arguments(void)
 {
     locd_pairs *p;
     int r;
@@ -1438,69 +1418,67 @@ static void empty_single_and_null_arguments(void **state)
     double one64[6] = {-1, -1, -1, 1e300, 1e300, 1e300};
     uint32_t buf[8];
     size_t count;
-    (void)state;
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
     for (r = 0; r < nrunners; r++) {
         locd_engine *e = runners[r].e;
         if (!runner_wanted(r, 1))
             continue;
         prime(e, p);
-        assert_int_equal(locd_engine_find_pairs_f32(e, NULL, 0, 0, p), LOCD_OK);
-        assert_int_equal(locd_pairs_count(p), 0);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, NULL, 0, 0, p));
+        TEST_ASSERT_EQUAL_INT64(0, locd_pairs_count(p));
         prime(e, p);
-        assert_int_equal(locd_engine_find_pairs_f64(e, NULL, 0, LOCD_FIND_SORTED, p), LOCD_OK);
-        assert_int_equal(locd_pairs_count(p), 0);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f64(e, NULL, 0, LOCD_FIND_SORTED, p));
+        TEST_ASSERT_EQUAL_INT64(0, locd_pairs_count(p));
         prime(e, p);
-        assert_int_equal(locd_engine_find_pairs_f32(e, one, 1, 0, p), LOCD_OK);
-        assert_int_equal(locd_pairs_count(p), 0);
-        assert_int_equal(locd_engine_find_pairs_f64(e, one64, 1, 0, p), LOCD_OK);
-        assert_int_equal(locd_pairs_count(p), 0);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, one, 1, 0, p));
+        TEST_ASSERT_EQUAL_INT64(0, locd_pairs_count(p));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f64(e, one64, 1, 0, p));
+        TEST_ASSERT_EQUAL_INT64(0, locd_pairs_count(p));
         prime(e, p);
-        assert_int_equal(locd_engine_find_pairs_f32(e, nanbox, 1, 0, p), LOCD_ERR_NONFINITE);
-        assert_int_equal(locd_last_error_index(), 0);
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NONFINITE, locd_engine_find_pairs_f32(e, nanbox, 1, 0, p));
+        TEST_ASSERT_EQUAL_INT64(0, locd_last_error_index());
         assert_primed(p);
         /* NULL pointers. */
-        assert_int_equal(locd_engine_find_pairs_f32(e, NULL, 3, 0, p), LOCD_ERR_NULL_POINTER);
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_engine_find_pairs_f32(e, NULL, 3, 0, p));
         assert_primed(p);
-        assert_int_equal(locd_engine_find_pairs_f64(e, NULL, 3, 0, p), LOCD_ERR_NULL_POINTER);
-        assert_int_equal(locd_engine_find_pairs_f32(e, one, 1, 0, NULL), LOCD_ERR_NULL_POINTER);
-        assert_int_equal(locd_engine_find_pairs_f32_into(e, one, 1, 0, NULL, 4, &count), LOCD_ERR_NULL_POINTER);
-        assert_int_equal(locd_engine_find_pairs_f32_into(e, one, 1, 0, buf, 4, NULL), LOCD_ERR_NULL_POINTER);
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_engine_find_pairs_f64(e, NULL, 3, 0, p));
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_engine_find_pairs_f32(e, one, 1, 0, NULL));
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_engine_find_pairs_f32_into(e, one, 1, 0, NULL, 4, &count));
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_engine_find_pairs_f32_into(e, one, 1, 0, buf, 4, NULL));
         count = 99;
-        assert_int_equal(locd_engine_find_pairs_f32_into(e, NULL, 0, 0, NULL, 0, &count), LOCD_OK);
-        assert_int_equal(count, 0);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32_into(e, NULL, 0, 0, NULL, 0, &count));
+        TEST_ASSERT_EQUAL_INT64(0, count);
         /* Unknown flags are refused, and the output kept. */
-        assert_int_equal(locd_engine_find_pairs_f32(e, one, 1, 0x80u, p), LOCD_ERR_INVALID_ARGUMENT);
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_find_pairs_f32(e, one, 1, 0x80u, p));
     }
-    assert_int_equal(locd_engine_find_pairs_f32(NULL, one, 1, 0, p), LOCD_ERR_INVALID_HANDLE);
-    assert_int_equal(locd_engine_find_pairs_f64(NULL, one64, 1, 0, p), LOCD_ERR_INVALID_HANDLE);
-    assert_int_equal(locd_brute_force_f32(NULL, 2, p), LOCD_ERR_NULL_POINTER);
-    assert_int_equal(locd_brute_force_f32(one, 1, NULL), LOCD_ERR_NULL_POINTER);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_HANDLE, locd_engine_find_pairs_f32(NULL, one, 1, 0, p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_HANDLE, locd_engine_find_pairs_f64(NULL, one64, 1, 0, p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_brute_force_f32(NULL, 2, p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_brute_force_f32(one, 1, NULL));
     locd_pairs_destroy(p);
 }
 
-static void bad_config_sizes_and_values(void **state)
+static void bad_config_sizes_and_values(void)
 {
     locd_engine_config cfg;
     locd_engine *e = (locd_engine *)&cfg; /* must be reset to NULL on failure */
     locd_stats stats;
     locd_grid g;
     float one[12] = {0, 0, 0, 1, 1, 1, 1, 1, 1, 2, 2, 2};
-    (void)state;
     locd_engine_config_init(&cfg);
     cfg.size = 0;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_INVALID_ARGUMENT);
-    assert_null(e);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_create(&cfg, &e));
+    TEST_ASSERT_NULL(e);
     cfg.size = (uint32_t)sizeof cfg + 8; /* a newer struct than this library knows */
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_create(&cfg, &e));
     cfg.size = 3;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_create(&cfg, &e));
     /* An older, shorter struct (up to `flags`) keeps the defaults for the rest. */
     locd_engine_config_init(&cfg);
     cfg.size = (uint32_t)(offsetof(locd_engine_config, flags) + sizeof cfg.flags);
     cfg.threads = 2;
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
-    assert_int_equal(locd_engine_threads(e), 2);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
+    TEST_ASSERT_EQUAL_INT64(2, locd_engine_threads(e));
     locd_engine_destroy(e);
     {
         static const struct {
@@ -1515,24 +1493,24 @@ static void bad_config_sizes_and_values(void **state)
             cfg.threads = bad[k].threads;
             cfg.max_depth = bad[k].depth;
             e = (locd_engine *)&cfg;
-            assert_int_not_equal(locd_engine_create(&cfg, &e), LOCD_OK);
-            assert_null(e);
+            TEST_ASSERT_NOT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
+            TEST_ASSERT_NULL(e);
         }
     }
-    assert_int_equal(locd_engine_create(NULL, NULL), LOCD_ERR_NULL_POINTER);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_engine_create(NULL, NULL));
     /* Stats with a bad size. */
-    assert_int_equal(locd_engine_create(NULL, &e), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f32(e, one, 2, 0, NULL) , LOCD_ERR_NULL_POINTER);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(NULL, &e));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_engine_find_pairs_f32(e, one, 2, 0, NULL));
     stats.size = 0;
-    assert_int_equal(locd_engine_stats(e, &stats), LOCD_ERR_INVALID_ARGUMENT);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_stats(e, &stats));
     stats.size = (uint32_t)sizeof stats + 4;
-    assert_int_equal(locd_engine_stats(e, &stats), LOCD_ERR_INVALID_ARGUMENT);
-    assert_int_equal(locd_engine_stats(e, NULL), LOCD_ERR_NULL_POINTER);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_stats(e, &stats));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_engine_stats(e, NULL));
     locd_engine_destroy(e);
     /* The building blocks refuse bad knobs too. */
-    assert_int_equal(locd_grid_fit_f32(one, 2, 0, 9, 0, &g), LOCD_ERR_INVALID_ARGUMENT);
-    assert_int_equal(locd_grid_fit_f32(one, 2, 0, -1, 0, &g), LOCD_ERR_INVALID_ARGUMENT);
-    assert_int_equal(locd_grid_fit_f32(one, 2, 0, 1, 0, NULL), LOCD_ERR_NULL_POINTER);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_grid_fit_f32(one, 2, 0, 9, 0, &g));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_grid_fit_f32(one, 2, 0, -1, 0, &g));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NULL_POINTER, locd_grid_fit_f32(one, 2, 0, 1, 0, NULL));
 }
 
 /* ------------------------------------------------------------------ */
@@ -1583,14 +1561,13 @@ static size_t random_table(ts_rng *r, double *v, int f64)
     return nv;
 }
 
-static void randomized_search(void **state)
+static void randomized_search(void)
 {
     const char *bs = getenv("LOCD_HARD_BUDGET_MS"), *ss = getenv("LOCD_HARD_SEED");
     double budget = bs ? atof(bs) : 3000.0;
     uint64_t seed = ss ? strtoull(ss, NULL, 10) : 20261122u, it;
     struct timespec t0, t1;
     size_t scenes = 0, pairs = 0;
-    (void)state;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     for (it = 0; it < 1000000; it++) {
         ts_rng r;
@@ -1644,34 +1621,34 @@ static void randomized_search(void **state)
         scenes++;
         sc_free(&s);
     }
-    print_message("# randomized search: %zu scenes, %zu pairs, seed %llu, budget %.0f ms\n", scenes, pairs,
-                  (unsigned long long)seed, budget);
-    assert_true(scenes > 0);
+    LT_PRINT("# randomized search: %zu scenes, %zu pairs, seed %llu, budget %.0f ms\n", scenes, pairs,
+             (unsigned long long)seed, budget);
+    TEST_ASSERT_TRUE(scenes > 0);
     trim_runners();
 }
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(touching_faces_edges_corners),
-        cmocka_unit_test(touching_at_decimal_values),
-        cmocka_unit_test(faces_on_cell_boundaries),
-        cmocka_unit_test(translated_far_from_origin),
-        cmocka_unit_test(scaled_down_to_1e_30),
-        cmocka_unit_test(extent_overflows),
-        cmocka_unit_test(points_and_zero_size_boxes),
-        cmocka_unit_test(many_identical_boxes),
-        cmocka_unit_test(one_box_contains_all),
-        cmocka_unit_test(degenerate_worlds),
-        cmocka_unit_test(sizes_span_twelve_orders),
-        cmocka_unit_test(subnormals_and_negative_zero),
-        cmocka_unit_test(float64_not_representable_in_float32),
-        cmocka_unit_test(many_boxes_in_one_cell),
-        cmocka_unit_test(huge_scene_with_bad_box_fails_fast),
-        cmocka_unit_test(bad_values_name_the_first_bad_box),
-        cmocka_unit_test(empty_single_and_null_arguments),
-        cmocka_unit_test(bad_config_sizes_and_values),
-        cmocka_unit_test(randomized_search),
+    static const lt_test tests[] = {
+        LT_TEST(touching_faces_edges_corners),
+        LT_TEST(touching_at_decimal_values),
+        LT_TEST(faces_on_cell_boundaries),
+        LT_TEST(translated_far_from_origin),
+        LT_TEST(scaled_down_to_1e_30),
+        LT_TEST(extent_overflows),
+        LT_TEST(points_and_zero_size_boxes),
+        LT_TEST(many_identical_boxes),
+        LT_TEST(one_box_contains_all),
+        LT_TEST(degenerate_worlds),
+        LT_TEST(sizes_span_twelve_orders),
+        LT_TEST(subnormals_and_negative_zero),
+        LT_TEST(float64_not_representable_in_float32),
+        LT_TEST(many_boxes_in_one_cell),
+        LT_TEST(huge_scene_with_bad_box_fails_fast),
+        LT_TEST(bad_values_name_the_first_bad_box),
+        LT_TEST(empty_single_and_null_arguments),
+        LT_TEST(bad_config_sizes_and_values),
+        LT_TEST(randomized_search),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return LT_RUN_GROUP(tests, group_setup, group_teardown);
 }

@@ -3,9 +3,7 @@
  * the same order; jobs work at every level; a worker killed mid-call never
  * yields wrong pairs or a hang; a crashed host leaves nothing behind; 1,000
  * engine create/destroy cycles leak no segment, fd or process. */
-#include <setjmp.h>
 #include <signal.h>
-#include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -15,7 +13,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <cmocka.h>
+#include "runner.h"
 
 #include "levels_util.h"
 #include "support.h"
@@ -33,7 +31,7 @@ static locd_engine *make_engine(int level, uint32_t threads, const char *addr)
     cfg.service_address = addr;
     st = locd_engine_create(&cfg, &e);
     if (st != LOCD_OK)
-        fail_msg("level %d engine: %s", level, locd_last_error());
+        LT_FAIL("level %d engine: %s", level, locd_last_error());
     return e;
 }
 
@@ -46,7 +44,7 @@ static double *to_f64(const float *b, size_t n)
     return d;
 }
 
-static void levels_give_identical_pairs(void **state)
+static void levels_give_identical_pairs(void)
 {
     static const size_t sizes[] = {0, 1, 2, 17, 900, 5000, 30000};
     size_t nsizes = lu_heavy() ? sizeof sizes / sizeof sizes[0] : 6;
@@ -58,12 +56,11 @@ static void levels_give_identical_pairs(void **state)
     locd_pairs *ref, *got;
     int kind, o;
     size_t si;
-    (void)state;
     others[0] = e2;
     others[1] = e2b;
     others[2] = e3;
-    assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
-    assert_int_equal(locd_pairs_create(NULL, &got), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &ref));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &got));
     for (kind = 0; kind < TS_SCENE_KINDS; kind++)
         for (si = 0; si < nsizes; si++) {
             size_t n = sizes[si];
@@ -73,23 +70,23 @@ static void levels_give_identical_pairs(void **state)
                 continue; /* dense kinds: millions of pairs, nothing more to learn */
             b = ts_scene(kind, n ? n : 1, 77u * (uint64_t)kind + si);
             d = to_f64(b, n);
-            assert_int_equal(locd_engine_find_pairs_f32(e1, b, n, 0, ref), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e1, b, n, 0, ref));
             if (n <= 5000 && !ts_same_as_brute_f32(b, n, ref))
-                fail_msg("level 1 differs from brute force (kind %d n %zu)", kind, n);
+                LT_FAIL("level 1 differs from brute force (kind %d n %zu)", kind, n);
             for (o = 0; o < 3; o++) {
                 locd_status st = locd_engine_find_pairs_f32(others[o], b, n, 0, got);
                 if (st != LOCD_OK)
-                    fail_msg("engine %d kind %d n %zu: %s", o, kind, n, locd_last_error());
+                    LT_FAIL("engine %d kind %d n %zu: %s", o, kind, n, locd_last_error());
                 if (!lu_same_pairs(ref, got))
-                    fail_msg("engine %d (level %d) differs from level 1: kind %d n %zu (%zu vs %zu pairs)", o,
-                             locd_engine_level(others[o]), kind, n, locd_pairs_count(got), locd_pairs_count(ref));
+                    LT_FAIL("engine %d (level %d) differs from level 1: kind %d n %zu (%zu vs %zu pairs)", o,
+                            locd_engine_level(others[o]), kind, n, locd_pairs_count(got), locd_pairs_count(ref));
             }
             /* float64 entry points, sorted order */
-            assert_int_equal(locd_engine_find_pairs_f64(e1, d, n, LOCD_FIND_SORTED, ref), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f64(e1, d, n, LOCD_FIND_SORTED, ref));
             for (o = 0; o < 3; o++) {
-                assert_int_equal(locd_engine_find_pairs_f64(others[o], d, n, LOCD_FIND_SORTED, got), LOCD_OK);
+                TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f64(others[o], d, n, LOCD_FIND_SORTED, got));
                 if (!lu_same_pairs(ref, got))
-                    fail_msg("f64: engine %d differs from level 1: kind %d n %zu", o, kind, n);
+                    LT_FAIL("f64: engine %d differs from level 1: kind %d n %zu", o, kind, n);
             }
             free(b);
             free(d);
@@ -104,7 +101,7 @@ static void levels_give_identical_pairs(void **state)
 
 /* The engine's octree settings travel to the workers' grid and to the
  * service's engines: the order stays level 1's for every setting. */
-static void octree_settings_reach_every_level(void **state)
+static void octree_settings_reach_every_level(void)
 {
     static const struct {
         uint32_t depth;
@@ -114,9 +111,8 @@ static void octree_settings_reach_every_level(void **state)
     size_t i, n = 8000;
     float *b = ts_scene(2, n, 555);
     locd_pairs *ref, *got;
-    (void)state;
-    assert_int_equal(locd_pairs_create(NULL, &ref), LOCD_OK);
-    assert_int_equal(locd_pairs_create(NULL, &got), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &ref));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &got));
     for (i = 0; i < sizeof v / sizeof v[0]; i++) {
         int level;
         for (level = 1; level <= 3; level++) {
@@ -129,13 +125,13 @@ static void octree_settings_reach_every_level(void **state)
             cfg.cell_bias = v[i].bias;
             cfg.flags = v[i].flags;
             cfg.service_address = g_fx.addr;
-            assert_int_equal(locd_engine_create(&cfg, &e), LOCD_OK);
-            assert_int_equal(locd_engine_find_pairs_f32(e, b, n, 0, level == 1 ? ref : got), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e));
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, n, 0, level == 1 ? ref : got));
             if (level > 1 && !lu_same_pairs(ref, got))
-                fail_msg("level %d differs from level 1 with depth %u bias %d flags %u", level, v[i].depth,
-                         (int)v[i].bias, v[i].flags);
+                LT_FAIL("level %d differs from level 1 with depth %u bias %d flags %u", level, v[i].depth,
+                        (int)v[i].bias, v[i].flags);
             if (level == 1 && !ts_same_as_brute_f32(b, n, ref))
-                fail_msg("level 1 differs from brute force with depth %u", v[i].depth);
+                LT_FAIL("level 1 differs from brute force with depth %u", v[i].depth);
             locd_engine_destroy(e);
         }
     }
@@ -144,31 +140,29 @@ static void octree_settings_reach_every_level(void **state)
     locd_pairs_destroy(got);
 }
 
-static void invalid_boxes_same_error_at_every_level(void **state)
+static void invalid_boxes_same_error_at_every_level(void)
 {
     int level;
-    (void)state;
     for (level = 1; level <= 3; level++) {
         locd_engine *e = make_engine(level, 2, level == 3 ? g_fx.addr : NULL);
         locd_pairs *p;
         float *b = ts_scene(0, 6000, 5);
-        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
         b[6 * 4321 + 2] = b[6 * 4321 + 5] + 1.0f; /* min > max */
-        assert_int_equal(locd_engine_find_pairs_f32(e, b, 6000, 0, p), LOCD_ERR_INVERTED_BOX);
-        assert_int_equal(locd_last_error_index(), 4321);
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVERTED_BOX, locd_engine_find_pairs_f32(e, b, 6000, 0, p));
+        TEST_ASSERT_EQUAL_INT64(4321, locd_last_error_index());
         b[6 * 100] = 0.0f / 0.0f;
-        assert_int_equal(locd_engine_find_pairs_f32(e, b, 6000, 0, p), LOCD_ERR_NONFINITE);
-        assert_int_equal(locd_last_error_index(), 100);
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NONFINITE, locd_engine_find_pairs_f32(e, b, 6000, 0, p));
+        TEST_ASSERT_EQUAL_INT64(100, locd_last_error_index());
         free(b);
         locd_pairs_destroy(p);
         locd_engine_destroy(e);
     }
 }
 
-static void jobs_at_every_level(void **state)
+static void jobs_at_every_level(void)
 {
     int level;
-    (void)state;
     for (level = 1; level <= 3; level++) {
         locd_engine *e = make_engine(level, 2, level == 3 ? g_fx.addr : NULL);
         locd_engine *ref = make_engine(LOCD_LEVEL_INPROCESS, 1, NULL);
@@ -178,41 +172,41 @@ static void jobs_at_every_level(void **state)
         locd_status s;
         size_t n = lu_heavy() ? 40000 : 8000;
         float *b = ts_scene(0, n, 1234 + (uint64_t)level);
-        assert_int_equal(locd_pairs_create(NULL, &want), LOCD_OK);
-        assert_int_equal(locd_pairs_create(NULL, &got), LOCD_OK);
-        assert_int_equal(locd_engine_find_pairs_f32(ref, b, n, 0, want), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &want));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &got));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(ref, b, n, 0, want));
 
         {
             float *tmp = malloc(n * 6 * sizeof *tmp);
             memcpy(tmp, b, n * 6 * sizeof *tmp);
-            assert_int_equal(locd_engine_submit_f32(e, tmp, n, 0, &j), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, tmp, n, 0, &j));
             memset(tmp, 0xff, n * 6 * sizeof *tmp); /* NaNs: the job must own a copy */
             free(tmp);
         }
         s = locd_job_poll(j);
-        assert_true(s == LOCD_OK || s == LOCD_PENDING);
+        TEST_ASSERT_TRUE(s == LOCD_OK || s == LOCD_PENDING);
         if (level < 3) {
             /* levels 1 and 2 run one job at a time per engine */
             s = locd_engine_find_pairs_f32(e, b, n, 0, got);
-            assert_true(s == LOCD_ERR_BUSY || s == LOCD_OK);
+            TEST_ASSERT_TRUE(s == LOCD_ERR_BUSY || s == LOCD_OK);
         }
-        assert_int_equal(locd_job_wait(j, -1), LOCD_OK);
-        assert_int_equal(locd_job_poll(j), LOCD_OK);
-        assert_int_equal(locd_job_take(j, got), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_wait(j, -1));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_poll(j));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_take(j, got));
         if (!lu_same_pairs(want, got))
-            fail_msg("level %d job result differs from level 1", level);
-        assert_int_equal(locd_job_take(j, got), LOCD_ERR_INVALID_ARGUMENT); /* taken once */
+            LT_FAIL("level %d job result differs from level 1", level);
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_job_take(j, got)); /* taken once */
         locd_stats_init(&st);
-        assert_int_equal(locd_job_stats(j, &st), LOCD_OK);
-        assert_int_equal(st.objects, n);
-        assert_int_equal(st.pairs, locd_pairs_count(want));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_stats(j, &st));
+        TEST_ASSERT_EQUAL_INT64(n, st.objects);
+        TEST_ASSERT_EQUAL_INT64(locd_pairs_count(want), st.pairs);
         locd_job_release(j);
 
         /* cancel: wait reports LOCD_ERR_CANCELLED unless it had finished */
-        assert_int_equal(locd_engine_submit_f32(e, b, n, 0, &j), LOCD_OK);
-        assert_int_equal(locd_job_cancel(j), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, b, n, 0, &j));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_cancel(j));
         s = locd_job_wait(j, 10000);
-        assert_true(s == LOCD_ERR_CANCELLED || s == LOCD_OK);
+        TEST_ASSERT_TRUE(s == LOCD_ERR_CANCELLED || s == LOCD_OK);
         locd_job_release(j);
 
         /* timeout 0 on a fresh large job, then a bounded wait */
@@ -221,24 +215,24 @@ static void jobs_at_every_level(void **state)
             while (locd_engine_submit_f32(e, b, n, 0, &j2) == LOCD_ERR_BUSY && lu_now_ms() < until)
                 lu_sleep_ms(1); /* the cancelled job's thread is finishing */
         } else {
-            assert_int_equal(locd_engine_submit_f32(e, b, n, LOCD_FIND_SORTED, &j2), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, b, n, LOCD_FIND_SORTED, &j2));
         }
-        assert_non_null(j2);
+        TEST_ASSERT_NOT_NULL(j2);
         s = locd_job_wait(j2, 0);
-        assert_true(s == LOCD_ERR_TIMEOUT || s == LOCD_OK);
-        assert_int_equal(locd_job_wait(j2, 60000), LOCD_OK);
-        assert_int_equal(locd_job_take(j2, got), LOCD_OK);
-        assert_int_equal(locd_pairs_count(got), locd_pairs_count(want));
+        TEST_ASSERT_TRUE(s == LOCD_ERR_TIMEOUT || s == LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_wait(j2, 60000));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_take(j2, got));
+        TEST_ASSERT_EQUAL_INT64(locd_pairs_count(want), locd_pairs_count(got));
         locd_job_release(j2);
 
         /* released without waiting: no leak, engine usable afterwards */
-        assert_int_equal(locd_engine_submit_f32(e, b, n, 0, &j), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, b, n, 0, &j));
         locd_job_release(j);
         {
             double until = lu_now_ms() + 10000;
             while ((s = locd_engine_find_pairs_f32(e, b, n, 0, got)) == LOCD_ERR_BUSY && lu_now_ms() < until)
                 lu_sleep_ms(1);
-            assert_int_equal(s, LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, s);
         }
         /* errors travel through jobs with their index */
         b[6 * 777 + 1] = 1.0f / 0.0f;
@@ -246,14 +240,14 @@ static void jobs_at_every_level(void **state)
             double until = lu_now_ms() + 10000;
             while ((s = locd_engine_submit_f32(e, b, n, 0, &j)) == LOCD_ERR_BUSY && lu_now_ms() < until)
                 lu_sleep_ms(1);
-            assert_int_equal(s, LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, s);
         }
-        assert_int_equal(locd_job_wait(j, -1), LOCD_ERR_NONFINITE);
-        assert_int_equal(locd_last_error_index(), 777);
-        assert_int_equal(locd_job_take(j, got), LOCD_ERR_NONFINITE);
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NONFINITE, locd_job_wait(j, -1));
+        TEST_ASSERT_EQUAL_INT64(777, locd_last_error_index());
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_NONFINITE, locd_job_take(j, got));
         locd_job_release(j);
 
-        assert_int_equal(locd_job_poll(NULL), LOCD_ERR_INVALID_HANDLE);
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_HANDLE, locd_job_poll(NULL));
         locd_job_release(NULL);
         free(b);
         locd_pairs_destroy(want);
@@ -265,10 +259,9 @@ static void jobs_at_every_level(void **state)
 
 /* Levels 1 and 2 queue jobs on the engine and run them one after another;
  * queued jobs can be cancelled or released; all results are right. */
-static void queued_jobs_levels_1_and_2(void **state)
+static void queued_jobs_levels_1_and_2(void)
 {
     int level;
-    (void)state;
     for (level = 1; level <= 2; level++) {
         locd_engine *e = make_engine(level, 2, NULL);
         locd_job *j[12];
@@ -276,17 +269,18 @@ static void queued_jobs_levels_1_and_2(void **state)
         size_t n[12];
         locd_pairs *p;
         int i;
-        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
         for (i = 0; i < 12; i++) {
             n[i] = 300 + 400 * (size_t)i;
             b[i] = ts_scene(i % 2 ? 2 : 0, n[i], 900 + (uint64_t)i);
-            assert_int_equal(locd_engine_submit_f32(e, b[i], n[i], i % 3 ? 0 : LOCD_FIND_SORTED, &j[i]), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK,
+                                    locd_engine_submit_f32(e, b[i], n[i], i % 3 ? 0 : LOCD_FIND_SORTED, &j[i]));
         }
         {
             locd_status s = locd_engine_find_pairs_f32(e, b[0], n[0], 0, p); /* busy unless all are done */
-            assert_true(s == LOCD_ERR_BUSY || s == LOCD_OK);
+            TEST_ASSERT_TRUE(s == LOCD_ERR_BUSY || s == LOCD_OK);
         }
-        assert_int_equal(locd_job_cancel(j[7]), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_cancel(j[7]));
         locd_job_release(j[9]);
         j[9] = NULL;
         for (i = 11; i >= 0; i--) { /* any order */
@@ -295,12 +289,12 @@ static void queued_jobs_levels_1_and_2(void **state)
                 continue;
             s = locd_job_wait(j[i], 60000);
             if (i == 7) {
-                assert_true(s == LOCD_ERR_CANCELLED || s == LOCD_OK);
+                TEST_ASSERT_TRUE(s == LOCD_ERR_CANCELLED || s == LOCD_OK);
             } else {
-                assert_int_equal(s, LOCD_OK);
-                assert_int_equal(locd_job_take(j[i], p), LOCD_OK);
+                TEST_ASSERT_EQUAL_INT64(LOCD_OK, s);
+                TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_job_take(j[i], p));
                 if (!ts_same_as_brute_f32(b[i], n[i], p))
-                    fail_msg("level %d queued job %d differs from brute force", level, i);
+                    LT_FAIL("level %d queued job %d differs from brute force", level, i);
             }
             locd_job_release(j[i]);
         }
@@ -312,7 +306,7 @@ static void queued_jobs_levels_1_and_2(void **state)
             float *one = ts_scene(0, 3000, 1);
             while ((s = locd_engine_find_pairs_f32(e, one, 3000, 0, p)) == LOCD_ERR_BUSY && lu_now_ms() < until)
                 lu_sleep_ms(1);
-            assert_int_equal(s, LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, s);
             free(one);
         }
         locd_pairs_destroy(p);
@@ -352,7 +346,7 @@ static void *call_loop(void *arg)
     return NULL;
 }
 
-static void worker_killed_mid_call(void **state)
+static void worker_killed_mid_call(void)
 {
     locd_engine *e = make_engine(LOCD_LEVEL_WORKERS, 2, NULL);
     locd_engine *ref = make_engine(LOCD_LEVEL_INPROCESS, 1, NULL);
@@ -364,16 +358,15 @@ static void worker_killed_mid_call(void **state)
     pid_t pids[8];
     int round, got, killed = 0;
     double t0;
-    (void)state;
-    assert_int_equal(locd_pairs_create(NULL, &want), LOCD_OK);
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
-    assert_int_equal(locd_engine_find_pairs_f32(ref, b, n, 0, want), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &want));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(ref, b, n, 0, want));
     memset(&k, 0, sizeof k);
     k.e = e;
     k.b = b;
     k.n = n;
     k.want = want;
-    assert_int_equal(pthread_create(&th, NULL, call_loop, &k), 0);
+    TEST_ASSERT_EQUAL_INT64(0, pthread_create(&th, NULL, call_loop, &k));
     t0 = lu_now_ms();
     while (__atomic_load_n(&k.calls, __ATOMIC_ACQUIRE) < 1 && lu_now_ms() - t0 < 60000)
         lu_sleep_ms(5);
@@ -389,40 +382,38 @@ static void worker_killed_mid_call(void **state)
         lu_sleep_ms(5);
     __atomic_store_n(&k.stop, 1, __ATOMIC_RELEASE);
     pthread_join(th, NULL);
-    assert_true(k.ok_after >= 2);
-    assert_true(killed > 0);
-    assert_int_equal(k.wrong, 0);
-    assert_int_equal(k.other, 0);
-    assert_true(k.ok > 0);
+    TEST_ASSERT_TRUE(k.ok_after >= 2);
+    TEST_ASSERT_TRUE(killed > 0);
+    TEST_ASSERT_EQUAL_INT64(0, k.wrong);
+    TEST_ASSERT_EQUAL_INT64(0, k.other);
+    TEST_ASSERT_TRUE(k.ok > 0);
     /* still usable, with a full set of live workers and no zombies */
-    assert_int_equal(locd_engine_find_pairs_f32(e, b, n, 0, p), LOCD_OK);
-    assert_true(lu_same_pairs(want, p));
-    assert_int_equal(lu_children_named("locd-worker", NULL, 0), 2);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, n, 0, p));
+    TEST_ASSERT_TRUE(lu_same_pairs(want, p));
+    TEST_ASSERT_EQUAL_INT64(2, lu_children_named("locd-worker", NULL, 0));
     locd_engine_destroy(e);
     locd_engine_destroy(ref);
-    assert_int_equal(lu_children_named("locd-worker", NULL, 0), 0);
-    assert_int_equal(lu_count_children(), 1); /* the service only */
+    TEST_ASSERT_EQUAL_INT64(0, lu_children_named("locd-worker", NULL, 0));
+    TEST_ASSERT_EQUAL_INT64(1, lu_count_children()); /* the service only */
     {
         char prefix[64];
         snprintf(prefix, sizeof prefix, "locd-%ld-", (long)getpid());
-        assert_int_equal(lu_count_shm(prefix), 0);
+        TEST_ASSERT_EQUAL_INT64(0, lu_count_shm(prefix));
     }
-    print_message("# %d calls: %d ok, %d LOCD_ERR_WORKER, %d workers killed\n", k.calls, k.ok, k.worker_errors,
-                  killed);
+    LT_PRINT("# %d calls: %d ok, %d LOCD_ERR_WORKER, %d workers killed\n", k.calls, k.ok, k.worker_errors, killed);
     free(b);
     locd_pairs_destroy(want);
     locd_pairs_destroy(p);
 }
 
 /* A host that dies (SIGKILL) leaves no segment and no worker behind. */
-static void host_crash_leaves_nothing(void **state)
+static void host_crash_leaves_nothing(void)
 {
     char prefix[64], pidstr[32];
     int pipefd[2], i;
     pid_t child;
     char c;
-    (void)state;
-    assert_int_equal(pipe(pipefd), 0);
+    TEST_ASSERT_EQUAL_INT64(0, pipe(pipefd));
     child = fork();
     if (child == 0) {
         locd_engine_config cfg;
@@ -441,83 +432,78 @@ static void host_crash_leaves_nothing(void **state)
             pause();
     }
     close(pipefd[1]);
-    assert_int_equal(read(pipefd[0], &c, 1), 1);
+    TEST_ASSERT_EQUAL_INT64(1, read(pipefd[0], &c, 1));
     close(pipefd[0]);
     snprintf(prefix, sizeof prefix, "locd-%ld-", (long)child);
     snprintf(pidstr, sizeof pidstr, " %ld ", (long)child);
-    assert_int_equal(lu_count_processes_with("locd-worker", pidstr), 2);
+    TEST_ASSERT_EQUAL_INT64(2, lu_count_processes_with("locd-worker", pidstr));
     kill(child, SIGKILL);
     waitpid(child, NULL, 0);
     for (i = 0; i < 400 && (lu_count_processes_with("locd-worker", pidstr) || lu_count_shm(prefix)); i++)
         lu_sleep_ms(10); /* orphaned workers notice within a second */
-    assert_int_equal(lu_count_processes_with("locd-worker", pidstr), 0);
-    assert_int_equal(lu_count_shm(prefix), 0);
+    TEST_ASSERT_EQUAL_INT64(0, lu_count_processes_with("locd-worker", pidstr));
+    TEST_ASSERT_EQUAL_INT64(0, lu_count_shm(prefix));
 }
 
-static void create_destroy_cycles_leak_nothing(void **state)
+static void create_destroy_cycles_leak_nothing(void)
 {
     char prefix[64];
     int fds0 = lu_count_fds(), children0 = lu_count_children(), i;
     float *b = ts_scene(2, 5000, 8);
     locd_pairs *p;
-    (void)state;
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
     snprintf(prefix, sizeof prefix, "locd-%ld-", (long)getpid());
     int cycles = lu_heavy() ? 1000 : 100;
     for (i = 0; i < cycles; i++) {
         /* one worker each: process start-up dominates on a loaded CI machine */
         locd_engine *e = make_engine(LOCD_LEVEL_WORKERS, 1, NULL);
         if (i % 50 == 0)
-            assert_int_equal(locd_engine_find_pairs_f32(e, b, 5000, 0, p), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, 5000, 0, p));
         locd_engine_destroy(e);
     }
-    assert_int_equal(lu_count_shm(prefix), 0);
-    assert_int_equal(lu_count_fds(), fds0);
-    assert_int_equal(lu_count_children(), children0);
+    TEST_ASSERT_EQUAL_INT64(0, lu_count_shm(prefix));
+    TEST_ASSERT_EQUAL_INT64(fds0, lu_count_fds());
+    TEST_ASSERT_EQUAL_INT64(children0, lu_count_children());
     free(b);
     locd_pairs_destroy(p);
 }
 
-static void bad_worker_path_is_an_error(void **state)
+static void bad_worker_path_is_an_error(void)
 {
     locd_engine_config cfg;
     locd_engine *e = NULL;
-    (void)state;
     locd_engine_config_init(&cfg);
     cfg.level = LOCD_LEVEL_WORKERS;
     cfg.worker_path = "/nonexistent/locd-worker";
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_INVALID_ARGUMENT);
-    assert_null(e);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_INVALID_ARGUMENT, locd_engine_create(&cfg, &e));
+    TEST_ASSERT_NULL(e);
     cfg.worker_path = "/bin/true"; /* exits at once: a worker error, not a hang */
-    assert_int_equal(locd_engine_create(&cfg, &e), LOCD_ERR_WORKER);
-    assert_null(e);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_WORKER, locd_engine_create(&cfg, &e));
+    TEST_ASSERT_NULL(e);
 }
 
-static int setup(void **state)
+static int setup(void)
 {
-    (void)state;
     return lu_fixture_up(&g_fx);
 }
 
-static int teardown(void **state)
+static void teardown(void)
 {
-    (void)state;
     lu_fixture_down(&g_fx);
-    return 0;
 }
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test_setup_teardown(levels_give_identical_pairs, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(octree_settings_reach_every_level, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(invalid_boxes_same_error_at_every_level, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(jobs_at_every_level, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(queued_jobs_levels_1_and_2, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(worker_killed_mid_call, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(host_crash_leaves_nothing, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(bad_worker_path_is_an_error, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(create_destroy_cycles_leak_nothing, lu_timer_start, lu_timer_print),
+    static const lt_test tests[] = {
+        LT_TEST_FIXTURE(levels_give_identical_pairs, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(octree_settings_reach_every_level, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(invalid_boxes_same_error_at_every_level, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(jobs_at_every_level, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(queued_jobs_levels_1_and_2, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(worker_killed_mid_call, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(host_crash_leaves_nothing, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(bad_worker_path_is_an_error, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(create_destroy_cycles_leak_nothing, lu_timer_start, lu_timer_print),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return LT_RUN_GROUP(tests, setup, teardown);
 }

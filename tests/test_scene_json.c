@@ -1,18 +1,16 @@
 /* The scene files' JSON reader (tools/json.c): values, nesting, escapes,
  * and error positions on malformed input. */
-#include <setjmp.h>
-#include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include <cmocka.h>
+#include "runner.h"
 
 #include "../tools/json.h"
 
-static void parses_values(void **state)
+static void parses_values(void)
 {
     char err[128];
     double v[3] = {0, 0, 0}, x = 0;
@@ -20,24 +18,23 @@ static void parses_values(void **state)
     const char *s = NULL;
     json_value *j = json_parse(" {\"a\": [1, -2.5e1, 3e-1], \"b\": true, \"s\": \"x\\\"y\\n\\u0041\", \"n\": null,"
                                " \"o\": {\"k\": []}} ", err, sizeof err);
-    (void)state;
-    assert_non_null(j);
-    assert_int_equal(json_get_vec(j, "a", v, 3), 1);
-    assert_true(v[0] == 1.0 && v[1] == -25.0 && v[2] == 0.3);
-    assert_int_equal(json_get_bool(j, "b", &b), 1);
-    assert_int_equal(b, 1);
-    assert_int_equal(json_get_string(j, "s", &s), 1);
-    assert_string_equal(s, "x\"y\nA");
-    assert_int_equal(json_get(j, "n")->type, JSON_NULL);
-    assert_int_equal(json_get(json_get(j, "o"), "k")->count, 0);
+    TEST_ASSERT_NOT_NULL(j);
+    TEST_ASSERT_EQUAL_INT64(1, json_get_vec(j, "a", v, 3));
+    TEST_ASSERT_TRUE(v[0] == 1.0 && v[1] == -25.0 && v[2] == 0.3);
+    TEST_ASSERT_EQUAL_INT64(1, json_get_bool(j, "b", &b));
+    TEST_ASSERT_EQUAL_INT64(1, b);
+    TEST_ASSERT_EQUAL_INT64(1, json_get_string(j, "s", &s));
+    TEST_ASSERT_EQUAL_STRING("x\"y\nA", s);
+    TEST_ASSERT_EQUAL_INT64(JSON_NULL, json_get(j, "n")->type);
+    TEST_ASSERT_EQUAL_INT64(0, json_get(json_get(j, "o"), "k")->count);
     /* Missing members keep the default; wrong types say so. */
-    assert_int_equal(json_get_number(j, "missing", &x), 0);
-    assert_int_equal(json_get_number(j, "b", &x), -1);
-    assert_int_equal(json_get_vec(j, "a", v, 2), -1);
+    TEST_ASSERT_EQUAL_INT64(0, json_get_number(j, "missing", &x));
+    TEST_ASSERT_EQUAL_INT64(-1, json_get_number(j, "b", &x));
+    TEST_ASSERT_EQUAL_INT64(-1, json_get_vec(j, "a", v, 2));
     json_free(j);
 }
 
-static void reports_error_positions(void **state)
+static void reports_error_positions(void)
 {
     static const struct {
         const char *text, *want;
@@ -51,33 +48,31 @@ static void reports_error_positions(void **state)
         {"{\"a\": 1e999}", "bad number"},
     };
     size_t i;
-    (void)state;
     for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         char err[128] = "";
         json_value *j = json_parse(cases[i].text, err, sizeof err);
         if (j || !strstr(err, cases[i].want))
-            fail_msg("case %zu: got '%s', want '%s'", i, err, cases[i].want);
+            LT_FAIL("case %zu: got '%s', want '%s'", i, err, cases[i].want);
     }
 }
 
-static void nesting_is_bounded(void **state)
+static void nesting_is_bounded(void)
 {
     char text[300], err[128];
     int i;
-    (void)state;
     for (i = 0; i < 100; i++)
         text[i] = '[';
     text[100] = '\0';
-    assert_null(json_parse(text, err, sizeof err));
-    assert_non_null(strstr(err, "nested too deeply"));
+    TEST_ASSERT_NULL(json_parse(text, err, sizeof err));
+    TEST_ASSERT_NOT_NULL(strstr(err, "nested too deeply"));
 }
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(parses_values),
-        cmocka_unit_test(reports_error_positions),
-        cmocka_unit_test(nesting_is_bounded),
+    static const lt_test tests[] = {
+        LT_TEST(parses_values),
+        LT_TEST(reports_error_positions),
+        LT_TEST(nesting_is_bounded),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return LT_RUN(tests);
 }

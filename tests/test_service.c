@@ -3,9 +3,7 @@
  * gives clear errors and a restarted one is picked up again; 16 concurrent
  * clients x 50 jobs are all correct; TCP needs the shared secret; 1,000
  * engine create/destroy cycles leak no fd and no segment. */
-#include <setjmp.h>
 #include <signal.h>
-#include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -18,7 +16,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
-#include <cmocka.h>
+#include "runner.h"
 
 #include "levels_util.h"
 #include "support.h"
@@ -102,15 +100,15 @@ static void hello(int fd)
     size_t got = 0;
     put_header(h, 1, 4);
     memset(h + 24, 0, 4);
-    assert_int_equal(send(fd, h, sizeof h, MSG_NOSIGNAL), (ssize_t)sizeof h);
+    TEST_ASSERT_EQUAL_INT64((ssize_t)sizeof h, send(fd, h, sizeof h, MSG_NOSIGNAL));
     while (got < sizeof w) {
         ssize_t r = recv(fd, w + got, sizeof w - got, 0);
-        assert_true(r > 0);
+        TEST_ASSERT_TRUE(r > 0);
         got += (size_t)r;
     }
 }
 
-static void garbage_drops_only_that_connection(void **state)
+static void garbage_drops_only_that_connection(void)
 {
     ts_rng r;
     uint8_t junk[4096], h[24 + 4];
@@ -118,34 +116,33 @@ static void garbage_drops_only_that_connection(void **state)
     locd_pairs *p;
     float *b = ts_scene(0, 3000, 4);
     int fd, i;
-    (void)state;
     ts_seed(&r, 2024);
     /* a client that stays connected through all of it */
-    assert_int_equal(make_engine(g_fx.addr, NULL, &e), LOCD_OK);
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, make_engine(g_fx.addr, NULL, &e));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
 
     for (i = 0; i < (int)sizeof junk; i++)
         junk[i] = (uint8_t)ts_next(&r);
     fd = raw_connect(g_fx.addr);
-    assert_true(fd >= 0);
-    assert_int_equal(send(fd, junk, sizeof junk, MSG_NOSIGNAL), (ssize_t)sizeof junk);
-    assert_true(closed_by_peer(fd, 5000));
+    TEST_ASSERT_TRUE(fd >= 0);
+    TEST_ASSERT_EQUAL_INT64((ssize_t)sizeof junk, send(fd, junk, sizeof junk, MSG_NOSIGNAL));
+    TEST_ASSERT_TRUE(closed_by_peer(fd, 5000));
     close(fd);
 
     /* valid HELLO, then an oversized SUBMIT header */
     fd = raw_connect(g_fx.addr);
     hello(fd);
     put_header(h, 3, (uint64_t)1 << 50);
-    assert_int_equal(send(fd, h, 24, MSG_NOSIGNAL), 24);
-    assert_true(closed_by_peer(fd, 5000));
+    TEST_ASSERT_EQUAL_INT64(24, send(fd, h, 24, MSG_NOSIGNAL));
+    TEST_ASSERT_TRUE(closed_by_peer(fd, 5000));
     close(fd);
 
     /* a truncated message: the header promises more than ever comes */
     fd = raw_connect(g_fx.addr);
     hello(fd);
     put_header(h, 3, 1000);
-    assert_int_equal(send(fd, h, 24, MSG_NOSIGNAL), 24);
-    assert_int_equal(send(fd, junk, 10, MSG_NOSIGNAL), 10);
+    TEST_ASSERT_EQUAL_INT64(24, send(fd, h, 24, MSG_NOSIGNAL));
+    TEST_ASSERT_EQUAL_INT64(10, send(fd, junk, 10, MSG_NOSIGNAL));
     close(fd);
 
     /* a SUBMIT whose length does not match its box count */
@@ -157,20 +154,20 @@ static void garbage_drops_only_that_connection(void **state)
         memset(m, 0, sizeof m);
         put_header(m, 3, 36 + 12);
         memcpy(m + 24 + 8, &n, 8);
-        assert_int_equal(send(fd, m, sizeof m, MSG_NOSIGNAL), (ssize_t)sizeof m);
+        TEST_ASSERT_EQUAL_INT64((ssize_t)sizeof m, send(fd, m, sizeof m, MSG_NOSIGNAL));
     }
-    assert_true(closed_by_peer(fd, 5000));
+    TEST_ASSERT_TRUE(closed_by_peer(fd, 5000));
     close(fd);
 
     /* the well-behaved client and new ones are still served */
-    assert_int_equal(locd_engine_find_pairs_f32(e, b, 3000, 0, p), LOCD_OK);
-    assert_true(ts_same_as_brute_f32(b, 3000, p));
-    assert_true(service_works(g_fx.addr, NULL));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, 3000, 0, p));
+    TEST_ASSERT_TRUE(ts_same_as_brute_f32(b, 3000, p));
+    TEST_ASSERT_TRUE(service_works(g_fx.addr, NULL));
     lu_sleep_ms(100);
-    assert_true(lu_wait_file_contains(g_fx.log, "bad magic", 5000));
-    assert_true(lu_wait_file_contains(g_fx.log, "exceeds the limit", 5000));
-    assert_true(lu_wait_file_contains(g_fx.log, "truncated message", 5000));
-    assert_true(lu_wait_file_contains(g_fx.log, "does not match", 5000));
+    TEST_ASSERT_TRUE(lu_wait_file_contains(g_fx.log, "bad magic", 5000));
+    TEST_ASSERT_TRUE(lu_wait_file_contains(g_fx.log, "exceeds the limit", 5000));
+    TEST_ASSERT_TRUE(lu_wait_file_contains(g_fx.log, "truncated message", 5000));
+    TEST_ASSERT_TRUE(lu_wait_file_contains(g_fx.log, "does not match", 5000));
     locd_engine_destroy(e);
     locd_pairs_destroy(p);
     free(b);
@@ -218,51 +215,49 @@ static void *client_main(void *arg)
     return NULL;
 }
 
-static void sixteen_clients_fifty_jobs_each(void **state)
+static void sixteen_clients_fifty_jobs_each(void)
 {
     pthread_t th[16];
     client_ctx c[16];
     int i, ok = 0;
-    (void)state;
     for (i = 0; i < 16; i++) {
         memset(&c[i], 0, sizeof c[i]);
         c[i].index = i;
-        assert_int_equal(pthread_create(&th[i], NULL, client_main, &c[i]), 0);
+        TEST_ASSERT_EQUAL_INT64(0, pthread_create(&th[i], NULL, client_main, &c[i]));
     }
     for (i = 0; i < 16; i++) {
         pthread_join(th[i], NULL);
-        assert_int_equal(c[i].wrong, 0);
-        assert_int_equal(c[i].failed, 0);
+        TEST_ASSERT_EQUAL_INT64(0, c[i].wrong);
+        TEST_ASSERT_EQUAL_INT64(0, c[i].failed);
         ok += c[i].ok;
     }
-    assert_int_equal(ok, 16 * 50);
+    TEST_ASSERT_EQUAL_INT64(16 * 50, ok);
 }
 
-static void client_leaving_with_jobs_in_flight(void **state)
+static void client_leaving_with_jobs_in_flight(void)
 {
     int i, k;
     size_t nb = lu_heavy() ? 100000 : 20000;
     float *b = ts_scene(0, nb, 12);
-    (void)state;
     for (k = 0; k < 3; k++) {
         locd_engine *e = NULL;
         locd_job *j[8];
-        assert_int_equal(make_engine(g_fx.addr, NULL, &e), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, make_engine(g_fx.addr, NULL, &e));
         for (i = 0; i < 8; i++)
-            assert_int_equal(locd_engine_submit_f32(e, b, nb, 0, &j[i]), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, b, nb, 0, &j[i]));
         /* destroy first: pending jobs end with LOCD_ERR_CONNECTION */
         locd_engine_destroy(e);
         for (i = 0; i < 8; i++) {
             locd_status s = locd_job_wait(j[i], 10000);
-            assert_true(s == LOCD_OK || s == LOCD_ERR_CONNECTION);
+            TEST_ASSERT_TRUE(s == LOCD_OK || s == LOCD_ERR_CONNECTION);
             locd_job_release(j[i]);
         }
     }
     free(b);
-    assert_true(service_works(g_fx.addr, NULL));
+    TEST_ASSERT_TRUE(service_works(g_fx.addr, NULL));
 }
 
-static void service_killed_then_restarted(void **state)
+static void service_killed_then_restarted(void)
 {
     char dir[256], listen[300], addr[300], log[300], prefix[64];
     locd_engine *e = NULL;
@@ -271,60 +266,58 @@ static void service_killed_then_restarted(void **state)
     size_t nb = lu_heavy() ? 300000 : 50000;
     float *b = ts_scene(0, nb, 6);
     pid_t svc;
-    (void)state;
     lu_temp_dir(dir, sizeof dir);
     snprintf(listen, sizeof listen, "unix:%s/k.sock", dir);
     snprintf(log, sizeof log, "%s/k.log", dir);
     svc = lu_start_service(listen, NULL, 1, log, addr, sizeof addr);
-    assert_true(svc > 0);
-    assert_int_equal(make_engine(addr, NULL, &e), LOCD_OK);
-    assert_int_equal(locd_engine_submit_f32(e, b, nb, 0, &j), LOCD_OK);
+    TEST_ASSERT_TRUE(svc > 0);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, make_engine(addr, NULL, &e));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_submit_f32(e, b, nb, 0, &j));
     lu_stop_service(svc, SIGKILL);
     s = locd_job_wait(j, 10000);
-    assert_true(s == LOCD_ERR_CONNECTION || s == LOCD_OK); /* it may have finished first */
+    TEST_ASSERT_TRUE(s == LOCD_ERR_CONNECTION || s == LOCD_OK); /* it may have finished first */
     locd_job_release(j);
     /* the service is gone: a clear error, not a hang */
     s = locd_engine_submit_f32(e, b, 1000, 0, &j);
-    assert_int_equal(s, LOCD_ERR_CONNECTION);
-    assert_null(j);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_CONNECTION, s);
+    TEST_ASSERT_NULL(j);
     {
         locd_pairs *p;
-        assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
-        assert_int_equal(locd_engine_find_pairs_f32(e, b, 1000, 0, p), LOCD_ERR_CONNECTION);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
+        TEST_ASSERT_EQUAL_INT64(LOCD_ERR_CONNECTION, locd_engine_find_pairs_f32(e, b, 1000, 0, p));
         /* a new service on the same path (its stale socket is replaced) */
         svc = lu_start_service(listen, NULL, 1, log, addr, sizeof addr);
-        assert_true(svc > 0);
-        assert_int_equal(locd_engine_find_pairs_f32(e, b, 1000, 0, p), LOCD_OK);
-        assert_true(ts_same_as_brute_f32(b, 1000, p));
+        TEST_ASSERT_TRUE(svc > 0);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, 1000, 0, p));
+        TEST_ASSERT_TRUE(ts_same_as_brute_f32(b, 1000, p));
         locd_pairs_destroy(p);
     }
     locd_engine_destroy(e);
     lu_stop_service(svc, SIGTERM);
     snprintf(prefix, sizeof prefix, "locd-c%ld-", (long)getpid());
-    assert_int_equal(lu_count_shm(prefix), 0);
-    assert_int_equal(make_engine(addr, NULL, &e), LOCD_ERR_CONNECTION); /* nobody listens */
-    assert_null(e);
+    TEST_ASSERT_EQUAL_INT64(0, lu_count_shm(prefix));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_CONNECTION, make_engine(addr, NULL, &e)); /* nobody listens */
+    TEST_ASSERT_NULL(e);
     lu_cleanup_dir(dir);
     free(b);
 }
 
-static void tcp_needs_the_secret(void **state)
+static void tcp_needs_the_secret(void)
 {
     char dir[256], log[300], addr[300];
     locd_engine *e = NULL;
     pid_t svc;
-    (void)state;
     lu_temp_dir(dir, sizeof dir);
     snprintf(log, sizeof log, "%s/t.log", dir);
     /* refused without a secret */
-    assert_true(lu_start_service("tcp:127.0.0.1:0", NULL, 1, log, addr, sizeof addr) < 0);
-    assert_true(lu_wait_file_contains(log, "secret", 5000));
+    TEST_ASSERT_TRUE(lu_start_service("tcp:127.0.0.1:0", NULL, 1, log, addr, sizeof addr) < 0);
+    TEST_ASSERT_TRUE(lu_wait_file_contains(log, "secret", 5000));
     svc = lu_start_service("tcp:127.0.0.1:0", "s3cret", 2, log, addr, sizeof addr);
-    assert_true(svc > 0);
-    assert_true(strncmp(addr, "tcp:127.0.0.1:", 14) == 0);
-    assert_int_equal(make_engine(addr, NULL, &e), LOCD_ERR_AUTH);
-    assert_int_equal(make_engine(addr, "wrong", &e), LOCD_ERR_AUTH);
-    assert_true(service_works(addr, "s3cret"));
+    TEST_ASSERT_TRUE(svc > 0);
+    TEST_ASSERT_TRUE(strncmp(addr, "tcp:127.0.0.1:", 14) == 0);
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_AUTH, make_engine(addr, NULL, &e));
+    TEST_ASSERT_EQUAL_INT64(LOCD_ERR_AUTH, make_engine(addr, "wrong", &e));
+    TEST_ASSERT_TRUE(service_works(addr, "s3cret"));
     {
         /* large boxes stream over TCP */
         locd_engine *e1 = NULL;
@@ -332,13 +325,13 @@ static void tcp_needs_the_secret(void **state)
         float *b = ts_scene(2, 60000, 17);
         locd_engine_config cfg;
         locd_engine_config_init(&cfg);
-        assert_int_equal(locd_engine_create(&cfg, &e1), LOCD_OK);
-        assert_int_equal(make_engine(addr, "s3cret", &e), LOCD_OK);
-        assert_int_equal(locd_pairs_create(NULL, &want), LOCD_OK);
-        assert_int_equal(locd_pairs_create(NULL, &got), LOCD_OK);
-        assert_int_equal(locd_engine_find_pairs_f32(e1, b, 60000, 0, want), LOCD_OK);
-        assert_int_equal(locd_engine_find_pairs_f32(e, b, 60000, 0, got), LOCD_OK);
-        assert_true(lu_same_pairs(want, got));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e1));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, make_engine(addr, "s3cret", &e));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &want));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &got));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e1, b, 60000, 0, want));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, 60000, 0, got));
+        TEST_ASSERT_TRUE(lu_same_pairs(want, got));
         locd_engine_destroy(e1);
         locd_engine_destroy(e);
         locd_pairs_destroy(want);
@@ -349,65 +342,60 @@ static void tcp_needs_the_secret(void **state)
     lu_cleanup_dir(dir);
 }
 
-static void socket_directory_must_be_private(void **state)
+static void socket_directory_must_be_private(void)
 {
     char dir[256], listen[300], log[300], addr[300];
-    (void)state;
     lu_temp_dir(dir, sizeof dir);
     snprintf(log, sizeof log, "%s/p.log", dir);
     chmod(dir, 0755);
     snprintf(listen, sizeof listen, "unix:%s/p.sock", dir);
-    assert_true(lu_start_service(listen, NULL, 1, log, addr, sizeof addr) < 0);
-    assert_true(lu_wait_file_contains(log, "0700", 5000));
+    TEST_ASSERT_TRUE(lu_start_service(listen, NULL, 1, log, addr, sizeof addr) < 0);
+    TEST_ASSERT_TRUE(lu_wait_file_contains(log, "0700", 5000));
     lu_cleanup_dir(dir);
 }
 
-static void create_destroy_cycles_leak_nothing(void **state)
+static void create_destroy_cycles_leak_nothing(void)
 {
     char prefix[64];
     int fds0 = lu_count_fds(), children0 = lu_count_children(), i, cycles = lu_heavy() ? 1000 : 100;
     float *b = ts_scene(0, 20000, 8);
     locd_pairs *p;
-    (void)state;
-    assert_int_equal(locd_pairs_create(NULL, &p), LOCD_OK);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
     for (i = 0; i < cycles; i++) {
         locd_engine *e = NULL;
-        assert_int_equal(make_engine(g_fx.addr, NULL, &e), LOCD_OK);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, make_engine(g_fx.addr, NULL, &e));
         if (i % 50 == 0) /* 20000 boxes go through shared memory */
-            assert_int_equal(locd_engine_find_pairs_f32(e, b, 20000, 0, p), LOCD_OK);
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, 20000, 0, p));
         locd_engine_destroy(e);
     }
     snprintf(prefix, sizeof prefix, "locd-c%ld-", (long)getpid());
-    assert_int_equal(lu_count_shm(prefix), 0);
-    assert_int_equal(lu_count_fds(), fds0);
-    assert_int_equal(lu_count_children(), children0);
+    TEST_ASSERT_EQUAL_INT64(0, lu_count_shm(prefix));
+    TEST_ASSERT_EQUAL_INT64(fds0, lu_count_fds());
+    TEST_ASSERT_EQUAL_INT64(children0, lu_count_children());
     free(b);
     locd_pairs_destroy(p);
 }
 
-static int setup(void **state)
+static int setup(void)
 {
-    (void)state;
     return lu_fixture_up(&g_fx);
 }
 
-static int teardown(void **state)
+static void teardown(void)
 {
-    (void)state;
     lu_fixture_down(&g_fx);
-    return 0;
 }
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test_setup_teardown(garbage_drops_only_that_connection, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(sixteen_clients_fifty_jobs_each, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(client_leaving_with_jobs_in_flight, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(service_killed_then_restarted, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(tcp_needs_the_secret, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(socket_directory_must_be_private, lu_timer_start, lu_timer_print),
-        cmocka_unit_test_setup_teardown(create_destroy_cycles_leak_nothing, lu_timer_start, lu_timer_print),
+    static const lt_test tests[] = {
+        LT_TEST_FIXTURE(garbage_drops_only_that_connection, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(sixteen_clients_fifty_jobs_each, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(client_leaving_with_jobs_in_flight, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(service_killed_then_restarted, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(tcp_needs_the_secret, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(socket_directory_must_be_private, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(create_destroy_cycles_leak_nothing, lu_timer_start, lu_timer_print),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return LT_RUN_GROUP(tests, setup, teardown);
 }

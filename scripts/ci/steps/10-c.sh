@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Release build of the library, the CLI and the C test suite (cmocka), then
+# Release build of the library, the CLI and the C test suite (Unity), then
 # the exactness suites again with each narrower SIMD kernel forced
 # (LOCD_KERNEL caps the run-time choice; test_determinism also compares the
 # kernels byte for byte inside one process).

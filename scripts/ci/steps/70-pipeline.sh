@@ -2,7 +2,7 @@
 # The filter pipeline end to end: `locd simulate` on the example scenes
 # (fast ball caught only with continuous detection, fast rock on a mesh
 # terrain, broad-phase-only million boxes with idle stages, box pile, frames).
-# The cmocka tests of the pipeline run in 10-c. One JUnit testcase per check.
+# The C tests of the pipeline (tests/test_pipeline.c) run in 10-c. One JUnit testcase per check.
 set -euo pipefail
 cd "$ROOT"
 BUILD="$ROOT/build-ci/c"
