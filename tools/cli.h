@@ -58,6 +58,7 @@ int cmd_pairs(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_serve(int argc, char **argv);
 int cmd_simulate(int argc, char **argv);
+int cmd_frames(int argc, char **argv);
 int cmd_accuracy(int argc, char **argv);
 
 #endif

@@ -449,17 +449,25 @@ static int setup_world(sim_scene *s, long threads, locd_world **w)
         fprintf(stderr, "locd: %s\n", locd_last_error());
         return -1;
     }
-    for (i = 0; i < s->n; i++)
+    for (i = 0; i < s->n; i++) {
         if ((st = locd_world_add(*w, s->shapes[s->shape_of[i]].handle, s->poses + 7 * i, s->vel + 6 * i, NULL)) !=
             LOCD_OK) {
             fprintf(stderr, "locd: object %zu: %s\n", i, locd_last_error());
             return -1;
         }
+        /* Filters the scene asks for (the world's broad phase never pairs filtered objects). */
+        if (s->has_filters && (st = locd_world_set_filter(*w, (uint32_t)i, s->category[i], s->mask[i],
+                                                          s->group[i])) != LOCD_OK) {
+            fprintf(stderr, "locd: object %zu: %s\n", i, locd_last_error());
+            return -1;
+        }
+    }
     return 0;
 }
 
 static void print_summary(const sim_scene *s, const sim_state *st, const locd_pipeline_options *o, int steps,
-                          const locd_pipeline_stats *total, double ms_wall, const ladder_totals *ladder)
+                          const locd_pipeline_stats *total, double ms_wall, const ladder_totals *ladder,
+                          const uint64_t *events)
 {
     size_t i;
     int first = 1;
@@ -467,6 +475,8 @@ static void print_summary(const sim_scene *s, const sim_state *st, const locd_pi
            "\"contacts\":%s,\"response\":%s,",
            s->name, steps, s->n, swept_name(o->swept), (o->stages & LOCD_STAGE_SHAPE) ? "true" : "false",
            (o->stages & LOCD_STAGE_CONTACT) ? "true" : "false", s->response ? "true" : "false");
+    printf("\"contacts_began\":%llu,\"contacts_ended\":%llu,\"removed\":%llu,", (unsigned long long)events[0],
+           (unsigned long long)events[1], (unsigned long long)events[2]);
     print_stages(stdout, total);
     if (ladder)
         print_ladder_totals(ladder);
@@ -491,6 +501,7 @@ typedef struct sim_run {
     locd_contacts *c, *lc; /* the step's contacts; the ladder's own */
     locd_pipeline_options o;
     locd_pipeline_stats total;
+    uint64_t began, ended, removed; /* contact events and removals over the run */
     ladder_totals ladder;
     FILE *rec; /* the recorded positions, or NULL */
     char dump_path[4096];
@@ -607,15 +618,39 @@ static int advance(sim_run *r, int step)
     return 0;
 }
 
+/* Objects the scene removes at this step leave the world (and stop moving);
+ * the count. */
+static size_t remove_due(sim_run *r, int step)
+{
+    size_t i, k = 0;
+    if (!r->s.has_filters)
+        return 0;
+    for (i = 0; i < r->s.n; i++)
+        if (r->s.remove_at[i] == step) {
+            if (locd_world_remove(r->w, (uint32_t)i) != LOCD_OK)
+                cli_die("step %d: %s", step, locd_last_error());
+            r->s.dynamic[i] = 0;
+            k++;
+        }
+    return k;
+}
+
 /* One step and its JSON line (unless --quiet); 0, or -1 after a failure. */
 static int run_step(sim_run *r, int step)
 {
     locd_pipeline_stats ps;
+    size_t nb = 0, ne = 0, removed = remove_due(r, step);
     if (collide_step(r, step, &ps) != 0)
         return -1;
+    locd_world_contact_events(r->w, NULL, &nb, NULL, &ne);
+    r->began += nb;
+    r->ended += ne;
+    r->removed += removed;
     if (!r->a.quiet)
-        printf("{\"step\":%d,\"t\":%.6g,\"objects\":%zu,\"pairs\":%zu,\"swept_objects\":%u,", step,
-               step * r->s.dt, r->s.n, locd_contacts_count(r->c), ps.swept_objects);
+        printf("{\"step\":%d,\"t\":%.6g,\"objects\":%zu,\"pairs\":%zu,\"began\":%zu,\"ended\":%zu,"
+               "\"removed\":%zu,\"swept_objects\":%u,",
+               step, step * r->s.dt, (size_t)ps.objects, locd_contacts_count(r->c), nb, ne, removed,
+               ps.swept_objects);
     if (r->a.ladder && ladder_step(r) != 0)
         return -1;
     if (advance(r, step) != 0)
@@ -657,7 +692,11 @@ static int run_steps(sim_run *r, int steps)
             return 1;
     }
     cli_progress("simulate: step", 1, 1);
-    print_summary(&r->s, &r->st, &r->o, steps, &r->total, cli_now_ms() - t_start, r->a.ladder ? &r->ladder : NULL);
+    {
+        uint64_t events[3] = {r->began, r->ended, r->removed};
+        print_summary(&r->s, &r->st, &r->o, steps, &r->total, cli_now_ms() - t_start,
+                      r->a.ladder ? &r->ladder : NULL, events);
+    }
     return finish_recording(r);
 }
 

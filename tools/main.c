@@ -15,6 +15,7 @@ static const command commands[] = {
     {"pairs", cmd_pairs, "pairs SCENE [--against B] [--threads K] [--out PAIRS.bin|-] ...   find all overlapping pairs (.aabb, .aabb64, .npy, -)"},
     {"bench", cmd_bench, "bench [--sizes 1e6,2e6] [--repeat R] [--threads-max P]   the paper's Tables 1-2 on this machine"},
     {"serve", cmd_serve, "serve --listen unix:PATH|tcp:HOST:PORT   run the level-3 service"},
+    {"frames", cmd_frames, "frames SCENE.aabb --moving P --frames F [--static S] [--check]   frame-to-frame updates vs rebuild"},
     {"simulate", cmd_simulate, "simulate SCENE.json|- --steps N   run a scene through the filter pipeline"},
     {"accuracy", cmd_accuracy, "accuracy [--out accuracy.md]   what accuracy costs in time"},
 };

@@ -303,6 +303,16 @@ static int make_shape(const json_value *o, int variant, sim_shape *sh, char *err
     return rc;
 }
 
+/* Grows *p to n values; on failure *p stays (sim_scene_free frees it). */
+static int grow_u64(uint64_t **p, size_t n)
+{
+    uint64_t *q = realloc(*p, n * sizeof(uint64_t));
+    if (!q)
+        return -1;
+    *p = q;
+    return 0;
+}
+
 static int grow_objects(sim_scene *s, size_t extra)
 {
     size_t n = s->n + extra;
@@ -324,23 +334,46 @@ static int grow_objects(sim_scene *s, size_t extra)
     names = sof ? realloc(s->names, n * sizeof(char *)) : NULL;
     if (names)
         s->names = names;
-    return names ? 0 : -1;
+    if (!names)
+        return -1;
+    if (grow_u64(&s->category, n) != 0 || grow_u64(&s->mask, n) != 0 || grow_u64(&s->group, n) != 0)
+        return -1;
+    {
+        int32_t *ra = realloc(s->remove_at, n * sizeof(int32_t));
+        if (!ra)
+            return -1;
+        s->remove_at = ra;
+    }
+    return 0;
 }
 
 /* Pose, velocity and flags shared by objects and generators. */
 typedef struct placement {
     double pos[3], quat[4], vel[3], angular[3];
     int is_static;
+    double category, mask, group, remove_at; /* mask < 0: all bits */
 } placement;
 
 static int read_placement(const json_value *o, placement *p, char *err, size_t errlen)
 {
     memset(p, 0, sizeof *p);
     p->quat[3] = 1.0;
+    p->category = 1;
+    p->mask = -1;
     if (json_get_vec(o, "position", p->pos, 3) < 0 || json_get_vec(o, "orientation", p->quat, 4) < 0 ||
         json_get_vec(o, "velocity", p->vel, 3) < 0 || json_get_vec(o, "angular_velocity", p->angular, 3) < 0 ||
         json_get_bool(o, "static", &p->is_static) < 0)
         return bad(err, errlen, "position [3], orientation [x, y, z, w], velocity [3], static (bool)");
+    if (json_get_number(o, "category", &p->category) < 0 || json_get_number(o, "mask", &p->mask) < 0 ||
+        json_get_number(o, "group", &p->group) < 0 || json_get_number(o, "remove_at", &p->remove_at) < 0)
+        return bad(err, errlen, "category, mask, group, remove_at are numbers");
+    /* Filter bits as JSON numbers: integers below 2^53 (mask -1: all bits). */
+    if (!(p->category >= 0 && p->category < 9007199254740992.0 && p->category == (double)(uint64_t)p->category) ||
+        !(p->mask == -1 || (p->mask >= 0 && p->mask < 9007199254740992.0 && p->mask == (double)(uint64_t)p->mask)) ||
+        !(p->group >= 0 && p->group < 9007199254740992.0 && p->group == (double)(uint64_t)p->group) ||
+        !(p->remove_at >= 0 && p->remove_at <= 1e9 && p->remove_at == (double)(int32_t)p->remove_at))
+        return bad(err, errlen, "category, group: integers 0..2^53; mask: -1 (all bits) or 0..2^53; "
+                                "remove_at: a step number (0 = never)");
     return 0;
 }
 
@@ -357,6 +390,12 @@ static void put_object(sim_scene *s, const placement *p, const double *pos, cons
         memset(s->vel + 6 * i, 0, 6 * sizeof(double));
     s->shape_of[i] = shape;
     s->names[i] = name ? strdup(name) : NULL;
+    s->category[i] = (uint64_t)p->category;
+    s->mask[i] = p->mask < 0 ? ~(uint64_t)0 : (uint64_t)p->mask;
+    s->group[i] = (uint64_t)p->group;
+    s->remove_at[i] = (int32_t)p->remove_at;
+    if (p->category != 1 || p->mask >= 0 || p->group != 0 || p->remove_at != 0)
+        s->has_filters = 1;
 }
 
 static int read_name(const json_value *o, const char **name, char *err, size_t errlen)
@@ -562,5 +601,9 @@ void sim_scene_free(sim_scene *s)
     free(s->vel);
     free(s->dynamic);
     free(s->shape_of);
+    free(s->category);
+    free(s->mask);
+    free(s->group);
+    free(s->remove_at);
     memset(s, 0, sizeof *s);
 }

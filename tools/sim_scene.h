@@ -31,6 +31,11 @@ typedef struct sim_scene {
     double *vel;   /* 6 per object */
     uint8_t *dynamic;
     uint32_t *shape_of; /* index into shapes */
+    /* Collision filter (locd_world_set_filter) and the step at which the
+     * object is removed (0: never); has_filters says whether any object sets one. */
+    uint64_t *category, *mask, *group;
+    int32_t *remove_at;
+    int has_filters;
     char **names;       /* NULL entries for unnamed objects */
     sim_shape *shapes;
     size_t nshapes, shapes_cap;

@@ -4,6 +4,7 @@
 #define LOCD_NARROW_H
 
 #include "core/core.h" /* the handle magics, among the others' */
+#include "locd/scene.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -82,12 +83,57 @@ int lc_pair_sweep(const lc_placed *a, const lc_placed *b, const double *d, int32
                   uint64_t *counts);
 
 /* ---- world and contacts handles (world.c, pipeline.c) ---- */
+
+/* An object's collision filter (the scene's rule, locd/scene.h). */
+typedef struct lc_filter {
+    uint64_t category, mask, group;
+} lc_filter;
+
+/* The world's broad phase (world_broad.c): a locd scene holding every live
+ * object's box, moved only when the box changed; for an engine of level 2 or 3
+ * (no scene there) a from-scratch find on the live boxes each collide. */
+typedef struct lc_world_broad {
+    locd_scene *scene; /* NULL: the from-scratch path */
+    lc_buf ids;        /* locd_id per object index; LOCD_ID_NONE until first in the scene */
+    lc_buf held;       /* 6 doubles per object: the box the scene holds */
+    /* scene id -> object index: open addressing, key 0 = empty; ids are never
+     * reused, so entries are never deleted (removed objects keep theirs) */
+    uint64_t *map_keys;
+    uint32_t *map_vals;
+    size_t map_cap, map_used;
+    lc_buf pending;    /* uint8 per object: box recomputed since the scene last took it */
+    /* The broad pairs as sorted keys (i << 32 | j), kept up to date from the
+     * scene's created and lost lists; resync: rebuild them from its full list. */
+    lc_buf keys, keys2, ck, lk, scratch;
+    size_t nkeys;
+    int resync;
+    /* per-collide batches */
+    lc_buf b_idx, b_ids, b_boxes, b_cat, b_mask, b_group;
+} lc_world_broad;
+
+/* Contact begin/end (world_events.c): sorted (i << 32 | j) keys of the
+ * previous collide's contacts, and the lists of the last one. */
+typedef struct lc_world_events {
+    lc_buf prev, cur, scratch; /* uint64 keys */
+    size_t prev_n;
+    lc_buf began, ended; /* uint32 pairs */
+    size_t began_n, ended_n;
+} lc_world_events;
+
 struct locd_world {
     uint32_t magic;
     locd_allocator alloc; /* the config's: every array below and the world itself */
     locd_engine *engine;
     locd_pairs *pairs;
-    locd_shape **shapes;
+    locd_shape **shapes; /* NULL for a removed object */
+    lc_buf filter;       /* lc_filter per object */
+    lc_buf dirty;        /* uint8 per object: pose or velocity changed since its box was computed */
+    int all_dirty;       /* every box to recompute (scratch regrown, options changed) */
+    int32_t box_swept;   /* the options the boxes were computed with */
+    double box_dt, box_threshold;
+    size_t live;         /* objects not removed */
+    lc_world_broad broad;
+    lc_world_events events;
     double *poses; /* 7 per object */
     double *vel;   /* 6 per object */
     size_t n, cap;
@@ -108,6 +154,22 @@ struct locd_contacts {
 };
 
 locd_status lc_world_check(const locd_world *w);
+/* The broad phase on the world's boxes (w->boxes, live objects) into
+ * w->pairs, i < j, in a deterministic order ((i, j) on the scene path; the
+ * engine's order, or (i, j) with LOCD_FIND_SORTED, on the from-scratch path);
+ * *candidates gets the pairs tested. */
+locd_status lc_world_broad_open(locd_world *w);
+void lc_world_broad_close(locd_world *w);
+locd_status lc_world_broad_reserve(locd_world *w, size_t objects);
+locd_status lc_world_broad_find(locd_world *w, uint32_t find_flags, uint64_t *candidates);
+/* Takes object index out of the scene (if it is there). */
+locd_status lc_world_broad_remove(locd_world *w, uint32_t index);
+/* Gives the scene the object's new filter (if it is there). */
+locd_status lc_world_broad_filter(locd_world *w, uint32_t index, const lc_filter *f);
+/* The events of a collide whose contacts are c. */
+locd_status lc_world_events_update(locd_world *w, const locd_contacts *c);
+void lc_world_events_clear(locd_world *w);
+void lc_world_events_free(locd_world *w);
 /* Frees the pipeline's per-object scratch (R, boxes, fast). */
 void lc_world_free_scratch(locd_world *w);
 locd_status lc_contacts_check(const locd_contacts *c);

@@ -39,6 +39,7 @@ static locd_status reserve_scratch(locd_world *w, size_t pairs)
     if (w->scratch_n < w->n) {
         size_t n = w->n;
         lc_world_free_scratch(w);
+        w->all_dirty = 1; /* new blocks: every box is computed again */
         w->R = lc_alloc(&w->alloc, n * 12 * sizeof(double));
         w->boxes = lc_alloc(&w->alloc, n * 6 * sizeof(double));
         w->fast = lc_alloc(&w->alloc, n);
@@ -77,16 +78,33 @@ static int moving(const double *v)
 
 /* World boxes; with swept tests on, a moving object's box covers its whole
  * motion in the step (union of the start and end boxes for a translation; of
- * the bounding spheres' boxes when it also turns). */
+ * the bounding spheres' boxes when it also turns). Only the objects whose
+ * pose or velocity changed get theirs computed again (all of them when the
+ * options that shape the boxes changed); those are marked pending for the
+ * broad phase, which moves them in its scene if their box changed. */
 static void world_boxes(locd_world *w, const locd_pipeline_options *o, uint32_t *nswept)
 {
+    uint8_t *dirty = w->dirty.data, *pending = w->broad.pending.data;
     size_t i;
-    int a;
+    int a, all;
     *nswept = 0;
+    all = w->all_dirty || o->swept != w->box_swept || o->dt != w->box_dt || o->swept_threshold != w->box_threshold;
+    w->all_dirty = 0;
+    w->box_swept = o->swept;
+    w->box_dt = o->dt;
+    w->box_threshold = o->swept_threshold;
     for (i = 0; i < w->n; i++) {
         const double *v = w->vel + 6 * i;
         double *box = w->boxes + 6 * i;
         lc_placed p;
+        if (!w->shapes[i])
+            continue; /* removed */
+        if (!all && !dirty[i]) {
+            *nswept += w->fast[i];
+            continue;
+        }
+        dirty[i] = 0;
+        pending[i] = 1;
         lc_pose_to_rt(w->poses + 7 * i, w->R + 12 * i, w->R + 12 * i + 9);
         lc_place(w->shapes[i], w->R + 12 * i, w->R + 12 * i + 9, &p);
         lc_placed_box(&p, box);
@@ -263,27 +281,25 @@ static locd_status stage_contact(locd_world *w, const locd_pipeline_options *o, 
  * come first in the result, each part in broad-phase order). */
 static locd_status run(locd_world *w, const locd_pipeline_options *o, locd_contacts *out, locd_pipeline_stats *s)
 {
-    locd_stats bs;
+    uint64_t candidates;
     const uint32_t *bp;
     size_t m, k, nd = 0, ns = 0;
     uint32_t *disc, *swept;
     double t0 = lc_now_ms();
     locd_status st;
 
-    s->objects = (uint32_t)w->n;
+    s->objects = (uint32_t)w->live;
     st = reserve_scratch(w, 0);
     if (st != LOCD_OK)
         return st;
     world_boxes(w, o, &s->swept_objects);
-    st = locd_engine_find_pairs_f64(w->engine, w->boxes, w->n, o->find_flags, w->pairs);
-    if (st != LOCD_OK)
+    /* Only the objects whose box changed cost anything here (world_broad.c). */
+    if ((st = lc_world_broad_find(w, o->find_flags, &candidates)) != LOCD_OK)
         return st;
     m = locd_pairs_count(w->pairs);
-    locd_stats_init(&bs);
-    if (locd_engine_stats(w->engine, &bs) == LOCD_OK)
-        s->broad.tests = bs.candidates;
+    s->broad.tests = candidates;
     s->broad.calls = 1;
-    s->broad.pairs_in = w->n > 1 ? (uint64_t)w->n * (uint64_t)(w->n - 1) / 2 : 0;
+    s->broad.pairs_in = w->live > 1 ? (uint64_t)w->live * (uint64_t)(w->live - 1) / 2 : 0;
     s->broad.pairs_out = m;
     s->broad.ms = lc_now_ms() - t0;
 
@@ -337,7 +353,10 @@ locd_status locd_world_collide(locd_world *w, const locd_pipeline_options *optio
     out->count = 0;
     out->has_contact = 0;
     locd_pipeline_stats_init(&s);
+    lc_world_events_clear(w);
     st = run(w, &o, out, &s);
+    if (st == LOCD_OK)
+        st = lc_world_events_update(w, out);
     if (st != LOCD_OK) {
         out->count = 0;
         out->has_contact = 0;

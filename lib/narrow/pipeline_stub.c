@@ -177,3 +177,22 @@ locd_status locd_world_collide(locd_world *w, const locd_pipeline_options *o, lo
     (void)w, (void)o, (void)out, (void)stats;
     return NO_NARROW();
 }
+
+locd_status locd_world_remove(locd_world *w, uint32_t index)
+{
+    (void)w, (void)index;
+    return NO_NARROW();
+}
+
+locd_status locd_world_set_filter(locd_world *w, uint32_t index, uint64_t category, uint64_t mask, uint64_t group)
+{
+    (void)w, (void)index, (void)category, (void)mask, (void)group;
+    return NO_NARROW();
+}
+
+locd_status locd_world_contact_events(const locd_world *w, const uint32_t **began, size_t *began_count,
+                                      const uint32_t **ended, size_t *ended_count)
+{
+    (void)w, (void)began, (void)began_count, (void)ended, (void)ended_count;
+    return NO_NARROW();
+}

@@ -34,7 +34,7 @@ locd_status locd_world_create(const locd_engine_config *config, locd_world **out
     w->magic = LC_MAGIC_WORLD;
     w->alloc = a;
     if ((st = locd_engine_create(config, &w->engine)) != LOCD_OK ||
-        (st = locd_pairs_create(&w->alloc, &w->pairs)) != LOCD_OK) {
+        (st = locd_pairs_create(&w->alloc, &w->pairs)) != LOCD_OK || (st = lc_world_broad_open(w)) != LOCD_OK) {
         locd_world_destroy(w);
         return st;
     }
@@ -57,9 +57,14 @@ void locd_world_destroy(locd_world *w)
     if (!w || w->magic != LC_MAGIC_WORLD)
         return;
     for (i = 0; i < w->n; i++)
-        lc_shape_release(w->shapes[i]);
+        if (w->shapes[i])
+            lc_shape_release(w->shapes[i]);
     free_objects(w);
     lc_world_free_scratch(w);
+    lc_world_broad_close(w);
+    lc_world_events_free(w);
+    lc_buf_release(&w->alloc, &w->filter, sizeof(lc_filter));
+    lc_buf_release(&w->alloc, &w->dirty, 1);
     lc_free(&w->alloc, w->work, w->work_cap * sizeof(uint32_t));
     locd_engine_destroy(w->engine);
     locd_pairs_destroy(w->pairs);
@@ -149,14 +154,38 @@ locd_status locd_world_add(locd_world *w, locd_shape *shape, const double *pose,
         return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "a world holds at most 2^32 - 2 objects");
     if (w->n == w->cap && (st = grow_objects(w)) != LOCD_OK)
         return st;
+    if ((st = lc_buf_reserve(&w->alloc, &w->filter, sizeof(lc_filter), w->n + 1)) != LOCD_OK ||
+        (st = lc_buf_reserve(&w->alloc, &w->dirty, 1, w->n + 1)) != LOCD_OK ||
+        (st = lc_world_broad_reserve(w, w->n + 1)) != LOCD_OK)
+        return st;
     lc_shape_retain(shape);
     w->shapes[w->n] = shape;
+    {
+        lc_filter *f = (lc_filter *)w->filter.data + w->n;
+        f->category = 1;
+        f->mask = ~(uint64_t)0;
+        f->group = 0;
+    }
+    ((locd_id *)w->broad.ids.data)[w->n] = LOCD_ID_NONE;
+    ((uint8_t *)w->dirty.data)[w->n] = 1;
+    ((uint8_t *)w->broad.pending.data)[w->n] = 0;
+    w->live++;
     memcpy(w->poses + 7 * w->n, pose, 7 * sizeof(double));
     memcpy(w->vel + 6 * w->n, velocity, 6 * sizeof(double));
     if (index)
         *index = (uint32_t)w->n;
     w->n++;
     lc_clear_error();
+    return LOCD_OK;
+}
+
+/* A live object's index (the caller has checked the handle). */
+static locd_status check_index(const locd_world *w, uint32_t index)
+{
+    if (index >= w->n)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "object %u of %zu", index, w->n);
+    if (!w->shapes[index])
+        return lc_error_box(LOCD_ERR_STALE_ID, index, "object %u was removed", index);
     return LOCD_OK;
 }
 
@@ -168,11 +197,10 @@ static locd_status set_row(locd_world *w, uint32_t index, const double *row, siz
     locd_status st;
     if (!row)
         return lc_error(LOCD_ERR_NULL_POINTER, "%s is NULL", what);
-    if (index >= w->n)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "object %u of %zu", index, w->n);
-    if ((st = check(row, index)) != LOCD_OK)
+    if ((st = check_index(w, index)) != LOCD_OK || (st = check(row, index)) != LOCD_OK)
         return st;
     memcpy(dst + width * (size_t)index, row, width * sizeof(double));
+    ((uint8_t *)w->dirty.data)[index] = 1;
     lc_clear_error();
     return LOCD_OK;
 }
@@ -191,7 +219,7 @@ locd_status locd_world_set_velocity(locd_world *w, uint32_t index, const double 
 
 /* Bulk setters validate every row first: nothing is half-written. The
  * caller has checked the handle. */
-static locd_status set_rows(const locd_world *w, const double *rows, size_t count, size_t width, double *dst,
+static locd_status set_rows(locd_world *w, const double *rows, size_t count, size_t width, double *dst,
                             locd_status (*check)(const double *row, int64_t index), const char *what)
 {
     locd_status st;
@@ -200,11 +228,16 @@ static locd_status set_rows(const locd_world *w, const double *rows, size_t coun
         return lc_error(LOCD_ERR_NULL_POINTER, "%s is NULL", what);
     if (count != w->n)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "%zu %s for %zu objects", count, what, w->n);
+    /* A removed object's row is not read (its index stays in the count). */
     for (i = 0; i < count; i++)
-        if ((st = check(rows + width * i, (int64_t)i)) != LOCD_OK)
+        if (w->shapes[i] && (st = check(rows + width * i, (int64_t)i)) != LOCD_OK)
             return st;
-    if (count)
-        memcpy(dst, rows, width * count * sizeof(double));
+    /* Only the objects whose row changed get a new box at the next collide. */
+    for (i = 0; i < count; i++)
+        if (memcmp(dst + width * i, rows + width * i, width * sizeof(double)) != 0) {
+            memcpy(dst + width * i, rows + width * i, width * sizeof(double));
+            ((uint8_t *)w->dirty.data)[i] = 1;
+        }
     lc_clear_error();
     return LOCD_OK;
 }
@@ -228,9 +261,60 @@ locd_status locd_world_get_pose(const locd_world *w, uint32_t index, double *pos
         return st;
     if (!pose)
         return lc_error(LOCD_ERR_NULL_POINTER, "pose is NULL");
-    if (index >= w->n)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "object %u of %zu", index, w->n);
+    if ((st = check_index(w, index)) != LOCD_OK)
+        return st;
     memcpy(pose, w->poses + 7 * (size_t)index, 7 * sizeof(double));
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+locd_status locd_world_remove(locd_world *w, uint32_t index)
+{
+    locd_status st;
+    if ((st = lc_world_check(w)) != LOCD_OK || (st = check_index(w, index)) != LOCD_OK)
+        return st;
+    /* The scene first: if it refuses, the world is unchanged. */
+    if ((st = lc_world_broad_remove(w, index)) != LOCD_OK)
+        return st;
+    lc_shape_release(w->shapes[index]);
+    w->shapes[index] = NULL;
+    w->live--;
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+locd_status locd_world_set_filter(locd_world *w, uint32_t index, uint64_t category, uint64_t mask, uint64_t group)
+{
+    lc_filter f;
+    locd_status st;
+    if ((st = lc_world_check(w)) != LOCD_OK || (st = check_index(w, index)) != LOCD_OK)
+        return st;
+    f.category = category;
+    f.mask = mask;
+    f.group = group;
+    if ((st = lc_world_broad_filter(w, index, &f)) != LOCD_OK)
+        return st;
+    ((lc_filter *)w->filter.data)[index] = f;
+    lc_clear_error();
+    return LOCD_OK;
+}
+
+/* The lists world_events.c keeps (here, beside the handle check: world.c
+ * calls into world_events.c, never the reverse). */
+locd_status locd_world_contact_events(const locd_world *w, const uint32_t **began, size_t *began_count,
+                                      const uint32_t **ended, size_t *ended_count)
+{
+    locd_status st;
+    if ((st = lc_world_check(w)) != LOCD_OK)
+        return st;
+    if (began)
+        *began = w->events.began.data;
+    if (began_count)
+        *began_count = w->events.began_n;
+    if (ended)
+        *ended = w->events.ended.data;
+    if (ended_count)
+        *ended_count = w->events.ended_n;
     lc_clear_error();
     return LOCD_OK;
 }

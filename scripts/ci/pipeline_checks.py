@@ -5,7 +5,8 @@
 
 Each check is one JUnit testcase: the fast ball is caught only with continuous
 detection on, the fast rock likewise on the mesh terrain, the broad-phase-only
-scene spends zero calls and zero time in the other stages, every per-step line
+scene spends zero calls and zero time in the other stages, filters and removal
+hold (with per-step contact begin/end counts that add up), every per-step line
 is JSON with a `stages` object of four stages, and frames render.
 """
 import json
@@ -95,6 +96,22 @@ def box_pile(locd):
     return "closed-form tests %d" % s["tests"]["closed"]
 
 
+def filters_and_events(locd):
+    steps, s = simulate(locd, "filtered_balls.json", "--steps", "90")
+    t = s["tracked"]
+    check(t["ghost"]["contacts"] == 0 and t["ghost"]["min_z"] < -1.0, "ghost (masked out) should fall through: %s" % t)
+    check(t["floor"]["contacts"] > 0, "the grid balls should land on the floor")
+    check(sum(d["removed"] for d in steps) == 1 and steps[59]["removed"] == 1 and steps[59]["objects"] == 50,
+          "the doomed ball leaves at step 60")
+    check(sum(d["began"] for d in steps) == s["contacts_began"] and
+          sum(d["ended"] for d in steps) == s["contacts_ended"], "per-step began/ended add up to the summary")
+    live = 0
+    for d in steps:  # contacts now = contacts before + began - ended
+        live += d["began"] - d["ended"]
+        check(live == d["pairs"], "step %d: %d pairs, events say %d" % (d["step"], d["pairs"], live))
+    return "began %d, ended %d" % (s["contacts_began"], s["contacts_ended"])
+
+
 def frames_render(locd):
     try:
         import matplotlib  # noqa: F401
@@ -116,6 +133,7 @@ def main():
         ("fast_rock_on_mesh_terrain", lambda: fast_rock_on_terrain(locd)),
         ("broad_phase_only_million", lambda: broad_phase_only(locd, quick)),
         ("box_pile_closed_forms", lambda: box_pile(locd)),
+        ("filters_and_contact_events", lambda: filters_and_events(locd)),
         ("frames_render", lambda: frames_render(locd)),
     ]
     cases, failures = [], 0

@@ -35,7 +35,7 @@ open(sys.argv[1], "w").write('<?xml version="1.0" encoding="utf-8"?>\n<testsuite
 EOF
   exit 0
 fi
-ninja -C "$BUILD" -j "$JOBS" tools/locd bench/peers
+ninja -C "$BUILD" -j "$JOBS" tools/locd bench/peers bench/frames_peers
 
 rc=0
 for kind in uniform clustered mixed lattice far; do
@@ -44,8 +44,12 @@ for kind in uniform clustered mixed lattice far; do
     "$OUT/$kind.aabb" || rc=1
 done
 
+# Frame to frame (bench/frames.py's program): locd's scene, the rebuild, Bullet
+# and FCL kept across 3 frames; locd (both), Bullet (exact pairs of its cache) and FCL must hold the same pairs.
+"$BUILD/bench/frames_peers" "$OUT/uniform.aabb" --moving 0.1 --static 0.5 --frames 3 > "$OUT/frames.json" || rc=1
+
 py_rc=0
-python3 - "$OUT/peers.csv" "$JUNIT" <<'EOF' || py_rc=$?
+python3 - "$OUT/peers.csv" "$JUNIT" "$OUT/frames.json" <<'EOF' || py_rc=$?
 import csv, sys
 from xml.sax.saxutils import escape, quoteattr
 MUST = {"locd", "locd_1t", "cgal_closed", "brute_force"}
@@ -68,6 +72,18 @@ for r in rows:
     cases.append('<testcase classname="bench-smoke" name=%s time="%s">%s</testcase>'
                  % (quoteattr(name), float(r["total_ms"] or 0) / 1000, body))
     print(("FAIL " if bad else "ok   ") + name + ": " + r["note"])
+try:
+    import json
+    fr = json.loads(open(sys.argv[3]).read().strip().splitlines()[-1])["systems"]
+    fmsg = "; ".join("%s %.3f ms, %d pairs" % (k, v["ms"], v["pairs"]) for k, v in fr.items())
+    fbad = len({fr[k]["pairs"] for k in ("locd", "locd_1t", "bullet_dbvt", "fcl_dynamic_aabb_tree")}) != 1
+except (OSError, ValueError, KeyError, IndexError) as e:
+    fmsg, fbad = "frames_peers gave no result: %s" % e, True
+failures += fbad
+cases.append('<testcase classname="bench-smoke" name="frames_peers">%s</testcase>' % (
+    "<failure message=%s>%s</failure>" % (quoteattr(fmsg[:200]), escape(fmsg)) if fbad
+    else "<system-out>%s</system-out>" % escape(fmsg)))
+print(("FAIL " if fbad else "ok   ") + "frames_peers: " + fmsg)
 if not rows:
     failures = 1
     cases.append('<testcase classname="bench-smoke" name="peers"><failure message="no results"/></testcase>')
