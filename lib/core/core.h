@@ -152,7 +152,7 @@ struct locd_pairs {
     size_t cap; /* pairs */
 };
 locd_status lc_pairs_check(const locd_pairs *p);
-locd_status lc_pairs_reserve(locd_pairs *p, size_t pairs);
+LC_SHARED locd_status lc_pairs_reserve(locd_pairs *p, size_t pairs);
 /* Sorts 2*count interleaved uint32 pairs by (i, j); scratch of count uint64. */
 void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch, uint64_t *scratch2);
 locd_status lc_pairs_init_embedded(locd_pairs *p, const locd_allocator *a);
@@ -166,7 +166,7 @@ locd_status lc_pairs_give(locd_pairs *from, locd_pairs *out);
 /* Sorts 64-bit keys whose low `index_bits` bits are already ascending
  * within equal high bits (stable LSD passes over the bits that vary);
  * returns the buffer holding the result (entries or scratch). */
-uint64_t *lc_radix_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits);
+LC_SHARED uint64_t *lc_radix_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits);
 
 /* ---- thread pool (pool.c) ---- */
 typedef struct lc_pool lc_pool;

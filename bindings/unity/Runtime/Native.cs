@@ -423,6 +423,13 @@ namespace Locd
         [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_world_collide(IntPtr world, locd_pipeline_options* options, IntPtr contacts,
                                                     locd_pipeline_stats* stats);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_world_remove(IntPtr world, uint index);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_world_set_filter(IntPtr world, uint index, ulong category, ulong mask, ulong group);
+        [DllImport(NarrowLibrary, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_world_contact_events(IntPtr world, uint** began, UIntPtr* began_count,
+                                                           uint** ended, UIntPtr* ended_count);
         // ================================================================
         // Scene (include/locd/scene.h): a persistent broad phase with stable
         // ids. The safe layer is Locd.Scene (Scene.cs).
