@@ -2,68 +2,116 @@
  * their boxes, then the filter and the ids. */
 #include "scene/scene.h"
 
+/* Copies the live boxes into f (as floats) and returns 1 if every value is
+ * a float exactly (then a float find on them is the same find); 0 at the
+ * first one that is not. */
+static int boxes_as_floats(const locd_scene *s, const uint32_t *live, size_t n, float *f)
+{
+    size_t k;
+    int a;
+    for (k = 0; k < n; k++) {
+        const double *b = s->box + 6 * (size_t)live[k];
+        float *o = f + 6 * k;
+        int ok = 1;
+        for (a = 0; a < 6; a++) {
+            o[a] = (float)b[a];
+            ok &= (double)o[a] == b[a];
+        }
+        if (!ok)
+            return 0;
+    }
+    return 1;
+}
+
+/* 1 when no two live objects can be filtered out: none static, no group,
+ * and every category meets the AND of all masks. */
+static int filter_passes_all(const locd_scene *s, const uint32_t *live, size_t n)
+{
+    uint64_t m = ~(uint64_t)0;
+    size_t k;
+    if (s->live_static)
+        return 0;
+    for (k = 0; k < n; k++) {
+        m &= s->mask[live[k]];
+        if (s->group[live[k]])
+            return 0;
+    }
+    for (k = 0; k < n; k++)
+        if (!(s->cat[live[k]] & m))
+            return 0;
+    return 1;
+}
+
+/* The live objects' pairs from scratch: the engine's find on their boxes
+ * laid out in id order, asked for its pairs sorted by (i, j), which is then
+ * the rows' order: no sort of our own, and the rows written in one pass. */
 locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates)
 {
     const locd_allocator *a = s->alloc;
     size_t n = 0, k, w = 0, cap = s->nslots ? s->nslots : 1, ncap = (size_t)s->serial + 1;
-    int dense = s->live == s->nslots; /* no free slot: the slot array is the box array */
     uint32_t *live = lc_alloc(a, cap * sizeof *live), *by_serial = lc_alloc(a, ncap * sizeof *by_serial);
-    double *boxes = dense ? s->box : lc_alloc(a, cap * 6 * sizeof *boxes);
-    uint64_t *keys = NULL, *scratch = NULL, *sorted;
+    locd_id *idl = lc_alloc(a, cap * sizeof *idl);
+    float *fboxes = lc_alloc(a, cap * 6 * sizeof *fboxes);
+    double *boxes = NULL;
+    const void *in;
+    int f64 = 0, all;
     locd_pairs found;
     locd_stats st_find;
     locd_status st;
-    if (!live || !boxes || !by_serial) {
-        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's rebuild buffers");
-        goto done0;
-    }
-    for (k = 0; k < s->nslots; k++)
-        if (s->flags[k] & LC_SLOT_LIVE) {
-            if (!dense)
-                memcpy(boxes + 6 * n, s->box + 6 * k, 6 * sizeof *boxes);
-            live[n++] = (uint32_t)k;
-            by_serial[LC_ID_SERIAL(s->id[k])] = (uint32_t)k;
-        }
     lc_pairs_init_embedded(&found, a);
+    if (!live || !fboxes || !by_serial || !idl) {
+        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's rebuild buffers");
+        goto done;
+    }
+    /* the live slots in serial (= id) order */
+    memset(by_serial, 0xff, ncap * sizeof *by_serial);
+    for (k = 0; k < s->nslots; k++)
+        if (s->flags[k] & LC_SLOT_LIVE)
+            by_serial[LC_ID_SERIAL(s->id[k])] = (uint32_t)k;
+    for (k = 0; k < ncap; k++)
+        if (by_serial[k] != 0xffffffffu)
+            idl[n] = s->id[by_serial[k]], live[n++] = by_serial[k];
+    /* The engine's float find is cheaper than its double one; it gives the
+       same pairs when every box is a float exactly (boxes given through
+       the f32 entry points always are). */
+    in = fboxes;
+    if (!boxes_as_floats(s, live, n, fboxes)) {
+        f64 = 1;
+        boxes = lc_alloc(a, cap * 6 * sizeof *boxes);
+        if (!boxes) {
+            st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's rebuild buffers");
+            goto done;
+        }
+        for (k = 0; k < n; k++)
+            memcpy(boxes + 6 * k, s->box + 6 * (size_t)live[k], 6 * sizeof *boxes);
+        in = boxes;
+    }
     memset(&st_find, 0, sizeof st_find);
     st_find.size = sizeof st_find;
-    st = s->engine->ops->find(s->engine, boxes, n, 1, 0, &found, &st_find);
-    if (st == LOCD_OK) {
-        keys = lc_alloc(a, (found.count ? found.count : 1) * sizeof *keys);
-        scratch = lc_alloc(a, (found.count ? found.count : 1) * sizeof *scratch);
-        if (!keys || !scratch)
-            st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair keys");
-    }
+    st = s->engine->ops->find(s->engine, in, n, f64, LOCD_FIND_SORTED, &found, &st_find);
     if (st == LOCD_OK)
         st = lc_plist_reserve(a, out, found.count ? found.count : 1);
     if (st == LOCD_OK) {
         locd_id *rows = out->rows.data;
-        /* The filter, then the order key of each row (serials: unique, and
-           ordered as the ids); the keys alone are sorted (11-bit digits
-           over the bits that vary) and the rows written back from them. */
+        const uint32_t *p = found.data;
+        /* i < j and ids ascend with the index: each row is (idl[i], idl[j]) */
+        all = filter_passes_all(s, live, n);
         for (k = 0; k < found.count; k++) {
-            uint32_t i = live[found.data[2 * k]], j = live[found.data[2 * k + 1]];
-            uint64_t si = LC_ID_SERIAL(s->id[i]), sj = LC_ID_SERIAL(s->id[j]);
-            if (!lc_scene_may_pair(s, i, j))
+            uint32_t i = p[2 * k], j = p[2 * k + 1];
+            if (!all && !lc_scene_may_pair(s, live[i], live[j]))
                 continue;
-            keys[w++] = si < sj ? si << 32 | sj : sj << 32 | si;
-        }
-        sorted = lc_radix_sort(keys, scratch, w, 0);
-        for (k = 0; k < w; k++) {
-            rows[2 * k] = s->id[by_serial[sorted[k] >> 32]];
-            rows[2 * k + 1] = s->id[by_serial[sorted[k] & 0xffffffffu]];
+            rows[2 * w] = idl[i], rows[2 * w + 1] = idl[j], w++;
         }
         out->count = w;
         *candidates = found.count;
     }
-    lc_free(a, keys, (found.count ? found.count : 1) * sizeof *keys);
-    lc_free(a, scratch, (found.count ? found.count : 1) * sizeof *scratch);
+done:
     lc_pairs_fini_embedded(&found);
-done0:
     lc_free(a, live, cap * sizeof *live);
+    lc_free(a, idl, cap * sizeof *idl);
     lc_free(a, by_serial, ncap * sizeof *by_serial);
-    if (!dense)
-        lc_free(a, boxes, cap * 6 * sizeof *boxes);
+    lc_free(a, fboxes, cap * 6 * sizeof *fboxes);
+    lc_free(a, boxes, cap * 6 * sizeof *boxes);
     return st;
 }
 
