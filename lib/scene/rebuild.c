@@ -43,8 +43,7 @@ static int filter_passes_all(const locd_scene *s, const uint32_t *live, size_t n
 }
 
 /* The live objects' pairs from scratch: the engine's find on their boxes
- * laid out in id order, asked for its pairs sorted by (i, j), which is then
- * the rows' order: no sort of our own, and the rows written in one pass. */
+ * laid out in id order, so that pairs ordered by (i, j) are rows in order. */
 locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates)
 {
     const locd_allocator *a = s->alloc;
@@ -55,6 +54,8 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     double *boxes = NULL;
     const void *in;
     int f64 = 0, all;
+    size_t *start = NULL;
+    uint32_t *second = NULL;
     locd_pairs found;
     locd_stats st_find;
     locd_status st;
@@ -88,24 +89,51 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     }
     memset(&st_find, 0, sizeof st_find);
     st_find.size = sizeof st_find;
-    st = s->engine->ops->find(s->engine, in, n, f64, LOCD_FIND_SORTED, &found, &st_find);
+    st = s->engine->ops->find(s->engine, in, n, f64, 0, &found, &st_find);
+    if (st == LOCD_OK) {
+        start = lc_alloc(a, (n + 1) * sizeof *start);
+        second = lc_alloc(a, (found.count ? found.count : 1) * sizeof *second);
+        if (!start || !second)
+            st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
+    }
     if (st == LOCD_OK)
         st = lc_plist_reserve(a, out, found.count ? found.count : 1);
     if (st == LOCD_OK) {
         locd_id *rows = out->rows.data;
         const uint32_t *p = found.data;
-        /* i < j and ids ascend with the index: each row is (idl[i], idl[j]) */
+        size_t i, np = found.count;
+        /* The pairs (i, j), i < j, ordered by a counting sort on i (two
+           passes) and an insertion sort of each i's few j: ids ascend with
+           the index, so rows (idl[i], idl[j]) come out sorted. Filtered
+           pairs are dropped on the way. */
         all = filter_passes_all(s, live, n);
-        for (k = 0; k < found.count; k++) {
-            uint32_t i = p[2 * k], j = p[2 * k + 1];
-            if (!all && !lc_scene_may_pair(s, live[i], live[j]))
-                continue;
-            rows[2 * w] = idl[i], rows[2 * w + 1] = idl[j], w++;
+        memset(start, 0, (n + 1) * sizeof *start);
+        for (k = 0; k < np; k++)
+            start[p[2 * k] + 1]++;
+        for (i = 0; i < n; i++)
+            start[i + 1] += start[i];
+        for (k = 0; k < np; k++)
+            second[start[p[2 * k]]++] = p[2 * k + 1];
+        /* now i's run is [start[i - 1], start[i]) (start[-1] = 0) */
+        for (i = 0, k = 0; i < n; i++) {
+            size_t b = k, e = start[i], x;
+            for (x = b + 1; x < e; x++) {
+                uint32_t v = second[x];
+                size_t y = x;
+                for (; y > b && second[y - 1] > v; y--)
+                    second[y] = second[y - 1];
+                second[y] = v;
+            }
+            for (; k < e; k++)
+                if (all || lc_scene_may_pair(s, live[i], live[second[k]]))
+                    rows[2 * w] = idl[i], rows[2 * w + 1] = idl[second[k]], w++;
         }
         out->count = w;
         *candidates = found.count;
     }
 done:
+    lc_free(a, start, (n + 1) * sizeof *start);
+    lc_free(a, second, (found.count ? found.count : 1) * sizeof *second);
     lc_pairs_fini_embedded(&found);
     lc_free(a, live, cap * sizeof *live);
     lc_free(a, idl, cap * sizeof *idl);
