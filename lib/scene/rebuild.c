@@ -42,6 +42,41 @@ static int filter_passes_all(const locd_scene *s, const uint32_t *live, size_t n
     return 1;
 }
 
+/* Insertion sort of v[b, e) (an object's few partners). */
+static void sort_run(uint32_t *v, size_t b, size_t e)
+{
+    size_t x, y;
+    for (x = b + 1; x < e; x++) {
+        uint32_t t = v[x];
+        for (y = x; y > b && v[y - 1] > t; y--)
+            v[y] = v[y - 1];
+        v[y] = t;
+    }
+}
+
+/* Rows of the first indices [n t / k, n (t + 1) / k): i's partners are
+ * second[start[i - 1], start[i]), its rows at the same positions. */
+typedef struct emit_ctx {
+    const size_t *start;
+    uint32_t *second;
+    const locd_id *idl;
+    locd_id *rows;
+    size_t n;
+} emit_ctx;
+
+static void task_emit(void *arg, uint32_t t, uint32_t k)
+{
+    emit_ctx *c = arg;
+    size_t i = c->n * t / k, e = c->n * (t + 1) / k, x = i ? c->start[i - 1] : 0;
+    for (; i < e; i++) {
+        size_t end = c->start[i];
+        locd_id a = c->idl[i];
+        sort_run(c->second, x, end);
+        for (; x < end; x++)
+            c->rows[2 * x] = a, c->rows[2 * x + 1] = c->idl[c->second[x]];
+    }
+}
+
 /* The live objects' pairs from scratch: the engine's find on their boxes
  * laid out in id order, so that pairs ordered by (i, j) are rows in order. */
 locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates)
@@ -115,18 +150,22 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
         for (k = 0; k < np; k++)
             second[start[p[2 * k]]++] = p[2 * k + 1];
         /* now i's run is [start[i - 1], start[i]) (start[-1] = 0) */
-        for (i = 0, k = 0; i < n; i++) {
-            size_t b = k, e = start[i], x;
-            for (x = b + 1; x < e; x++) {
-                uint32_t v = second[x];
-                size_t y = x;
-                for (; y > b && second[y - 1] > v; y--)
-                    second[y] = second[y - 1];
-                second[y] = v;
+        if (all) { /* no row dropped: each thread its share of the i, at known offsets */
+            emit_ctx c;
+            c.start = start, c.second = second, c.idl = idl, c.rows = rows, c.n = n;
+            if (s->threads > 1 && np > 65536)
+                lc_pool_run(s->pool, s->threads, task_emit, &c);
+            else
+                task_emit(&c, 0, 1);
+            w = np;
+        } else {
+            for (i = 0, k = 0; i < n; i++) {
+                size_t e = start[i];
+                sort_run(second, k, e);
+                for (; k < e; k++)
+                    if (lc_scene_may_pair(s, live[i], live[second[k]]))
+                        rows[2 * w] = idl[i], rows[2 * w + 1] = idl[second[k]], w++;
             }
-            for (; k < e; k++)
-                if (all || lc_scene_may_pair(s, live[i], live[second[k]]))
-                    rows[2 * w] = idl[i], rows[2 * w + 1] = idl[second[k]], w++;
         }
         out->count = w;
         *candidates = found.count;
