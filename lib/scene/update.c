@@ -138,17 +138,7 @@ static int want_relist(const locd_scene *s)
     return 0;
 }
 
-static locd_status events_full(upd *u)
-{
-    locd_scene *s = u->s;
-    locd_status st;
-    if ((st = lc_plist_reserve(s->alloc, &u->cr, u->next.count + 1)) != LOCD_OK ||
-        (st = lc_plist_reserve(s->alloc, &u->lo, s->pairs.count + 1)) != LOCD_OK)
-        return st;
-    u->cr.count = lc_plist_minus(u->next.rows.data, u->next.count, s->pairs.rows.data, s->pairs.count, u->cr.rows.data);
-    u->lo.count = lc_plist_minus(s->pairs.rows.data, s->pairs.count, u->next.rows.data, u->next.count, u->lo.rows.data);
-    return LOCD_OK;
-}
+static locd_status events_full(upd *u);
 
 /* Pairs from scratch (the engine's find); the entry lists are dropped and
  * built again only by the next update that searches moved objects
@@ -310,6 +300,56 @@ static size_t rows_lower_bound(const locd_id *rows, size_t n, uint64_t key)
             hi = mid;
     }
     return lo;
+}
+
+/* created = next \ previous and lost = previous \ next, split over the
+ * pool by key range: thread t writes its rows in the part of each output
+ * that its input range would fill, and the parts are closed up after. */
+typedef struct diff_ctx {
+    const locd_id *p, *n;
+    size_t pb[LC_MAX_THREADS + 1], nb[LC_MAX_THREADS + 1], ncr[LC_MAX_THREADS], nlo[LC_MAX_THREADS];
+    locd_id *cr, *lo;
+} diff_ctx;
+
+static void task_diff(void *arg, uint32_t t, uint32_t k)
+{
+    diff_ctx *c = arg;
+    const locd_id *p = c->p + 2 * c->pb[t], *n = c->n + 2 * c->nb[t];
+    size_t np = c->pb[t + 1] - c->pb[t], nn = c->nb[t + 1] - c->nb[t];
+    (void)k;
+    c->ncr[t] = lc_plist_minus(n, nn, p, np, c->cr + 2 * c->nb[t]);
+    c->nlo[t] = lc_plist_minus(p, np, n, nn, c->lo + 2 * c->pb[t]);
+}
+
+static locd_status events_full(upd *u)
+{
+    locd_scene *s = u->s;
+    locd_status st;
+    diff_ctx c;
+    uint32_t k = s->threads ? s->threads : 1, t;
+    size_t wc = 0, wl = 0;
+    if ((st = lc_plist_reserve(s->alloc, &u->cr, u->next.count + 1)) != LOCD_OK ||
+        (st = lc_plist_reserve(s->alloc, &u->lo, s->pairs.count + 1)) != LOCD_OK)
+        return st;
+    if (u->next.count + s->pairs.count < 65536)
+        k = 1;
+    c.p = s->pairs.rows.data, c.n = u->next.rows.data, c.cr = u->cr.rows.data, c.lo = u->lo.rows.data;
+    for (t = 0; t <= k; t++) {
+        c.nb[t] = u->next.count * t / k;
+        c.pb[t] = t == 0 ? 0 : t == k ? s->pairs.count
+                                      : rows_lower_bound(c.p, s->pairs.count, lc_pair_key(c.n + 2 * c.nb[t]));
+    }
+    if (k > 1)
+        lc_pool_run(s->pool, k, task_diff, &c);
+    else
+        task_diff(&c, 0, 1);
+    for (t = 0; t < k; t++) {
+        memmove(c.cr + 2 * wc, c.cr + 2 * c.nb[t], 2 * c.ncr[t] * sizeof(locd_id));
+        memmove(c.lo + 2 * wl, c.lo + 2 * c.pb[t], 2 * c.nlo[t] * sizeof(locd_id));
+        wc += c.ncr[t], wl += c.nlo[t];
+    }
+    u->cr.count = wc, u->lo.count = wl;
+    return LOCD_OK;
 }
 
 /* The rows of the previous set that neither end changed (kept), the others
