@@ -2,24 +2,45 @@
  * their boxes, then the filter and the ids. */
 #include "scene/scene.h"
 
-/* Copies the live boxes into f (as floats) and returns 1 if every value is
- * a float exactly (then a float find on them is the same find); 0 at the
- * first one that is not. */
-static int boxes_as_floats(const locd_scene *s, const uint32_t *live, size_t n, float *f)
+/* Copies the live boxes into f (as floats), split over the pool; ok[t] is
+ * 1 if every value of thread t's share is a float exactly (then a float
+ * find on them is the same find). A share stops at its first inexact value. */
+typedef struct floats_ctx {
+    const locd_scene *s;
+    const uint32_t *live;
+    size_t n;
+    float *f;
+    int ok[LC_MAX_THREADS];
+} floats_ctx;
+
+static void task_floats(void *arg, uint32_t t, uint32_t k)
 {
-    size_t k;
-    int a;
-    for (k = 0; k < n; k++) {
-        const double *b = s->box + 6 * (size_t)live[k];
-        float *o = f + 6 * k;
-        int ok = 1;
+    floats_ctx *c = arg;
+    size_t i = c->n * t / k, e = c->n * (t + 1) / k;
+    int a, ok = 1;
+    for (; i < e && ok; i++) {
+        const double *b = c->s->box + 6 * (size_t)c->live[i];
+        float *o = c->f + 6 * i;
         for (a = 0; a < 6; a++) {
             o[a] = (float)b[a];
             ok &= (double)o[a] == b[a];
         }
-        if (!ok)
-            return 0;
     }
+    c->ok[t] = ok;
+}
+
+static int boxes_as_floats(const locd_scene *s, const uint32_t *live, size_t n, float *f)
+{
+    floats_ctx c;
+    uint32_t k = s->threads > 1 && n > 65536 ? s->threads : 1, t;
+    c.s = s, c.live = live, c.n = n, c.f = f;
+    if (k > 1)
+        lc_pool_run(s->pool, k, task_floats, &c);
+    else
+        task_floats(&c, 0, 1);
+    for (t = 0; t < k; t++)
+        if (!c.ok[t])
+            return 0;
     return 1;
 }
 
@@ -77,6 +98,34 @@ static void task_emit(void *arg, uint32_t t, uint32_t k)
     }
 }
 
+/* The counting sort of the pairs on i, split over the pool: thread t
+ * counts the i of its share of the pairs (pass 1), then writes their j at
+ * its own offsets within each i's run (pass 2; the offsets from a prefix
+ * sum over i, then t). */
+typedef struct order_ctx {
+    const uint32_t *p;
+    size_t np, n;
+    size_t *cnt[LC_MAX_THREADS];
+    uint32_t *second;
+    int pass;
+} order_ctx;
+
+static void task_order(void *arg, uint32_t t, uint32_t k)
+{
+    order_ctx *c = arg;
+    size_t b = c->np * t / k, e = c->np * (t + 1) / k, x;
+    size_t *cnt = c->cnt[t];
+    const uint32_t *p = c->p;
+    if (c->pass == 1) {
+        memset(cnt, 0, c->n * sizeof *cnt);
+        for (x = b; x < e; x++)
+            cnt[p[2 * x]]++;
+    } else {
+        for (x = b; x < e; x++)
+            c->second[cnt[p[2 * x]]++] = p[2 * x + 1];
+    }
+}
+
 /* The live objects' pairs from scratch: the engine's find on their boxes
  * laid out in id order, so that pairs ordered by (i, j) are rows in order. */
 locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates)
@@ -89,7 +138,7 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     double *boxes = NULL;
     const void *in;
     int f64 = 0, all;
-    size_t *start = NULL;
+    size_t *start = NULL, kk = 1;
     uint32_t *second = NULL;
     locd_pairs found;
     locd_stats st_find;
@@ -126,7 +175,8 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     st_find.size = sizeof st_find;
     st = s->engine->ops->find(s->engine, in, n, f64, 0, &found, &st_find);
     if (st == LOCD_OK) {
-        start = lc_alloc(a, (n + 1) * sizeof *start);
+        kk = s->threads > 1 && found.count > 65536 ? s->threads : 1;
+        start = lc_alloc(a, (kk + 1) * (n + 1) * sizeof *start);
         second = lc_alloc(a, (found.count ? found.count : 1) * sizeof *second);
         if (!start || !second)
             st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
@@ -137,18 +187,35 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
         locd_id *rows = out->rows.data;
         const uint32_t *p = found.data;
         size_t i, np = found.count;
-        /* The pairs (i, j), i < j, ordered by a counting sort on i (two
-           passes) and an insertion sort of each i's few j: ids ascend with
+        /* The pairs (i, j), i < j, ordered by a counting sort on i and an insertion sort of each i's few j: ids ascend with
            the index, so rows (idl[i], idl[j]) come out sorted. Filtered
            pairs are dropped on the way. */
         all = filter_passes_all(s, live, n);
-        memset(start, 0, (n + 1) * sizeof *start);
-        for (k = 0; k < np; k++)
-            start[p[2 * k] + 1]++;
-        for (i = 0; i < n; i++)
-            start[i + 1] += start[i];
-        for (k = 0; k < np; k++)
-            second[start[p[2 * k]]++] = p[2 * k + 1];
+        {
+            order_ctx oc;
+            size_t off = 0, t;
+            oc.p = p, oc.np = np, oc.n = n, oc.second = second;
+            for (t = 0; t < kk; t++)
+                oc.cnt[t] = start + (n + 1) * (t + 1);
+            oc.pass = 1;
+            if (kk > 1)
+                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
+            else
+                task_order(&oc, 0, 1);
+            for (i = 0; i < n; i++) {
+                for (t = 0; t < kk; t++) {
+                    size_t c = oc.cnt[t][i];
+                    oc.cnt[t][i] = off;
+                    off += c;
+                }
+                start[i] = off;
+            }
+            oc.pass = 2;
+            if (kk > 1)
+                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
+            else
+                task_order(&oc, 0, 1);
+        }
         /* now i's run is [start[i - 1], start[i]) (start[-1] = 0) */
         if (all) { /* no row dropped: each thread its share of the i, at known offsets */
             emit_ctx c;
@@ -171,7 +238,7 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
         *candidates = found.count;
     }
 done:
-    lc_free(a, start, (n + 1) * sizeof *start);
+    lc_free(a, start, (kk + 1) * (n + 1) * sizeof *start);
     lc_free(a, second, (found.count ? found.count : 1) * sizeof *second);
     lc_pairs_fini_embedded(&found);
     lc_free(a, live, cap * sizeof *live);
