@@ -530,6 +530,107 @@ static void random_sequences(void)
     }
 }
 
+/* A dense scene (about 10^5 pairs: the from-scratch rows and events are
+ * split over the threads) where every object moves, then a few, then some
+ * are added and removed: a from-scratch update drops the entry lists, the
+ * next small one builds them again before its search, queries in between
+ * test every object. Float-exact boxes and default filters (the float find,
+ * no filter pass) or double boxes, static objects and random filters. */
+static void whole_scene_moves_then_a_few(void)
+{
+    int variant, frame;
+    uint32_t threads;
+    for (variant = 0; variant < 2; variant++)
+        for (threads = 1; threads <= 2; threads++) {
+            const size_t n0 = 3000;
+            world w;
+            model m;
+            locd_engine *e = new_engine(threads, NULL);
+            locd_scene *s = NULL;
+            locd_scene_add_options o;
+            locd_scene_stats st;
+            locd_id *ids = malloc(n0 * sizeof *ids);
+            double *boxes = malloc(6 * n0 * sizeof *boxes);
+            float *f = malloc(6 * n0 * sizeof *f);
+            size_t i, k;
+            memset(&m, 0, sizeof m);
+            memset(&w, 0, sizeof w);
+            ts_seed(&w.r, 77 + (uint64_t)variant);
+            w.extent = 20.0, w.size = 4.0, w.shape = 0;
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+            locd_scene_add_options_init(&o);
+            for (i = 0; i < n0; i++) {
+                random_box(&w, boxes + 6 * i);
+                if (variant == 0)
+                    for (k = 0; k < 6; k++)
+                        f[6 * i + k] = to_float(boxes[6 * i + k]), boxes[6 * i + k] = f[6 * i + k];
+            }
+            if (variant == 0) {
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n0, &o, ids));
+                for (i = 0; i < n0; i++)
+                    m_add(&m, ids[i], boxes + 6 * i, 1, ~(uint64_t)0, 0, 0, 0);
+            } else {
+                o.flags = LOCD_OBJECT_STATIC;
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, boxes, 300, &o, ids));
+                o.flags = 0;
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, boxes + 6 * 300, n0 - 300, &o, ids + 300));
+                for (i = 0; i < n0; i++)
+                    m_add(&m, ids[i], boxes + 6 * i, 1, ~(uint64_t)0, 0, 0, i < 300);
+                for (i = 0; i < 400; i++) { /* filters on a few */
+                    uint64_t c = random_bits(&w), mk = random_bits(&w), g = ts_next(&w.r) % 3;
+                    m_obj *mo = &m.o[(size_t)(ts_next(&w.r) % n0)];
+                    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_filter(s, &mo->id, 1, &c, &mk, &g));
+                    mo->cat = c, mo->mask = mk, mo->group = g;
+                }
+            }
+            for (frame = 0; frame < 9; frame++) {
+                int kind = frame % 3; /* 0 all move, 1: 1% move, 2: add, remove, move a few */
+                size_t cnt = 0;
+                if (kind == 0 || kind == 1) {
+                    size_t every = kind == 0 ? 1 : 97;
+                    for (i = 0; i < m.n; i += every) {
+                        double d = (ts_uniform(&w.r) - 0.5) * 0.4;
+                        ids[cnt] = m.o[i].id;
+                        for (k = 0; k < 6; k++) {
+                            boxes[6 * cnt + k] = m.o[i].box[k] + d;
+                            if (variant == 0)
+                                boxes[6 * cnt + k] = to_float(boxes[6 * cnt + k]);
+                        }
+                        memcpy(m.o[i].box, boxes + 6 * cnt, 6 * sizeof(double));
+                        cnt++;
+                    }
+                    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s, ids, boxes, cnt));
+                } else {
+                    for (i = 0; i < 5; i++) {
+                        ids[i] = m.o[(size_t)(ts_next(&w.r) % m.n)].id;
+                        m_remove(&m, ids[i]);
+                    }
+                    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, ids, 5));
+                    for (i = 0; i < 5; i++)
+                        random_box(&w, boxes + 6 * i);
+                    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, boxes, 5, NULL, ids));
+                    for (i = 0; i < 5; i++)
+                        m_add(&m, ids[i], boxes + 6 * i, 1, ~(uint64_t)0, 0, 0, 0);
+                }
+                for (k = 0; k < 5; k++) /* changes pending */
+                    random_query(&w, s, &m);
+                check_update(s, &m);
+                locd_scene_stats_init(&st);
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
+                TEST_ASSERT_EQUAL_UINT32(kind == 0 ? 1u : 0u, st.rebuilt);
+                if (frame == 0)
+                    TEST_ASSERT_TRUE(m.npairs > 65536); /* the threads' split is used */
+                for (k = 0; k < 10; k++)
+                    random_query(&w, s, &m);
+            }
+            locd_scene_destroy(s);
+            locd_engine_destroy(e);
+            free(m.o);
+            free(m.pairs);
+            free(ids), free(boxes), free(f);
+        }
+}
+
 static void bigger_scene_two_threads(void)
 {
     run_opts ro = {2, 200, 3000, 0, 1, 7};
@@ -1110,6 +1211,7 @@ static const lt_test tests[] = {
     LT_TEST(allocation_failures_change_nothing),
     LT_TEST(random_sequences),
     LT_TEST(bigger_scene_two_threads),
+    LT_TEST(whole_scene_moves_then_a_few),
     LT_TEST(thread_counts_give_identical_lists),
 };
 

@@ -155,12 +155,14 @@ typedef struct locd_scene_stats {
     uint64_t static_objects;
     uint64_t moved;          /* objects added, moved or re-filtered since the previous update */
     uint64_t reencoded;      /* objects whose octree cells changed */
-    uint64_t entries;        /* (cell, object) entries held */
+    uint64_t entries;        /* (cell, object) entries held (0 after a from-scratch update:
+                                the next update that searches builds them) */
     uint64_t candidates;     /* object pairs tested in this update */
     uint64_t pairs;
     uint64_t created;
     uint64_t lost;
-    uint32_t rebuilt;        /* 1 if this update rebuilt everything (e.g. the root cube grew) */
+    uint32_t rebuilt;        /* 1 if this update found its pairs from scratch (the first one, or
+                                more than 10% of the objects moved) */
     uint32_t reserved;
     double ms_total;
     double ms_encode;

@@ -26,6 +26,8 @@ typedef struct find_out {
     size_t count;
     uint64_t cand;
     locd_status st;
+    uint32_t ng;
+    uint64_t g[64]; /* LC_GATHER */
 } find_out;
 
 typedef struct find_ctx {
@@ -103,6 +105,26 @@ static void consider(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot 
     }
 }
 
+/* Candidates waiting for their test, their boxes being prefetched. */
+#define LC_GATHER 64
+
+static void flush(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot *hm)
+{
+    uint32_t k;
+    for (k = 0; k < fo->ng; k++)
+        consider(c, fo, eq, hm, fo->g[k]);
+    fo->ng = 0;
+}
+
+LC_INLINE void gather(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot *hm, uint64_t eo)
+{
+    const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
+    __builtin_prefetch(c->s->hq + 2 * (size_t)(eo & imask));
+    fo->g[fo->ng++] = eo;
+    if (fo->ng == LC_GATHER)
+        flush(c, fo, eq, hm);
+}
+
 /* The first of e[0, n) >= v: through tr's directory for its main array. */
 static size_t lower(const lc_tree *tr, const uint64_t *e, size_t n, uint64_t v)
 {
@@ -123,11 +145,14 @@ static void search_array(const find_ctx *c, find_out *fo, const lc_tree *tr, con
     uint32_t l;
     if (!n)
         return;
+    /* The candidates are gathered first and their packed boxes prefetched,
+       so that their cache misses overlap instead of following each other
+       (each test branches on the data it loads). */
     /* the cell itself and its descendants: keys in [key, (pm + span) << 5) */
     {
         const uint64_t end = (pm + ((uint64_t)1 << (3u * (g->depth - level)))) << LC_LEVEL_BITS;
         for (i = lower(tr, e, n, key << ib); i < n && (e[i] >> ib) < end; i++)
-            consider(c, fo, eq, hm, e[i]);
+            gather(c, fo, eq, hm, e[i]);
     }
     /* its ancestors, at the levels that hold entries */
     for (l = 0; l < level; l++) {
@@ -136,8 +161,9 @@ static void search_array(const find_ctx *c, find_out *fo, const lc_tree *tr, con
             continue;
         ka = ((pm & ~(((uint64_t)1 << (3u * (g->depth - l))) - 1)) << LC_LEVEL_BITS) | l;
         for (i = lower(tr, e, n, ka << ib); i < n && (e[i] >> ib) == ka; i++)
-            consider(c, fo, eq, hm, e[i]);
+            gather(c, fo, eq, hm, e[i]);
     }
+    flush(c, fo, eq, hm);
 }
 
 static void search(const find_ctx *c, find_out *fo, const lc_tree *tr, uint64_t eq, const lc_hot *hm)

@@ -2,68 +2,250 @@
  * their boxes, then the filter and the ids. */
 #include "scene/scene.h"
 
+/* Copies the live boxes into f (as floats), split over the pool; ok[t] is
+ * 1 if every value of thread t's share is a float exactly (then a float
+ * find on them is the same find). A share stops at its first inexact value. */
+typedef struct floats_ctx {
+    const locd_scene *s;
+    const uint32_t *live;
+    size_t n;
+    float *f;
+    int ok[LC_MAX_THREADS];
+} floats_ctx;
+
+static void task_floats(void *arg, uint32_t t, uint32_t k)
+{
+    floats_ctx *c = arg;
+    size_t i = c->n * t / k, e = c->n * (t + 1) / k;
+    int a, ok = 1;
+    for (; i < e && ok; i++) {
+        const double *b = c->s->box + 6 * (size_t)c->live[i];
+        float *o = c->f + 6 * i;
+        for (a = 0; a < 6; a++) {
+            o[a] = (float)b[a];
+            ok &= (double)o[a] == b[a];
+        }
+    }
+    c->ok[t] = ok;
+}
+
+static int boxes_as_floats(const locd_scene *s, const uint32_t *live, size_t n, float *f)
+{
+    floats_ctx c;
+    uint32_t k = s->threads > 1 && n > 65536 ? s->threads : 1, t;
+    c.s = s, c.live = live, c.n = n, c.f = f;
+    if (k > 1)
+        lc_pool_run(s->pool, k, task_floats, &c);
+    else
+        task_floats(&c, 0, 1);
+    for (t = 0; t < k; t++)
+        if (!c.ok[t])
+            return 0;
+    return 1;
+}
+
+/* 1 when no two live objects can be filtered out: none static, no group,
+ * and every category meets the AND of all masks. */
+static int filter_passes_all(const locd_scene *s, const uint32_t *live, size_t n)
+{
+    uint64_t m = ~(uint64_t)0;
+    size_t k;
+    if (s->live_static)
+        return 0;
+    for (k = 0; k < n; k++) {
+        m &= s->mask[live[k]];
+        if (s->group[live[k]])
+            return 0;
+    }
+    for (k = 0; k < n; k++)
+        if (!(s->cat[live[k]] & m))
+            return 0;
+    return 1;
+}
+
+/* Insertion sort of v[b, e) (an object's few partners). */
+static void sort_run(uint32_t *v, size_t b, size_t e)
+{
+    size_t x, y;
+    for (x = b + 1; x < e; x++) {
+        uint32_t t = v[x];
+        for (y = x; y > b && v[y - 1] > t; y--)
+            v[y] = v[y - 1];
+        v[y] = t;
+    }
+}
+
+/* Rows of the first indices [n t / k, n (t + 1) / k): i's partners are
+ * second[start[i - 1], start[i]), its rows at the same positions. */
+typedef struct emit_ctx {
+    const size_t *start;
+    uint32_t *second;
+    const locd_id *idl;
+    locd_id *rows;
+    size_t n;
+} emit_ctx;
+
+static void task_emit(void *arg, uint32_t t, uint32_t k)
+{
+    emit_ctx *c = arg;
+    size_t i = c->n * t / k, e = c->n * (t + 1) / k, x = i ? c->start[i - 1] : 0;
+    for (; i < e; i++) {
+        size_t end = c->start[i];
+        locd_id a = c->idl[i];
+        sort_run(c->second, x, end);
+        for (; x < end; x++)
+            c->rows[2 * x] = a, c->rows[2 * x + 1] = c->idl[c->second[x]];
+    }
+}
+
+/* The counting sort of the pairs on i, split over the pool: thread t
+ * counts the i of its share of the pairs (pass 1), then writes their j at
+ * its own offsets within each i's run (pass 2; the offsets from a prefix
+ * sum over i, then t). */
+typedef struct order_ctx {
+    const uint32_t *p;
+    size_t np, n;
+    size_t *cnt[LC_MAX_THREADS];
+    uint32_t *second;
+    int pass;
+} order_ctx;
+
+static void task_order(void *arg, uint32_t t, uint32_t k)
+{
+    order_ctx *c = arg;
+    size_t b = c->np * t / k, e = c->np * (t + 1) / k, x;
+    size_t *cnt = c->cnt[t];
+    const uint32_t *p = c->p;
+    if (c->pass == 1) {
+        memset(cnt, 0, c->n * sizeof *cnt);
+        for (x = b; x < e; x++)
+            cnt[p[2 * x]]++;
+    } else {
+        for (x = b; x < e; x++)
+            c->second[cnt[p[2 * x]]++] = p[2 * x + 1];
+    }
+}
+
+/* The live objects' pairs from scratch: the engine's find on their boxes
+ * laid out in id order, so that pairs ordered by (i, j) are rows in order. */
 locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates)
 {
     const locd_allocator *a = s->alloc;
     size_t n = 0, k, w = 0, cap = s->nslots ? s->nslots : 1, ncap = (size_t)s->serial + 1;
-    int dense = s->live == s->nslots; /* no free slot: the slot array is the box array */
     uint32_t *live = lc_alloc(a, cap * sizeof *live), *by_serial = lc_alloc(a, ncap * sizeof *by_serial);
-    double *boxes = dense ? s->box : lc_alloc(a, cap * 6 * sizeof *boxes);
-    uint64_t *keys = NULL, *scratch = NULL, *sorted;
+    locd_id *idl = lc_alloc(a, cap * sizeof *idl);
+    float *fboxes = lc_alloc(a, cap * 6 * sizeof *fboxes);
+    double *boxes = NULL;
+    const void *in;
+    int f64 = 0, all;
+    size_t *start = NULL, kk = 1;
+    uint32_t *second = NULL;
     locd_pairs found;
     locd_stats st_find;
     locd_status st;
-    if (!live || !boxes || !by_serial) {
-        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's rebuild buffers");
-        goto done0;
-    }
-    for (k = 0; k < s->nslots; k++)
-        if (s->flags[k] & LC_SLOT_LIVE) {
-            if (!dense)
-                memcpy(boxes + 6 * n, s->box + 6 * k, 6 * sizeof *boxes);
-            live[n++] = (uint32_t)k;
-            by_serial[LC_ID_SERIAL(s->id[k])] = (uint32_t)k;
-        }
     lc_pairs_init_embedded(&found, a);
+    if (!live || !fboxes || !by_serial || !idl) {
+        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's rebuild buffers");
+        goto done;
+    }
+    /* the live slots in serial (= id) order */
+    memset(by_serial, 0xff, ncap * sizeof *by_serial);
+    for (k = 0; k < s->nslots; k++)
+        if (s->flags[k] & LC_SLOT_LIVE)
+            by_serial[LC_ID_SERIAL(s->id[k])] = (uint32_t)k;
+    for (k = 0; k < ncap; k++)
+        if (by_serial[k] != 0xffffffffu)
+            idl[n] = s->id[by_serial[k]], live[n++] = by_serial[k];
+    /* The engine's float find is cheaper than its double one; it gives the
+       same pairs when every box is a float exactly (boxes given through
+       the f32 entry points always are). */
+    in = fboxes;
+    if (!boxes_as_floats(s, live, n, fboxes)) {
+        f64 = 1;
+        boxes = lc_alloc(a, cap * 6 * sizeof *boxes);
+        if (!boxes) {
+            st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's rebuild buffers");
+            goto done;
+        }
+        for (k = 0; k < n; k++)
+            memcpy(boxes + 6 * k, s->box + 6 * (size_t)live[k], 6 * sizeof *boxes);
+        in = boxes;
+    }
     memset(&st_find, 0, sizeof st_find);
     st_find.size = sizeof st_find;
-    st = s->engine->ops->find(s->engine, boxes, n, 1, 0, &found, &st_find);
+    st = s->engine->ops->find(s->engine, in, n, f64, 0, &found, &st_find);
     if (st == LOCD_OK) {
-        keys = lc_alloc(a, (found.count ? found.count : 1) * sizeof *keys);
-        scratch = lc_alloc(a, (found.count ? found.count : 1) * sizeof *scratch);
-        if (!keys || !scratch)
-            st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair keys");
+        kk = s->threads > 1 && found.count > 65536 ? s->threads : 1;
+        start = lc_alloc(a, (kk + 1) * (n + 1) * sizeof *start);
+        second = lc_alloc(a, (found.count ? found.count : 1) * sizeof *second);
+        if (!start || !second)
+            st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
     }
     if (st == LOCD_OK)
         st = lc_plist_reserve(a, out, found.count ? found.count : 1);
     if (st == LOCD_OK) {
         locd_id *rows = out->rows.data;
-        /* The filter, then the order key of each row (serials: unique, and
-           ordered as the ids); the keys alone are sorted (11-bit digits
-           over the bits that vary) and the rows written back from them. */
-        for (k = 0; k < found.count; k++) {
-            uint32_t i = live[found.data[2 * k]], j = live[found.data[2 * k + 1]];
-            uint64_t si = LC_ID_SERIAL(s->id[i]), sj = LC_ID_SERIAL(s->id[j]);
-            if (!lc_scene_may_pair(s, i, j))
-                continue;
-            keys[w++] = si < sj ? si << 32 | sj : sj << 32 | si;
+        const uint32_t *p = found.data;
+        size_t i, np = found.count;
+        /* The pairs (i, j), i < j, ordered by a counting sort on i and an insertion sort of each i's few j: ids ascend with
+           the index, so rows (idl[i], idl[j]) come out sorted. Filtered
+           pairs are dropped on the way. */
+        all = filter_passes_all(s, live, n);
+        {
+            order_ctx oc;
+            size_t off = 0, t;
+            oc.p = p, oc.np = np, oc.n = n, oc.second = second;
+            for (t = 0; t < kk; t++)
+                oc.cnt[t] = start + (n + 1) * (t + 1);
+            oc.pass = 1;
+            if (kk > 1)
+                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
+            else
+                task_order(&oc, 0, 1);
+            for (i = 0; i < n; i++) {
+                for (t = 0; t < kk; t++) {
+                    size_t c = oc.cnt[t][i];
+                    oc.cnt[t][i] = off;
+                    off += c;
+                }
+                start[i] = off;
+            }
+            oc.pass = 2;
+            if (kk > 1)
+                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
+            else
+                task_order(&oc, 0, 1);
         }
-        sorted = lc_radix_sort(keys, scratch, w, 0);
-        for (k = 0; k < w; k++) {
-            rows[2 * k] = s->id[by_serial[sorted[k] >> 32]];
-            rows[2 * k + 1] = s->id[by_serial[sorted[k] & 0xffffffffu]];
+        /* now i's run is [start[i - 1], start[i]) (start[-1] = 0) */
+        if (all) { /* no row dropped: each thread its share of the i, at known offsets */
+            emit_ctx c;
+            c.start = start, c.second = second, c.idl = idl, c.rows = rows, c.n = n;
+            if (s->threads > 1 && np > 65536)
+                lc_pool_run(s->pool, s->threads, task_emit, &c);
+            else
+                task_emit(&c, 0, 1);
+            w = np;
+        } else {
+            for (i = 0, k = 0; i < n; i++) {
+                size_t e = start[i];
+                sort_run(second, k, e);
+                for (; k < e; k++)
+                    if (lc_scene_may_pair(s, live[i], live[second[k]]))
+                        rows[2 * w] = idl[i], rows[2 * w + 1] = idl[second[k]], w++;
+            }
         }
         out->count = w;
         *candidates = found.count;
     }
-    lc_free(a, keys, (found.count ? found.count : 1) * sizeof *keys);
-    lc_free(a, scratch, (found.count ? found.count : 1) * sizeof *scratch);
+done:
+    lc_free(a, start, (kk + 1) * (n + 1) * sizeof *start);
+    lc_free(a, second, (found.count ? found.count : 1) * sizeof *second);
     lc_pairs_fini_embedded(&found);
-done0:
     lc_free(a, live, cap * sizeof *live);
+    lc_free(a, idl, cap * sizeof *idl);
     lc_free(a, by_serial, ncap * sizeof *by_serial);
-    if (!dense)
-        lc_free(a, boxes, cap * 6 * sizeof *boxes);
+    lc_free(a, fboxes, cap * 6 * sizeof *fboxes);
+    lc_free(a, boxes, cap * 6 * sizeof *boxes);
     return st;
 }
 

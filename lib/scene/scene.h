@@ -114,7 +114,8 @@ struct locd_scene {
     size_t nremoved;
 
     /* broad phase (tree.c) */
-    int have_tree;
+    int have_tree;  /* the entry lists, cells and records are those of the last update's boxes */
+    int have_pairs; /* an update was made: `pairs` is the set of its boxes */
     locd_grid grid;
     lc_tree dyn, sta; /* entries of the dynamic and of the static objects */
 

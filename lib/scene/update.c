@@ -14,8 +14,10 @@
  * pending for the next one. */
 #include "scene/scene.h"
 
-/* Rebuild when more than this fraction of the objects moved. */
-#define LC_REBUILD_FRACTION 0.25
+/* Find the pairs from scratch when more than this fraction of the objects
+ * moved: at 10^6 uniform cubes, 10% moving costs about what a from-scratch
+ * update costs (docs/scene.md). */
+#define LC_REBUILD_FRACTION 0.10
 
 typedef struct upd {
     locd_scene *s;
@@ -42,7 +44,8 @@ typedef struct upd {
     uint64_t *buf; /* del/add/query entries */
     size_t buf_cap;
     uint64_t candidates, moved, reencoded;
-    int rebuilt;
+    int rebuilt;  /* pairs from scratch, lists dropped */
+    int relisted; /* lists built again, then the moved objects searched */
     double ms_encode, ms_merge, ms_sweep, ms_events;
 } upd;
 
@@ -106,8 +109,19 @@ static void undo(upd *u)
     lc_tree_edit_undo(&s->sta, &u->edit[1]);
 }
 
-/* 1 when this update should start from scratch. */
+/* 1 when this update should find its pairs from scratch: the first one,
+ * or more than LC_REBUILD_FRACTION of the objects moved. */
 static int want_rebuild(const locd_scene *s, size_t moved)
+{
+    if (!s->have_pairs)
+        return 1;
+    return (double)moved > LC_REBUILD_FRACTION * (double)s->live && moved > 64;
+}
+
+/* 1 when the entry lists must be built again before the moved objects'
+ * search: none (the last update found its pairs from scratch), a moved box
+ * outside the root cube, or more new objects than the numbering has room for. */
+static int want_relist(const locd_scene *s)
 {
     size_t k;
     const uint32_t *d = s->dirty.data;
@@ -120,33 +134,45 @@ static int want_rebuild(const locd_scene *s, size_t moved)
         if (s->ndense + fresh > s->hot_cap)
             return 1;
     }
-    if ((double)moved > LC_REBUILD_FRACTION * (double)s->live && moved > 64)
-        return 1;
     for (k = 0; k < s->ndirty; k++)
         if ((s->flags[d[k]] & LC_SLOT_LIVE) && !lc_grid_holds(&s->grid, s->box + 6 * (size_t)d[k]))
             return 1;
     return 0;
 }
 
-static locd_status events_full(upd *u)
+static locd_status events_full(upd *u);
+
+/* Pairs from scratch (the engine's find); the entry lists are dropped and
+ * built again only by the next update that searches moved objects
+ * (relist): a scene where most objects move every frame never pays for them. */
+static locd_status rebuild(upd *u)
 {
     locd_scene *s = u->s;
     locd_status st;
-    if ((st = lc_plist_reserve(s->alloc, &u->cr, u->next.count + 1)) != LOCD_OK ||
-        (st = lc_plist_reserve(s->alloc, &u->lo, s->pairs.count + 1)) != LOCD_OK)
+    double t1 = lc_now_ms();
+    u->rebuilt = 1;
+    if ((st = lc_scene_pairs_from_scratch(s, &u->next, &u->candidates)) != LOCD_OK)
         return st;
-    u->cr.count = lc_plist_minus(u->next.rows.data, u->next.count, s->pairs.rows.data, s->pairs.count, u->cr.rows.data);
-    u->lo.count = lc_plist_minus(s->pairs.rows.data, s->pairs.count, u->next.rows.data, u->next.count, u->lo.rows.data);
+    u->ms_sweep = lc_now_ms() - t1;
+    t1 = lc_now_ms();
+    if ((u->flags & LOCD_SCENE_UPDATE_EVENTS) && (st = events_full(u)) != LOCD_OK)
+        return st;
+    u->ms_events = lc_now_ms() - t1;
     return LOCD_OK;
 }
 
-static locd_status rebuild(upd *u)
+/* Builds the entry lists, cells and records of every live object from its
+ * current box on a new grid, and makes them the scene's at once. They are a
+ * function of the current boxes alone, so installing them before the
+ * update's end changes nothing a failing update must undo: the next
+ * incremental update finds every changed object's cells unchanged and
+ * still searches it. */
+static locd_status build_lists(upd *u)
 {
     locd_scene *s = u->s;
     const locd_allocator *a = s->alloc;
     locd_status st;
-    double t0 = lc_now_ms(), t1;
-    u->rebuilt = 1;
+    size_t k;
     u->cells = lc_alloc(a, s->slot_cap * sizeof *u->cells);
     u->hot_cap = lc_scene_dense_room(s->nslots);
     u->hot = lc_alloc(a, u->hot_cap * sizeof *u->hot);
@@ -157,19 +183,28 @@ static locd_status rebuild(upd *u)
     memset(u->cells, 0, s->slot_cap * sizeof *u->cells);
     if ((st = lc_scene_fit_grid(s, &u->grid)) != LOCD_OK ||
         (st = lc_scene_build_trees(s, &u->grid, u->cells, u->dense, u->hot, u->hq, &u->ndense, &u->dyn,
-                                                &u->sta)) !=
-            LOCD_OK)
+                                   &u->sta)) != LOCD_OK)
         return st;
-    t1 = lc_now_ms();
-    u->ms_encode = t1 - t0;
-    u->reencoded = s->live;
-    if ((st = lc_scene_pairs_from_scratch(s, &u->next, &u->candidates)) != LOCD_OK)
-        return st;
-    u->ms_sweep = lc_now_ms() - t1;
-    t1 = lc_now_ms();
-    if ((u->flags & LOCD_SCENE_UPDATE_EVENTS) && (st = events_full(u)) != LOCD_OK)
-        return st;
-    u->ms_events = lc_now_ms() - t1;
+    {
+        lc_cells *c = s->cell;
+        lc_hot *h = s->hot;
+        uint32_t *dn = s->dense;
+        uint64_t *hq = s->hq;
+        size_t hc = s->hot_cap;
+        s->cell = u->cells, u->cells = c;
+        s->hot = u->hot, u->hot = h;
+        s->hq = u->hq, u->hq = hq;
+        s->hot_cap = u->hot_cap, u->hot_cap = hc;
+        s->dense = u->dense, u->dense = dn;
+    }
+    s->ndense = u->ndense;
+    s->grid = u->grid;
+    swap_tree(&s->dyn, &u->dyn);
+    swap_tree(&s->sta, &u->sta);
+    s->have_tree = 1;
+    for (k = 0; k < s->nslots; k++)
+        s->flags[k] = (uint8_t)((s->flags[k] & LC_SLOT_LIVE) ? s->flags[k] | LC_SLOT_INTREE
+                                                               : s->flags[k] & ~LC_SLOT_INTREE);
     return LOCD_OK;
 }
 
@@ -269,6 +304,56 @@ static size_t rows_lower_bound(const locd_id *rows, size_t n, uint64_t key)
     return lo;
 }
 
+/* created = next \ previous and lost = previous \ next, split over the
+ * pool by key range: thread t writes its rows in the part of each output
+ * that its input range would fill, and the parts are closed up after. */
+typedef struct diff_ctx {
+    const locd_id *p, *n;
+    size_t pb[LC_MAX_THREADS + 1], nb[LC_MAX_THREADS + 1], ncr[LC_MAX_THREADS], nlo[LC_MAX_THREADS];
+    locd_id *cr, *lo;
+} diff_ctx;
+
+static void task_diff(void *arg, uint32_t t, uint32_t k)
+{
+    diff_ctx *c = arg;
+    const locd_id *p = c->p + 2 * c->pb[t], *n = c->n + 2 * c->nb[t];
+    size_t np = c->pb[t + 1] - c->pb[t], nn = c->nb[t + 1] - c->nb[t];
+    (void)k;
+    c->ncr[t] = lc_plist_minus(n, nn, p, np, c->cr + 2 * c->nb[t]);
+    c->nlo[t] = lc_plist_minus(p, np, n, nn, c->lo + 2 * c->pb[t]);
+}
+
+static locd_status events_full(upd *u)
+{
+    locd_scene *s = u->s;
+    locd_status st;
+    diff_ctx c;
+    uint32_t k = s->threads ? s->threads : 1, t;
+    size_t wc = 0, wl = 0;
+    if ((st = lc_plist_reserve(s->alloc, &u->cr, u->next.count + 1)) != LOCD_OK ||
+        (st = lc_plist_reserve(s->alloc, &u->lo, s->pairs.count + 1)) != LOCD_OK)
+        return st;
+    if (u->next.count + s->pairs.count < 65536)
+        k = 1;
+    c.p = s->pairs.rows.data, c.n = u->next.rows.data, c.cr = u->cr.rows.data, c.lo = u->lo.rows.data;
+    for (t = 0; t <= k; t++) {
+        c.nb[t] = u->next.count * t / k;
+        c.pb[t] = t == 0 ? 0 : t == k ? s->pairs.count
+                                      : rows_lower_bound(c.p, s->pairs.count, lc_pair_key(c.n + 2 * c.nb[t]));
+    }
+    if (k > 1)
+        lc_pool_run(s->pool, k, task_diff, &c);
+    else
+        task_diff(&c, 0, 1);
+    for (t = 0; t < k; t++) {
+        memmove(c.cr + 2 * wc, c.cr + 2 * c.nb[t], 2 * c.ncr[t] * sizeof(locd_id));
+        memmove(c.lo + 2 * wl, c.lo + 2 * c.pb[t], 2 * c.nlo[t] * sizeof(locd_id));
+        wc += c.ncr[t], wl += c.nlo[t];
+    }
+    u->cr.count = wc, u->lo.count = wl;
+    return LOCD_OK;
+}
+
 /* The rows of the previous set that neither end changed (kept), the others
  * (dropped, into *dropped), merged with the new rows n. */
 static locd_status carry(upd *u, const lc_plist *n, lc_plist *dropped)
@@ -328,6 +413,35 @@ done:
     return st;
 }
 
+/* The pairs of the moved objects (query entries q, sorted) in the lists
+ * dyn and sta, the carry pass, and the events. */
+static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q, size_t nq)
+{
+    locd_scene *s = u->s;
+    const locd_allocator *a = s->alloc;
+    lc_plist n = {{NULL, 0}, 0}, dropped = {{NULL, 0}, 0};
+    locd_status st;
+    double t0 = lc_now_ms(), t1;
+    st = lc_scene_find_moved(s, dyn, sta, q, nq, &n, &u->candidates);
+    t1 = lc_now_ms();
+    u->ms_sweep = t1 - t0;
+    t0 = t1;
+    if (st == LOCD_OK)
+        st = carry(u, &n, &dropped);
+    if (st == LOCD_OK && (u->flags & LOCD_SCENE_UPDATE_EVENTS)) {
+        /* previous = kept + dropped, now = kept + n, kept disjoint from both */
+        if ((st = lc_plist_reserve(a, &u->cr, n.count + 1)) == LOCD_OK &&
+            (st = lc_plist_reserve(a, &u->lo, dropped.count + 1)) == LOCD_OK) {
+            u->cr.count = lc_plist_minus(n.rows.data, n.count, dropped.rows.data, dropped.count, u->cr.rows.data);
+            u->lo.count = lc_plist_minus(dropped.rows.data, dropped.count, n.rows.data, n.count, u->lo.rows.data);
+        }
+    }
+    u->ms_events = lc_now_ms() - t0;
+    lc_plist_fini(a, &n);
+    lc_plist_fini(a, &dropped);
+    return st;
+}
+
 static locd_status incremental(upd *u)
 {
     locd_scene *s = u->s;
@@ -335,7 +449,6 @@ static locd_status incremental(upd *u)
     const locd_grid *g = &s->grid;
     const uint32_t *d = s->dirty.data, *r = s->removed.data;
     size_t k, ndel[2] = {0, 0}, nadd[2] = {0, 0}, nq = 0, off_del[2], off_add[2], off_q;
-    lc_plist n = {{NULL, 0}, 0}, dropped = {{NULL, 0}, 0};
     locd_status st;
     double t0 = lc_now_ms(), t1;
     uint64_t tmp[8];
@@ -444,28 +557,44 @@ static locd_status incremental(upd *u)
     /* The search sees the lists as they will be: a view of each. */
     view_tree(&s->dyn, &u->edit[0], &u->dyn);
     view_tree(&s->sta, &u->edit[1], &u->sta);
-    t1 = lc_now_ms();
-    u->ms_merge = t1 - t0;
-    t0 = t1;
-    st = lc_scene_find_moved(s, &u->dyn, &u->sta, u->buf + off_q, nq, &n, &u->candidates);
+    u->ms_merge = lc_now_ms() - t0;
+    st = moved_pairs(u, &u->dyn, &u->sta, u->buf + off_q, nq);
     memset(&u->dyn, 0, sizeof u->dyn); /* views: not ours to free */
     memset(&u->sta, 0, sizeof u->sta);
-    t1 = lc_now_ms();
-    u->ms_sweep = t1 - t0;
-    t0 = t1;
-    if (st == LOCD_OK)
-        st = carry(u, &n, &dropped);
-    if (st == LOCD_OK && (u->flags & LOCD_SCENE_UPDATE_EVENTS)) {
-        /* previous = kept + dropped, now = kept + n, kept disjoint from both */
-        if ((st = lc_plist_reserve(a, &u->cr, n.count + 1)) == LOCD_OK &&
-            (st = lc_plist_reserve(a, &u->lo, dropped.count + 1)) == LOCD_OK) {
-            u->cr.count = lc_plist_minus(n.rows.data, n.count, dropped.rows.data, dropped.count, u->cr.rows.data);
-            u->lo.count = lc_plist_minus(dropped.rows.data, dropped.count, n.rows.data, n.count, u->lo.rows.data);
-        }
+    return st;
+}
+
+/* The lists built again from the current boxes (build_lists), then the
+ * moved objects searched in them as in the incremental path. */
+static locd_status relist(upd *u)
+{
+    locd_scene *s = u->s;
+    const locd_grid *g;
+    const uint32_t *d = s->dirty.data;
+    size_t k, nq = 0;
+    locd_status st;
+    double t0 = lc_now_ms();
+    if ((st = build_lists(u)) != LOCD_OK)
+        return st;
+    g = &s->grid;
+    if ((st = buf_room(u, 0, 8 * s->ndirty + 1)) != LOCD_OK)
+        return st;
+    for (k = 0; k < s->ndirty; k++) {
+        uint32_t slot = d[k];
+        if (!(s->flags[slot] & LC_SLOT_LIVE))
+            continue;
+        u->moved++;
+        nq += lc_cells_entries(g, &s->cell[slot], s->dense[slot], u->buf + nq);
+        s->hot[s->dense[slot]].flags |= LC_SLOT_DIRTY;
     }
-    u->ms_events = lc_now_ms() - t0;
-    lc_plist_fini(a, &n);
-    lc_plist_fini(a, &dropped);
+    u->reencoded = s->live;
+    st = lc_sort_u64_radix(s->alloc, u->buf, nq);
+    u->ms_encode = lc_now_ms() - t0;
+    if (st == LOCD_OK)
+        st = moved_pairs(u, &s->dyn, &s->sta, u->buf, nq);
+    for (k = 0; k < s->ndirty; k++)
+        if (s->flags[d[k]] & LC_SLOT_LIVE)
+            s->hot[s->dense[d[k]]].flags &= ~(uint32_t)LC_SLOT_DIRTY;
     return st;
 }
 
@@ -485,29 +614,18 @@ static void commit(upd *u)
     locd_scene *s = u->s;
     size_t k;
     if (u->rebuilt) {
-        lc_cells *c = s->cell;
-        lc_hot *h = s->hot;
-        uint32_t *dn = s->dense;
-        size_t hc = s->hot_cap;
-        s->cell = u->cells, u->cells = c;
-        s->hot = u->hot, u->hot = h;
-        {
-            uint64_t *hq = s->hq;
-            s->hq = u->hq, u->hq = hq;
-        }
-        s->hot_cap = u->hot_cap, u->hot_cap = hc;
-        s->dense = u->dense, u->dense = dn;
-        s->ndense = u->ndense;
-        s->grid = u->grid;
-        s->have_tree = 1;
+        /* the lists are built again by the next update that needs them */
+        lc_scene_tree_fini(s);
+        memset(&s->dyn, 0, sizeof s->dyn);
+        memset(&s->sta, 0, sizeof s->sta);
+        s->have_tree = 0;
         for (k = 0; k < s->nslots; k++)
-            if (s->flags[k] & LC_SLOT_LIVE)
-                s->flags[k] |= LC_SLOT_INTREE;
+            s->flags[k] &= (uint8_t)~LC_SLOT_INTREE;
         u->moved = 0;
         for (k = 0; k < s->ndirty; k++)
             u->moved += (s->flags[((const uint32_t *)s->dirty.data)[k]] & LC_SLOT_LIVE) != 0;
-        swap_tree(&s->dyn, &u->dyn);
-        swap_tree(&s->sta, &u->sta);
+    } else if (u->relisted) {
+        u->nundo = 0;
     } else {
         lc_tree_edit_commit(s->alloc, &s->dyn, &u->edit[0]);
         lc_tree_edit_commit(s->alloc, &s->sta, &u->edit[1]);
@@ -515,6 +633,7 @@ static void commit(upd *u)
             s->hot[s->dense[u->undo_slot[k]]].flags &= ~(uint32_t)LC_SLOT_DIRTY;
         u->nundo = 0;
     }
+    s->have_pairs = 1;
     swap_plist(&s->pairs, &u->next);
     swap_plist(&s->created, &u->cr);
     swap_plist(&s->lost, &u->lo);
@@ -540,7 +659,12 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     u.flags = flags;
     for (k = 0; k < s->ndirty; k++)
         moved += (s->flags[((const uint32_t *)s->dirty.data)[k]] & LC_SLOT_LIVE) != 0;
-    st = want_rebuild(s, moved) ? rebuild(&u) : incremental(&u);
+    if (want_rebuild(s, moved))
+        st = rebuild(&u);
+    else if (want_relist(s))
+        u.relisted = 1, st = relist(&u);
+    else
+        st = incremental(&u);
     if (st != LOCD_OK) {
         undo(&u);
         upd_free(&u);
