@@ -1137,6 +1137,43 @@ typedef struct query_job {
     int failed;
 } query_job;
 
+/* Empty scenes: an update with no object, after every object was removed,
+ * and after objects come back, at 1 and 2 threads (the bindings' random
+ * sequences met a failing update on an empty scene). */
+static void empty_scene_updates(void)
+{
+    int threads;
+    for (threads = 1; threads <= 2; threads++) {
+        locd_engine *e = new_engine((uint32_t)threads, NULL);
+        locd_scene *s = NULL;
+        model m;
+        double b[6 * 3] = {0, 0, 0, 1, 1, 1, 0.5, 0.5, 0.5, 2, 2, 2, 5, 5, 5, 6, 6, 6};
+        locd_id ids[3];
+        size_t got, k;
+        memset(&m, 0, sizeof m);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+        check_update(s, &m); /* nothing ever added */
+        check_update(s, &m);
+        add_boxes(s, &m, b, 3, 0, ids);
+        check_update(s, &m);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, ids, 3));
+        for (k = 0; k < 3; k++)
+            m_remove(&m, ids[k]);
+        check_update(s, &m); /* every pair lost */
+        TEST_ASSERT_EQUAL_UINT64(0, locd_scene_count(s));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_query_box_f64(s, b, ~(uint64_t)0, ids, 3, &got));
+        TEST_ASSERT_EQUAL_UINT64(0, got);
+        check_update(s, &m); /* empty again, after removals */
+        add_boxes(s, &m, b, 3, 1, ids); /* static this time: no pair */
+        check_update(s, &m);
+        add_boxes(s, &m, b, 2, 0, ids);
+        check_update(s, &m);
+        locd_scene_destroy(s);
+        locd_engine_destroy(e);
+        free(m.o), free(m.pairs);
+    }
+}
+
 static void *query_thread(void *arg)
 {
     query_job *j = arg;
@@ -1202,6 +1239,7 @@ static void queries_from_two_threads(void)
 }
 
 static const lt_test tests[] = {
+    LT_TEST(empty_scene_updates),
     LT_TEST(queries_from_two_threads),
     LT_TEST(f32_entry_points_match_f64),
     LT_TEST(hard_cases),
