@@ -283,16 +283,23 @@ static locd_status query_box(const locd_scene *s, const double *v, int point, ui
     return run(s, &q, ids_out, NULL, capacity, count);
 }
 
+/* The float entry points widen their input (exactly: every float is a
+ * double) and share the double path; NULL stays NULL for its check. */
+static const double *widen(const float *src, double *dst, int n)
+{
+    int a;
+    if (!src)
+        return NULL;
+    for (a = 0; a < n; a++)
+        dst[a] = src[a];
+    return dst;
+}
+
 locd_status locd_scene_query_box_f32(const locd_scene *s, const float *box, uint64_t mask, locd_id *ids_out,
                                      size_t capacity, size_t *count)
 {
     double v[6];
-    int a;
-    if (!box)
-        return query_box(s, NULL, 0, mask, ids_out, capacity, count);
-    for (a = 0; a < 6; a++)
-        v[a] = box[a];
-    return query_box(s, v, 0, mask, ids_out, capacity, count);
+    return query_box(s, widen(box, v, 6), 0, mask, ids_out, capacity, count);
 }
 
 locd_status locd_scene_query_box_f64(const locd_scene *s, const double *box, uint64_t mask, locd_id *ids_out,
@@ -305,12 +312,7 @@ locd_status locd_scene_query_point_f32(const locd_scene *s, const float *point, 
                                        size_t capacity, size_t *count)
 {
     double v[3];
-    int a;
-    if (!point)
-        return query_box(s, NULL, 1, mask, ids_out, capacity, count);
-    for (a = 0; a < 3; a++)
-        v[a] = point[a];
-    return query_box(s, v, 1, mask, ids_out, capacity, count);
+    return query_box(s, widen(point, v, 3), 1, mask, ids_out, capacity, count);
 }
 
 locd_status locd_scene_query_point_f64(const locd_scene *s, const double *point, uint64_t mask, locd_id *ids_out,
@@ -346,12 +348,9 @@ locd_status locd_scene_raycast_f32(const locd_scene *s, const float *origin, con
                                    uint64_t mask, locd_id *ids_out, double *t_out, size_t capacity, size_t *count)
 {
     double o[3], d[3];
-    int a;
     if (!origin || !direction)
         return lc_error(LOCD_ERR_NULL_POINTER, "origin or direction is NULL");
-    for (a = 0; a < 3; a++)
-        o[a] = origin[a], d[a] = direction[a];
-    return raycast(s, o, d, max_t, mask, ids_out, t_out, capacity, count);
+    return raycast(s, widen(origin, o, 3), widen(direction, d, 3), max_t, mask, ids_out, t_out, capacity, count);
 }
 
 locd_status locd_scene_raycast_f64(const locd_scene *s, const double *origin, const double *direction, double max_t,
