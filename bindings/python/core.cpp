@@ -20,18 +20,23 @@
 
 namespace py = pybind11;
 
+// The exception for a failed locd call, from the one status-to-class mapping
+// of locd._errors (shared with scene.cpp, which declares it too).
+[[noreturn]] void locd_py_raise(locd_status status, const std::string &detail, long long index)
+{
+    py::object exc = py::module_::import("locd._errors")
+                         .attr("from_status")(status, locd_status_string(status), detail, index);
+    PyErr_SetObject(reinterpret_cast<PyObject *>(Py_TYPE(exc.ptr())), exc.ptr());
+    throw py::error_already_set();
+}
+
 namespace {
 
 // Raises the Python exception for a failed call. Reads the thread-local detail
 // first: nothing else may call into locd on this thread before that.
 [[noreturn]] void raise_status(locd_status status)
 {
-    std::string detail = locd_last_error();
-    long long index = static_cast<long long>(locd_last_error_index());
-    py::object exc = py::module_::import("locd._errors")
-                         .attr("from_status")(status, locd_status_string(status), detail, index);
-    PyErr_SetObject(reinterpret_cast<PyObject *>(Py_TYPE(exc.ptr())), exc.ptr());
-    throw py::error_already_set();
+    locd_py_raise(status, locd_last_error(), static_cast<long long>(locd_last_error_index()));
 }
 
 // Using a closed engine: locd.ClosedError (a ValueError, like I/O on a closed file).

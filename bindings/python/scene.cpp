@@ -21,19 +21,16 @@
 
 namespace py = pybind11;
 
+// core.cpp: the exception for a failed locd call (locd._errors' mapping).
+[[noreturn]] void locd_py_raise(locd_status status, const std::string &detail, long long index);
+
 namespace {
 
-// Raises the Python exception for a failed scene call: locd.scene builds it
-// (KeyError for stale ids, ValueError for bad boxes and duplicate ids, the
-// shared locd.Error otherwise). Reads the thread-local detail first.
+// Raises the Python exception for a failed scene call. Reads the
+// thread-local detail first.
 [[noreturn]] void scene_raise(locd_status status)
 {
-    std::string detail = locd_last_error();
-    long long index = static_cast<long long>(locd_last_error_index());
-    py::object exc = py::module_::import("locd.scene")
-                         .attr("_error")(status, locd_status_string(status), detail, index);
-    PyErr_SetObject(reinterpret_cast<PyObject *>(Py_TYPE(exc.ptr())), exc.ptr());
-    throw py::error_already_set();
+    locd_py_raise(status, locd_last_error(), static_cast<long long>(locd_last_error_index()));
 }
 
 // An (n,) or (n, 6) etc. array as (pointer, element count), checked to be
@@ -93,10 +90,7 @@ public:
             std::string detail = locd_last_error();
             close();
             // Re-raise with the detail of the failing call.
-            py::object exc = py::module_::import("locd.scene")
-                                 .attr("_error")(st, locd_status_string(st), detail, -1);
-            PyErr_SetObject(reinterpret_cast<PyObject *>(Py_TYPE(exc.ptr())), exc.ptr());
-            throw py::error_already_set();
+            locd_py_raise(st, detail, -1);
         }
     }
 

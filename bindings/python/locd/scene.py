@@ -33,7 +33,7 @@ from typing import Any, Dict, Optional, Tuple
 import numpy as np
 
 from . import _core
-from ._errors import DuplicateIdError, Error, StaleIdError, from_status
+from ._errors import DuplicateIdError, StaleIdError
 
 __all__ = ["Scene", "SceneUpdate", "StaleIdError", "DuplicateIdError", "ALL"]
 
@@ -41,11 +41,6 @@ __all__ = ["Scene", "SceneUpdate", "StaleIdError", "DuplicateIdError", "ALL"]
 ALL: int = (1 << 64) - 1
 
 _U64_MAX = ALL
-
-
-def _error(status: int, text: str, detail: str, index: int) -> Error:
-    """The exception for a failed scene call (used by the extension): the one mapping of _errors."""
-    return from_status(status, text, detail, index)
 
 
 @dataclasses.dataclass(frozen=True)
