@@ -51,6 +51,9 @@ int cli_parse_size(const char *s, size_t *out); /* accepts 1e6, 1000000, 1M, 10k
 /* A size option's value s (as cli_parse_size reads it) when it lies in
  * lo..hi; otherwise exits with the message fmt, like cli_die. */
 size_t cli_size_option(const char *s, size_t lo, size_t hi, const char *fmt, ...);
+/* A seed: a whole decimal number 0..2^64-1 and nothing else (strtoull
+ * alone reads "junk" as 0 and "-1" as 2^64-1); otherwise exits naming opt. */
+uint64_t cli_seed_option(const char *s, const char *cmd);
 
 /* Subcommands. argv[0] is the subcommand name. */
 int cmd_gen(int argc, char **argv);

@@ -488,3 +488,14 @@ size_t cli_size_option(const char *s, size_t lo, size_t hi, const char *fmt, ...
     va_end(ap);
     return 0;
 }
+
+uint64_t cli_seed_option(const char *s, const char *cmd)
+{
+    char *end;
+    unsigned long long v;
+    errno = 0;
+    v = strtoull(s, &end, 10);
+    if (*s < '0' || *s > '9' || *end || errno)
+        cli_die("%s: bad --seed '%s' (a whole number 0..18446744073709551615)", cmd, s);
+    return (uint64_t)v;
+}

@@ -24,7 +24,7 @@ int cmd_gen(int argc, char **argv)
                    cli_generator_kinds());
             return 0;
         } else if (!strcmp(argv[i], "--seed") && i + 1 < argc) {
-            seed = strtoull(argv[++i], NULL, 10);
+            seed = cli_seed_option(argv[++i], "gen");
         } else if ((!strcmp(argv[i], "-o") || !strcmp(argv[i], "--out")) && i + 1 < argc) {
             out = argv[++i];
         } else if (!kind) {
