@@ -262,6 +262,8 @@ def bad_scene_numbers_are_refused_not_crashed_on():
     refused(simulate_json(rock % "-nan"), "bad number")
     refused(simulate_json(rock % "1e999"), "bad number")
     refused(simulate_json('{"steps": 1e300}'), "steps")
+    refused(run(["simulate", "-", "--steps", "junk"], input=b"{}"), "--steps")
+    refused(run(["simulate", "-", "--threads", "-1"], input=b"{}"), "--threads")
     assert simulate_json(gen % "[2, 2, 1]").returncode == 0
 
 
