@@ -35,6 +35,8 @@ double cli_rng_normal(cli_rng *r);
 /* Scene generators: kinds "uniform", "clustered", "mixed", "lattice", "far".
  * Returns 6n floats (malloc) or NULL for an unknown kind. */
 float *cli_generate(const char *kind, size_t n, uint64_t seed);
+/* 1 if cli_generate knows the kind (so a NULL from it means out of memory). */
+int cli_generator_known(const char *kind);
 const char *cli_generator_kinds(void);
 
 /* Progress of a long command, "\rlocd: what done/total" on stderr, only when

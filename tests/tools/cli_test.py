@@ -243,13 +243,15 @@ def refused(r, *words):
 
 @test
 def out_of_range_numbers_are_refused_not_crashed_on():
-    """Issue 18: --repeat 1e12 segfaulted (unchecked allocation), --seed junk became 0."""
+    """Issue 18: --repeat 1e12 segfaulted (unchecked allocation), --seed junk became 0, `gen uniform 1e12`
+    said "unknown kind" when the allocation failed."""
     with Tmp() as t:
         scene = t.gen(100, 1)
         refused(pairs([scene, "--repeat", "1e12"]), "--repeat")
         refused(run(["gen", "uniform", "10", "--seed", "junk", "-o", t.path("x.aabb")]), "--seed")
         refused(run(["gen", "uniform", "10", "--seed", "-1", "-o", t.path("x.aabb")]), "--seed")
         refused(run(["frames", scene, "--moving", "0.1", "--frames", "2", "--seed", "7x"]), "--seed")
+        refused(run(["gen", "uniform", "1e12", "-o", t.path("x.aabb")]), "out of memory")
 
 
 @test
