@@ -670,10 +670,17 @@ static int run_step(sim_run *r, int step)
  * when rendering failed. */
 static int finish_recording(sim_run *r)
 {
+    int failed;
     if (!r->rec)
         return 0;
-    fclose(r->rec);
+    /* A full disk (or /dev/full) shows only here: the writes were buffered. */
+    failed = ferror(r->rec) != 0;
+    failed |= fclose(r->rec) != 0;
     r->rec = NULL;
+    if (failed) {
+        fprintf(stderr, "locd: cannot write %s: %s\n", r->dump_path, strerror(errno ? errno : EIO));
+        return 1;
+    }
     if ((r->a.frames || r->a.gif) && render(r->dump_path, &r->a) != 0)
         return 1;
     return 0;

@@ -267,6 +267,9 @@ def bad_scene_numbers_are_refused_not_crashed_on():
     refused(run(["simulate", "-", "--steps", "junk"], input=b"{}"), "--steps")
     refused(run(["simulate", "-", "--threads", "-1"], input=b"{}"), "--threads")
     assert simulate_json(gen % "[2, 2, 1]").returncode == 0
+    if os.path.exists("/dev/full"):  # issue 18: a failed --dump write exited 0
+        refused(run(["simulate", "-", "--steps", "2", "--quiet", "--dump", "/dev/full"], input=(gen % "[2, 2, 1]").encode()),
+                "cannot write")
 
 
 def main():
