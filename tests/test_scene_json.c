@@ -67,12 +67,46 @@ static void nesting_is_bounded(void)
     TEST_ASSERT_NOT_NULL(strstr(err, "nested too deeply"));
 }
 
+/* RFC 8259 numbers only: strtod alone would take nan, inf, hex floats,
+ * a leading '+', leading zeros and "1." - and a NaN then slips past the
+ * scene's range checks (issue 18). Each is refused with its position. */
+static void numbers_follow_rfc8259(void)
+{
+    static const char *bad[] = {"-nan", "nan", "NaN", "-inf", "inf", "Infinity", "0x10", "-0x1p3", "+1",
+                                "01", "-01", "1.", ".5", "1e", "1e+", "-", "1.e3", "1e999", "[1, -nan]"};
+    static const struct {
+        const char *text;
+        double want;
+    } good[] = {{"0", 0.0}, {"-0", -0.0}, {"12", 12.0}, {"-3.25", -3.25}, {"1e3", 1e3}, {"2E-2", 2e-2},
+                {"0.5e+1", 5.0}, {"1e-400", 0.0}};
+    char err[128];
+    size_t i;
+    for (i = 0; i < sizeof bad / sizeof *bad; i++) {
+        json_value *j = json_parse(bad[i], err, sizeof err);
+        if (j)
+            json_free(j);
+        TEST_ASSERT_NULL_MESSAGE(j, bad[i]);
+        TEST_ASSERT_NOT_NULL_MESSAGE(strstr(err, "column"), err);
+    }
+    for (i = 0; i < sizeof good / sizeof *good; i++) {
+        json_value *j = json_parse(good[i].text, err, sizeof err);
+        TEST_ASSERT_NOT_NULL_MESSAGE(j, good[i].text);
+        TEST_ASSERT_EQUAL_INT64(JSON_NUMBER, j->type);
+        TEST_ASSERT_TRUE_MESSAGE(j->number == good[i].want, good[i].text);
+        json_free(j);
+    }
+    TEST_ASSERT_NULL(json_parse("{\"points\": -nan}", err, sizeof err));
+    TEST_ASSERT_EQUAL_STRING("line 1, column 12: bad number (RFC 8259: -?(0|[1-9][0-9]*)(.[0-9]+)?([eE][+-]?[0-9]+)?)",
+                             err);
+}
+
 int main(void)
 {
     static const lt_test tests[] = {
         LT_TEST(parses_values),
         LT_TEST(reports_error_positions),
         LT_TEST(nesting_is_bounded),
+        LT_TEST(numbers_follow_rfc8259),
     };
     return LT_RUN(tests);
 }

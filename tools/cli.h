@@ -35,6 +35,8 @@ double cli_rng_normal(cli_rng *r);
 /* Scene generators: kinds "uniform", "clustered", "mixed", "lattice", "far".
  * Returns 6n floats (malloc) or NULL for an unknown kind. */
 float *cli_generate(const char *kind, size_t n, uint64_t seed);
+/* 1 if cli_generate knows the kind (so a NULL from it means out of memory). */
+int cli_generator_known(const char *kind);
 const char *cli_generator_kinds(void);
 
 /* Progress of a long command, "\rlocd: what done/total" on stderr, only when
@@ -51,6 +53,9 @@ int cli_parse_size(const char *s, size_t *out); /* accepts 1e6, 1000000, 1M, 10k
 /* A size option's value s (as cli_parse_size reads it) when it lies in
  * lo..hi; otherwise exits with the message fmt, like cli_die. */
 size_t cli_size_option(const char *s, size_t lo, size_t hi, const char *fmt, ...);
+/* A seed: a whole decimal number 0..2^64-1 and nothing else (strtoull
+ * alone reads "junk" as 0 and "-1" as 2^64-1); otherwise exits naming opt. */
+uint64_t cli_seed_option(const char *s, const char *cmd);
 
 /* Subcommands. argv[0] is the subcommand name. */
 int cmd_gen(int argc, char **argv);

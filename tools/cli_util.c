@@ -384,6 +384,12 @@ static void gen_lattice(float *b, size_t n)
     }
 }
 
+int cli_generator_known(const char *kind)
+{
+    return !strcmp(kind, "uniform") || !strcmp(kind, "clustered") || !strcmp(kind, "mixed") ||
+           !strcmp(kind, "lattice") || !strcmp(kind, "far");
+}
+
 float *cli_generate(const char *kind, size_t n, uint64_t seed)
 {
     cli_rng r;
@@ -391,8 +397,7 @@ float *cli_generate(const char *kind, size_t n, uint64_t seed)
     /* Edge of n equal cubes in the unit cube giving about one overlapping
        pair per cube: n^2/2 * (2w)^3 = n  =>  w = (4n)^(-1/3). */
     double w = n ? pow(4.0 * (double)n, -1.0 / 3.0) : 0.0;
-    if (strcmp(kind, "uniform") && strcmp(kind, "clustered") && strcmp(kind, "mixed") && strcmp(kind, "lattice") &&
-        strcmp(kind, "far"))
+    if (!cli_generator_known(kind))
         return NULL;
     b = malloc(n ? n * 6 * sizeof(float) : 1);
     if (!b)
@@ -487,4 +492,15 @@ size_t cli_size_option(const char *s, size_t lo, size_t hi, const char *fmt, ...
     die_v(fmt, ap);
     va_end(ap);
     return 0;
+}
+
+uint64_t cli_seed_option(const char *s, const char *cmd)
+{
+    char *end;
+    unsigned long long v;
+    errno = 0;
+    v = strtoull(s, &end, 10);
+    if (*s < '0' || *s > '9' || *end || errno)
+        cli_die("%s: bad --seed '%s' (a whole number 0..18446744073709551615)", cmd, s);
+    return (uint64_t)v;
 }

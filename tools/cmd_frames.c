@@ -72,7 +72,7 @@ static void parse_args(int argc, char **argv, frames_args *a)
         } else if (!strcmp(o, "--threads")) {
             a->threads = (uint32_t)cli_size_option(argv[++i], 1, 64, "frames: --threads must be 1..64");
         } else if (!strcmp(o, "--seed")) {
-            a->seed = strtoull(argv[++i], NULL, 10);
+            a->seed = cli_seed_option(argv[++i], "frames");
         } else if (o[0] == '-') {
             cli_die("frames: unknown option %s (see --help)", o);
         } else if (!a->scene) {

@@ -24,7 +24,7 @@ int cmd_gen(int argc, char **argv)
                    cli_generator_kinds());
             return 0;
         } else if (!strcmp(argv[i], "--seed") && i + 1 < argc) {
-            seed = strtoull(argv[++i], NULL, 10);
+            seed = cli_seed_option(argv[++i], "gen");
         } else if ((!strcmp(argv[i], "-o") || !strcmp(argv[i], "--out")) && i + 1 < argc) {
             out = argv[++i];
         } else if (!kind) {
@@ -38,9 +38,11 @@ int cmd_gen(int argc, char **argv)
     }
     if (!kind || !have_n || !out)
         cli_die("usage: locd gen KIND N [--seed S] -o FILE.aabb");
+    if (!cli_generator_known(kind))
+        cli_die("gen: unknown kind '%s' (kinds: %s)", kind, cli_generator_kinds());
     b = cli_generate(kind, n, seed);
     if (!b)
-        cli_die("gen: unknown kind '%s' (kinds: %s)", kind, cli_generator_kinds());
+        cli_die("gen: %s (%zu boxes)", locd_status_string(LOCD_ERR_NO_MEMORY), n);
     if (cli_write_file(out, b, n * 6 * sizeof(float)) != 0) {
         free(b);
         return 1;

@@ -57,6 +57,8 @@ typedef struct pairs_opts {
 
 /* --check runs the O(n^2) reference: past this many boxes it takes minutes. */
 #define PAIRS_CHECK_MAX 100000
+/* Each repeat runs the whole query; a million is already days of work. */
+#define PAIRS_REPEAT_MAX 1000000
 
 /* The stage times of every repeat, in locd_stats order; the summary prints their medians. */
 #define PAIRS_STAGES 7
@@ -84,7 +86,7 @@ static int parse_value_option(const char *o, const char *v, pairs_opts *p)
     } else if (!strcmp(o, "--out")) {
         p->out_path = v;
     } else if (!strcmp(o, "--repeat")) {
-        p->repeat = cli_size_option(v, 1, SIZE_MAX, "pairs: bad --repeat");
+        p->repeat = cli_size_option(v, 1, PAIRS_REPEAT_MAX, "pairs: bad --repeat (1..%d)", PAIRS_REPEAT_MAX);
     } else if (!strcmp(o, "--depth")) {
         p->cfg.max_depth =
             (uint32_t)cli_size_option(v, 0, LOCD_MAX_DEPTH, "pairs: bad --depth (0..LOCD_MAX_DEPTH, 21)");
@@ -158,12 +160,22 @@ static void scene_to_f64(cli_scene *sc)
     sc->f = NULL;
 }
 
-static void times_alloc(pairs_times *t, size_t repeat)
+/* 0, or -1 (everything freed) when an allocation failed. */
+static int times_alloc(pairs_times *t, size_t repeat)
 {
     size_t i;
+    int ok;
     t->total = calloc(repeat, sizeof *t->total);
+    ok = t->total != NULL;
     for (i = 0; i < PAIRS_STAGES; i++)
-        t->stage[i] = calloc(repeat, sizeof(double));
+        ok &= (t->stage[i] = calloc(repeat, sizeof(double))) != NULL;
+    if (!ok) {
+        free(t->total);
+        for (i = 0; i < PAIRS_STAGES; i++)
+            free(t->stage[i]);
+        return -1;
+    }
+    return 0;
 }
 
 static void times_free(pairs_times *t)
@@ -359,7 +371,15 @@ int cmd_pairs(int argc, char **argv)
     }
     if (locd_pairs_create(NULL, &pairs) != LOCD_OK)
         cli_die("pairs: %s", locd_last_error());
-    times_alloc(&times, p.repeat);
+    if (times_alloc(&times, p.repeat) != 0) {
+        fprintf(stderr, "locd: pairs: %s (the times of %zu repeats)\n", locd_status_string(LOCD_ERR_NO_MEMORY),
+                p.repeat);
+        locd_pairs_destroy(pairs);
+        locd_engine_destroy(eng);
+        cli_free_scene(&sc);
+        cli_free_scene(&b);
+        return 1;
+    }
     if ((rc = run_repeats(&p, eng, &sc, bp, pairs, &times, &st)) == 0) {
         if (!(p.flags & LOCD_FIND_SORTED) && (p.out_path || p.check))
             locd_pairs_sort(pairs);

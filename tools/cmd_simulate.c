@@ -6,6 +6,7 @@
 #include "sim_scene.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -86,15 +87,15 @@ static int parse_args(int argc, char **argv, sim_args *a)
         } else if (o[0] == '-' && o[1] == '-' && !v) {
             cli_die("simulate: %s needs a value", o);
         } else if (!strcmp(o, "--steps")) {
-            a->steps = atoi(argv[++i]);
+            a->steps = (int)cli_size_option(argv[++i], 0, INT_MAX, "simulate: bad --steps (0..%d)", INT_MAX);
         } else if (!strcmp(o, "--dt")) {
             a->dt = atof(argv[++i]);
             if (!(a->dt > 0.0))
                 cli_die("simulate: --dt must be > 0");
         } else if (!strcmp(o, "--every")) {
-            a->every = atoi(argv[++i]);
+            a->every = (int)cli_size_option(argv[++i], 1, INT_MAX, "simulate: bad --every (1..%d)", INT_MAX);
         } else if (!strcmp(o, "--threads")) {
-            a->threads = atol(argv[++i]);
+            a->threads = (long)cli_size_option(argv[++i], 0, 4096, "simulate: bad --threads (0..4096)");
         } else if (!strcmp(o, "--frames")) {
             a->frames = argv[++i];
         } else if (!strcmp(o, "--gif")) {
@@ -669,10 +670,17 @@ static int run_step(sim_run *r, int step)
  * when rendering failed. */
 static int finish_recording(sim_run *r)
 {
+    int failed;
     if (!r->rec)
         return 0;
-    fclose(r->rec);
+    /* A full disk (or /dev/full) shows only here: the writes were buffered. */
+    failed = ferror(r->rec) != 0;
+    failed |= fclose(r->rec) != 0;
     r->rec = NULL;
+    if (failed) {
+        fprintf(stderr, "locd: cannot write %s: %s\n", r->dump_path, strerror(errno ? errno : EIO));
+        return 1;
+    }
     if ((r->a.frames || r->a.gif) && render(r->dump_path, &r->a) != 0)
         return 1;
     return 0;

@@ -47,6 +47,69 @@ static void skip_ws(parser *ps)
 
 static int parse_value(parser *ps, json_value *v);
 
+#define NUMBER_GRAMMAR "RFC 8259: -?(0|[1-9][0-9]*)(.[0-9]+)?([eE][+-]?[0-9]+)?"
+
+static int is_digit(char c)
+{
+    return c >= '0' && c <= '9';
+}
+
+/* The end of an RFC 8259 number starting at p, or NULL. strtod alone would
+ * also take nan, inf, hex floats and "1." - a NaN then passes every range
+ * check written as `x < lo || x > hi` (issue 18). */
+static const char *number_end(const char *p)
+{
+    if (*p == '-')
+        p++;
+    if (*p == '0')
+        p++;
+    else if (*p >= '1' && *p <= '9')
+        while (is_digit(*p))
+            p++;
+    else
+        return NULL;
+    if (*p == '.') {
+        if (!is_digit(*++p))
+            return NULL;
+        while (is_digit(*p))
+            p++;
+    }
+    if (*p == 'e' || *p == 'E') {
+        p++;
+        if (*p == '+' || *p == '-')
+            p++;
+        if (!is_digit(*p))
+            return NULL;
+        while (is_digit(*p))
+            p++;
+    }
+    return p;
+}
+
+/* A number: the strict grammar, then strtod over exactly that text; a
+ * value past the double range is refused (an underflow reads as 0 or a
+ * subnormal). 0, or -1 after fail(). */
+static int parse_number(parser *ps, json_value *v)
+{
+    const char *end = number_end(ps->p);
+    char *stop;
+    /* A letter or dot right after the digits ("1.", "0x10", "01", "1e") is
+     * part of a malformed number, not the next token. */
+    if (!end || is_digit(*end) || *end == '.' || *end == 'x' || *end == 'X' || *end == 'e' || *end == 'E') {
+        fail(ps, "bad number (" NUMBER_GRAMMAR ")");
+        return -1;
+    }
+    errno = 0;
+    v->type = JSON_NUMBER;
+    v->number = strtod(ps->p, &stop);
+    if (stop != end || (errno == ERANGE && (v->number > 1.0 || v->number < -1.0))) {
+        fail(ps, "bad number (" NUMBER_GRAMMAR ")");
+        return -1;
+    }
+    ps->p = end;
+    return 0;
+}
+
 /* The 4 hex digits of a \u escape; scene files are ASCII, so a code point
  * past 127 reads as '?'. 0, or -1 after fail(). */
 static int parse_hex4(parser *ps, char *c)
@@ -264,18 +327,8 @@ static int parse_value(parser *ps, json_value *v)
         }
         break;
     default:
-        if (*ps->p == '-' || (*ps->p >= '0' && *ps->p <= '9')) {
-            char *end;
-            errno = 0;
-            v->type = JSON_NUMBER;
-            v->number = strtod(ps->p, &end);
-            if (end == ps->p || errno == ERANGE) {
-                fail(ps, "bad number");
-                return -1;
-            }
-            ps->p = end;
-            return 0;
-        }
+        if (*ps->p == '-' || (*ps->p >= '0' && *ps->p <= '9'))
+            return parse_number(ps, v);
     }
     fail(ps, *ps->p ? "unexpected character '%c'" : "unexpected end of file", *ps->p);
     return -1;

@@ -5,6 +5,7 @@
 #include "cli.h"
 #include "json.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -213,8 +214,8 @@ static int build_rock(const shape_req *q, locd_status *st)
 {
     sim_shape *sh = q->sh;
     double count = 14, seed = 1;
-    if (json_get_number(q->o, "points", &count) < 0 || json_get_number(q->o, "seed", &seed) < 0 || count < 4 ||
-        count > 1000)
+    if (json_get_number(q->o, "points", &count) < 0 || json_get_number(q->o, "seed", &seed) < 0 ||
+        !(count >= 4 && count <= 1000)) /* written so that a NaN fails too */
         return bad(q->err, q->errlen, "rock: points is 4..1000, seed a number");
     sh->kind = LOCD_SHAPE_CONVEX;
     sh->npoints = (size_t)count;
@@ -451,8 +452,18 @@ static int read_generator(const json_value *g, generator *gen, char *err, size_t
         json_get_number(g, "seed", &gen->seed) < 0 || json_get_number(g, "velocity_jitter", &gen->jitter) < 0 ||
         json_get_number(g, "variants", &gen->variants) < 0 || json_get_string(g, "layout", &gen->layout) < 0)
         return bad(err, errlen, "count, min, max, grid, seed, velocity_jitter, variants, layout");
-    if (!strcmp(gen->layout, "grid"))
+    if (!strcmp(gen->layout, "grid")) {
+        int a;
+        /* Whole cell counts of at least 1: a zero (or 0.5, read as 0) was
+         * a division by zero when placing the objects (issue 18). */
+        for (a = 0; a < 3; a++)
+            if (!(gen->grid[a] >= 1 && gen->grid[a] <= 1e8 && gen->grid[a] == floor(gen->grid[a])))
+                return bad(err, errlen, "grid is 3 whole numbers 1..1e8, got [%g, %g, %g]", gen->grid[0],
+                           gen->grid[1], gen->grid[2]);
         gen->count = gen->grid[0] * gen->grid[1] * gen->grid[2];
+    } else if (strcmp(gen->layout, "random") != 0) {
+        return bad(err, errlen, "layout is \"random\" or \"grid\"");
+    }
     if (!(gen->count >= 0 && gen->count <= 1e8) || !(gen->variants >= 1 && gen->variants <= 64))
         return bad(err, errlen, "count 0..1e8, variants 1..64");
     return 0;
@@ -555,8 +566,9 @@ static int read_globals(const json_value *root, sim_scene *s, char *err, size_t 
         s->continuous = LOCD_SWEPT_AUTO;
     else
         return bad(err, errlen, "continuous is \"on\", \"off\" or \"auto\"");
-    if (!(s->dt > 0) || !(steps >= 0) || !(threads >= 0))
-        return bad(err, errlen, "dt > 0, steps >= 0, threads >= 0");
+    /* Upper bounds too: (int)1e300 is undefined (it gave -2147483648). */
+    if (!(s->dt > 0) || !(steps >= 0 && steps <= INT_MAX) || !(threads >= 0 && threads <= 4096))
+        return bad(err, errlen, "dt > 0, steps 0..%d, threads 0..4096", INT_MAX);
     s->steps = (int)steps;
     s->threads = (uint32_t)threads;
     return 0;

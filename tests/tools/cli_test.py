@@ -229,6 +229,49 @@ def progress_only_when_stderr_is_a_terminal():
         assert b"locd: pairs: run" in out, out
 
 
+def simulate_json(text):
+    """`locd simulate` on a scene given as JSON text (on stdin), two steps, quiet."""
+    return run(["simulate", "-", "--steps", "2", "--quiet"], input=text.encode())
+
+
+def refused(r, *words):
+    """A non-zero exit (not a signal: returncode > 0) with every word in the message."""
+    assert r.returncode > 0, (r.returncode, r.stderr)
+    for w in words:
+        assert w.encode() in r.stderr, (w, r.stderr)
+
+
+@test
+def out_of_range_numbers_are_refused_not_crashed_on():
+    """Issue 18: --repeat 1e12 segfaulted (unchecked allocation), --seed junk became 0, `gen uniform 1e12`
+    said "unknown kind" when the allocation failed."""
+    with Tmp() as t:
+        scene = t.gen(100, 1)
+        refused(pairs([scene, "--repeat", "1e12"]), "--repeat")
+        refused(run(["gen", "uniform", "10", "--seed", "junk", "-o", t.path("x.aabb")]), "--seed")
+        refused(run(["gen", "uniform", "10", "--seed", "-1", "-o", t.path("x.aabb")]), "--seed")
+        refused(run(["frames", scene, "--moving", "0.1", "--frames", "2", "--seed", "7x"]), "--seed")
+        refused(run(["gen", "uniform", "1e12", "-o", t.path("x.aabb")]), "out of memory")
+
+
+@test
+def bad_scene_numbers_are_refused_not_crashed_on():
+    """Issue 18: a grid layout with a zero count (SIGFPE), "points": -nan (SIGSEGV), steps 1e300."""
+    gen = '{"generate": [{"shape": "sphere", "radius": 0.1, "layout": "grid", "grid": %s}]}'
+    for grid in ("[0.5, 4, 1]", "[0, 2, 2]", "[-1, -1, 1]"):
+        refused(simulate_json(gen % grid), "grid")
+    rock = '{"objects": [{"shape": "rock", "radius": 0.5, "points": %s, "position": [0, 0, 0]}]}'
+    refused(simulate_json(rock % "-nan"), "bad number")
+    refused(simulate_json(rock % "1e999"), "bad number")
+    refused(simulate_json('{"steps": 1e300}'), "steps")
+    refused(run(["simulate", "-", "--steps", "junk"], input=b"{}"), "--steps")
+    refused(run(["simulate", "-", "--threads", "-1"], input=b"{}"), "--threads")
+    assert simulate_json(gen % "[2, 2, 1]").returncode == 0
+    if os.path.exists("/dev/full"):  # issue 18: a failed --dump write exited 0
+        refused(run(["simulate", "-", "--steps", "2", "--quiet", "--dump", "/dev/full"], input=(gen % "[2, 2, 1]").encode()),
+                "cannot write")
+
+
 def main():
     print("1..%d" % len(RESULTS))
     failed = 0
