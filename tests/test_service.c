@@ -2,7 +2,8 @@
  * truncated messages drop only the guilty connection; a killed service
  * gives clear errors and a restarted one is picked up again; 16 concurrent
  * clients x 50 jobs are all correct; TCP needs the shared secret; 1,000
- * engine create/destroy cycles leak no fd and no segment. */
+ * engine create/destroy cycles leak no fd and no segment; a malformed
+ * RESULT from a fake service finishes every job of the connection. */
 #include <signal.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -376,6 +377,205 @@ static void create_destroy_cycles_leak_nothing(void)
     locd_pairs_destroy(p);
 }
 
+/* ---- A fake service that answers a job with a malformed RESULT ----
+ * The client's reader must finish the job with LOCD_ERR_PROTOCOL, fail the
+ * connection's other jobs and close the connection, whether or not the
+ * service closes its end; a wait that ran into its bound is the bug. */
+
+enum { BAD_SHORT, BAD_TEXT_LENGTH, BAD_COUNT, BAD_HUGE_COUNT, BAD_LYING_LENGTH, BAD_STATUS, BAD_KINDS };
+
+typedef struct fake_service {
+    int lfd, kind, jobs;  /* jobs to read before answering the first */
+    int client_closed;    /* the client closed its end within 5 s */
+} fake_service;
+
+static int read_n(int fd, void *buf, size_t len)
+{
+    size_t got = 0;
+    while (got < len) {
+        ssize_t r = recv(fd, (char *)buf + got, len - got, 0);
+        if (r <= 0)
+            return 0;
+        got += (size_t)r;
+    }
+    return 1;
+}
+
+/* Reads one message and drops its payload; its id in *id. */
+static int read_message(int fd, uint64_t *id)
+{
+    uint8_t h[24], junk[4096];
+    uint64_t len;
+    if (!read_n(fd, h, sizeof h))
+        return 0;
+    memcpy(id, h + 8, 8);
+    memcpy(&len, h + 16, 8);
+    while (len) {
+        size_t k = len < sizeof junk ? (size_t)len : sizeof junk;
+        if (!read_n(fd, junk, k))
+            return 0;
+        len -= k;
+    }
+    return 1;
+}
+
+static void put_message_header(uint8_t *h, uint16_t type, uint64_t id, uint64_t len)
+{
+    put_header(h, type, len);
+    memcpy(h + 8, &id, 8);
+}
+
+/* The RESULT of kind k for job id: header and payload in out, their size
+ * in *n. Every one is malformed or inconsistent. */
+static void bad_result(int k, uint64_t id, uint8_t *out, size_t *n)
+{
+    uint8_t *p = out + 24;
+    int32_t status = 0;
+    int64_t index = -1;
+    uint32_t mlen = 0;
+    uint64_t count = 0, length = 16 + 112 + 8;
+    size_t body = 16 + 112 + 8;
+    memset(out, 0, 24 + 16 + 112 + 8 + 64);
+    if (k == BAD_SHORT) {
+        length = body = 20; /* shorter than the fixed part */
+    } else if (k == BAD_TEXT_LENGTH) {
+        mlen = 5000; /* over the message limit */
+    } else if (k == BAD_COUNT) {
+        count = 5; /* length says one pair */
+        length = body = 16 + 112 + 8 + 8;
+    } else if (k == BAD_HUGE_COUNT) {
+        count = UINT64_MAX / 4; /* count * 8 wraps */
+    } else if (k == BAD_LYING_LENGTH) {
+        count = 10; /* 10 pairs announced, 1 sent, then the service closes */
+        length = 16 + 112 + 8 + 80;
+        body = 16 + 112 + 8 + 8;
+    } else {
+        status = LOCD_PENDING; /* not a final status */
+    }
+    put_message_header(out, 5, id, length);
+    memcpy(p, &status, 4);
+    memcpy(p + 4, &index, 8);
+    memcpy(p + 12, &mlen, 4);
+    if (body >= 16 + 112 + 8)
+        memcpy(p + 16 + 112, &count, 8);
+    *n = 24 + body;
+}
+
+static void *fake_service_main(void *arg)
+{
+    fake_service *f = arg;
+    uint8_t welcome[28], res[24 + 16 + 112 + 8 + 64];
+    uint64_t id, first = 0;
+    size_t n;
+    int fd = accept(f->lfd, NULL, NULL), i;
+    if (fd < 0)
+        return NULL;
+    if (!read_message(fd, &id)) /* HELLO */
+        goto out;
+    put_message_header(welcome, 2, 0, 4);
+    memset(welcome + 24, 0, 4); /* no shared memory: the boxes are streamed */
+    if (send(fd, welcome, sizeof welcome, MSG_NOSIGNAL) != (ssize_t)sizeof welcome)
+        goto out;
+    for (i = 0; i < f->jobs; i++) {
+        if (!read_message(fd, &id))
+            goto out;
+        if (i == 0)
+            first = id;
+    }
+    bad_result(f->kind, first, res, &n);
+    if (send(fd, res, n, MSG_NOSIGNAL) != (ssize_t)n)
+        goto out;
+    if (f->kind == BAD_LYING_LENGTH)
+        goto out; /* the rest never comes: the connection closes */
+    /* Otherwise the service stays: the client has to see the error itself
+       and close the connection. */
+    f->client_closed = closed_by_peer(fd, 5000);
+out:
+    close(fd);
+    return NULL;
+}
+
+static int fake_listen(const char *path)
+{
+    struct sockaddr_un sa;
+    int fd = socket(AF_UNIX, SOCK_STREAM, 0);
+    memset(&sa, 0, sizeof sa);
+    sa.sun_family = AF_UNIX;
+    snprintf(sa.sun_path, sizeof sa.sun_path, "%s", path);
+    unlink(path);
+    TEST_ASSERT_EQUAL_INT(0, bind(fd, (struct sockaddr *)&sa, sizeof sa));
+    TEST_ASSERT_EQUAL_INT(0, listen(fd, 4));
+    return fd;
+}
+
+static void malformed_result_finishes_every_job(void)
+{
+    char path[300], addr[320];
+    float *b = ts_scene(0, 200, 9);
+    int k;
+    snprintf(path, sizeof path, "%s/fake.sock", g_fx.dir);
+    snprintf(addr, sizeof addr, "unix:%s", path);
+    for (k = 0; k < BAD_KINDS; k++) {
+        fake_service f;
+        pthread_t t;
+        locd_engine *e = NULL;
+        locd_job *j1 = NULL, *j2 = NULL;
+        locd_status s1, s2;
+        memset(&f, 0, sizeof f);
+        f.lfd = fake_listen(path);
+        f.kind = k;
+        f.jobs = 2;
+        TEST_ASSERT_EQUAL_INT(0, pthread_create(&t, NULL, fake_service_main, &f));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, make_engine(addr, NULL, &e));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_submit_f32(e, b, 200, 0, &j1));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_submit_f32(e, b, 200, 0, &j2));
+        s1 = locd_job_wait(j1, 5000);
+        s2 = locd_job_wait(j2, 5000);
+        LT_PRINT("malformed result %d: %d, other job %d\n", k, s1, s2);
+        /* A bounded wait: the unfixed reader left the job pending forever. */
+        TEST_ASSERT_EQUAL_INT_MESSAGE(LOCD_ERR_PROTOCOL, s1, "the job with the malformed result");
+        TEST_ASSERT_TRUE_MESSAGE(s2 == LOCD_ERR_CONNECTION || s2 == LOCD_ERR_PROTOCOL, "the other job");
+        pthread_join(t, NULL); /* the fake service waits up to 5 s for the client to close */
+        if (k != BAD_LYING_LENGTH)
+            TEST_ASSERT_TRUE_MESSAGE(f.client_closed, "the client did not close the connection");
+        locd_job_release(j1);
+        locd_job_release(j2);
+        locd_engine_destroy(e);
+        close(f.lfd);
+        unlink(path);
+    }
+    free(b);
+}
+
+/* The synchronous find is a submit and a wait without a bound: it must
+ * return too. */
+static void malformed_result_ends_a_find(void)
+{
+    char path[300], addr[320];
+    float *b = ts_scene(0, 200, 9);
+    fake_service f;
+    pthread_t t;
+    locd_engine *e = NULL;
+    locd_pairs *p = NULL;
+    snprintf(path, sizeof path, "%s/fake.sock", g_fx.dir);
+    snprintf(addr, sizeof addr, "unix:%s", path);
+    memset(&f, 0, sizeof f);
+    f.lfd = fake_listen(path);
+    f.kind = BAD_COUNT;
+    f.jobs = 1;
+    TEST_ASSERT_EQUAL_INT(0, pthread_create(&t, NULL, fake_service_main, &f));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, make_engine(addr, NULL, &e));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_PROTOCOL, locd_engine_find_pairs_f32(e, b, 200, 0, p));
+    pthread_join(t, NULL);
+    TEST_ASSERT_TRUE(f.client_closed);
+    locd_pairs_destroy(p);
+    locd_engine_destroy(e);
+    close(f.lfd);
+    unlink(path);
+    free(b);
+}
+
 static int setup(void)
 {
     return lu_fixture_up(&g_fx);
@@ -396,6 +596,8 @@ int main(void)
         LT_TEST_FIXTURE(tcp_needs_the_secret, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(socket_directory_must_be_private, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(create_destroy_cycles_leak_nothing, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(malformed_result_finishes_every_job, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(malformed_result_ends_a_find, lu_timer_start, lu_timer_print),
     };
     return LT_RUN_GROUP(tests, setup, teardown);
 }

@@ -1,12 +1,15 @@
 /* Level 3 client: the reader thread of a connection. It receives the
  * service's RESULT messages, whatever their order, and finishes the
- * matching jobs; when the connection breaks, every pending job finishes
- * with LOCD_ERR_CONNECTION. */
+ * matching jobs. A RESULT that is truncated or inconsistent finishes its
+ * job with LOCD_ERR_PROTOCOL and closes the connection; when the
+ * connection ends, every job still pending finishes with
+ * LOCD_ERR_CONNECTION. No job is left unfinished. */
 #define _GNU_SOURCE
 #include "service/service.h"
 
 #include <stdio.h>
 #include <sys/mman.h>
+#include <sys/socket.h>
 
 #define LC_RESULT_MAX_BYTES (1ull << 37)
 
@@ -86,14 +89,22 @@ static int read_head(lc_svc_conn *c, const lc_msg_header *h, lc_result_head *r, 
     return 1;
 }
 
-/* Reads the pairs of a successful result into j and finishes it. 1, or 0
- * when the stream broke (j is left unfinished). */
-static int read_pairs(lc_svc_conn *c, lc_svc_job *j, lc_result_head *r, char *why, size_t wl)
+/* What a RESULT says about its job, for finish_taken. */
+typedef struct lc_outcome {
+    locd_status status;
+    int64_t index;
+    const char *msg;
+} lc_outcome;
+
+/* Reads the pairs of a successful result into j (not finishing it). 1, or
+ * 0 when the stream broke. */
+static int read_pairs(lc_svc_conn *c, lc_svc_job *j, lc_result_head *r, lc_outcome *o, char *why, size_t wl)
 {
     if (lc_pairs_reserve(&j->job.result, (size_t)r->count) != LOCD_OK) {
         if (!lc_proto_skip(c->fd, r->count * 8, LC_MSG_TIMEOUT_MS, why, wl))
             return 0;
-        lc_svc_job_done(j, LOCD_ERR_NO_MEMORY, "no memory for the service's result", -1);
+        o->status = LOCD_ERR_NO_MEMORY;
+        o->msg = "no memory for the service's result";
         return 1;
     }
     if (r->count && lc_proto_read_all(c->fd, j->job.result.data, (size_t)r->count * 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
@@ -104,24 +115,31 @@ static int read_pairs(lc_svc_conn *c, lc_svc_job *j, lc_result_head *r, char *wh
     if (r->stats.ms_transfer < 0)
         r->stats.ms_transfer = 0;
     j->job.stats = r->stats;
-    lc_svc_job_done(j, LOCD_OK, NULL, -1);
+    o->status = LOCD_OK;
     return 1;
 }
 
-/* Reads one RESULT payload (after its header) and finishes job j with it
- * (NULL: the job is no longer pending and its result is dropped). 1, or 0
- * when the stream broke, with j left unfinished. */
-static int read_result(lc_svc_conn *c, const lc_msg_header *h, lc_svc_job *j, char *why, size_t wl)
+/* Reads one RESULT payload (after its header) into job j (NULL: the job is
+ * no longer pending and its result is dropped) and says in o how j ends;
+ * it never finishes j itself (see lc_svc_reader_main). 1, or 0 when the
+ * message is malformed or the stream broke (why): the connection is then
+ * unusable. */
+static int read_result(lc_svc_conn *c, const lc_msg_header *h, lc_svc_job *j, lc_result_head *r, lc_outcome *o,
+                       char *why, size_t wl)
 {
-    lc_result_head r;
-    if (!read_head(c, h, &r, why, wl))
+    if (!read_head(c, h, r, why, wl))
         return 0;
-    if (j && r.status == LOCD_OK)
-        return read_pairs(c, j, &r, why, wl);
-    if (r.count && !lc_proto_skip(c->fd, r.count * 8, LC_MSG_TIMEOUT_MS, why, wl))
+    if (r->status > 0) { /* LOCD_PENDING or worse: not an outcome */
+        snprintf(why, wl, "result with status %d, which is not final", (int)r->status);
         return 0;
-    if (j)
-        lc_svc_job_done(j, r.status < 0 ? r.status : LOCD_ERR_PROTOCOL, r.msg, r.index);
+    }
+    if (j && r->status == LOCD_OK)
+        return read_pairs(c, j, r, o, why, wl);
+    if (r->count && !lc_proto_skip(c->fd, r->count * 8, LC_MSG_TIMEOUT_MS, why, wl))
+        return 0;
+    o->status = r->status;
+    o->index = r->index;
+    o->msg = r->msg;
     return 1;
 }
 
@@ -132,9 +150,12 @@ void *lc_svc_reader_main(void *arg)
     uint8_t hb[LC_PROTO_HEADER];
     lc_msg_header h;
     lc_svc_job *list, *j;
+    lc_result_head r;
+    lc_outcome o;
+    int ok;
     for (;;) {
-        int r = lc_proto_read_all(c->fd, hb, sizeof hb, -1, why, sizeof why);
-        if (r != 1)
+        int rd = lc_proto_read_all(c->fd, hb, sizeof hb, -1, why, sizeof why);
+        if (rd != 1)
             break;
         if (!lc_proto_get_header(hb, LC_RESULT_MAX_BYTES, &h, why, sizeof why))
             break;
@@ -142,13 +163,24 @@ void *lc_svc_reader_main(void *arg)
             snprintf(why, sizeof why, "unexpected message type %u from the service", h.type);
             break;
         }
+        /* The job leaves the pending list for its RESULT to be read into it
+           (a failed submit cannot take it meanwhile); from here this loop
+           is its only way out, and every way ends in lc_svc_job_done. */
         j = lc_svc_take_pending(c, h.id);
-        if (!read_result(c, &h, j, why, sizeof why)) {
-            if (j) /* off the pending list: fail it here */
-                lc_svc_job_done(j, LOCD_ERR_CONNECTION, why, -1);
+        o.status = LOCD_ERR_PROTOCOL;
+        o.index = -1;
+        o.msg = why;
+        ok = read_result(c, &h, j, &r, &o, why, sizeof why);
+        if (j)
+            lc_svc_job_done(j, ok ? o.status : LOCD_ERR_PROTOCOL, ok ? o.msg : why, ok ? o.index : -1);
+        if (!ok)
             break;
-        }
     }
+    /* Whatever ended the stream, it cannot be resynchronised: close it, so
+       the service sees the client leave and later writes fail at once. */
+    pthread_mutex_lock(&c->wmu);
+    shutdown(c->fd, SHUT_RDWR);
+    pthread_mutex_unlock(&c->wmu);
     pthread_mutex_lock(&c->mu);
     c->dead = 1;
     snprintf(c->why, sizeof c->why, "%s", why);
