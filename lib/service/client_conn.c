@@ -164,6 +164,9 @@ static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
  * and drops the engine's reference. Jobs may still hold the memory. */
 static void conn_close(lc_svc_conn *c)
 {
+    pthread_mutex_lock(&c->mu);
+    c->closing = 1;
+    pthread_mutex_unlock(&c->mu);
     pthread_mutex_lock(&c->wmu);
     shutdown(c->fd, SHUT_RDWR);
     pthread_mutex_unlock(&c->wmu);

@@ -143,6 +143,18 @@ static int read_result(lc_svc_conn *c, const lc_msg_header *h, lc_svc_job *j, lc
     return 1;
 }
 
+/* How a job whose RESULT could not be read ends: the service's fault
+ * (LOCD_ERR_PROTOCOL), unless this side broke the stream by closing the
+ * engine mid-message (LOCD_ERR_CONNECTION, like every other pending job). */
+static locd_status broken_status(lc_svc_conn *c)
+{
+    int closing;
+    pthread_mutex_lock(&c->mu);
+    closing = c->closing;
+    pthread_mutex_unlock(&c->mu);
+    return closing ? LOCD_ERR_CONNECTION : LOCD_ERR_PROTOCOL;
+}
+
 void *lc_svc_reader_main(void *arg)
 {
     lc_svc_conn *c = arg;
@@ -172,7 +184,7 @@ void *lc_svc_reader_main(void *arg)
         o.msg = why;
         ok = read_result(c, &h, j, &r, &o, why, sizeof why);
         if (j)
-            lc_svc_job_done(j, ok ? o.status : LOCD_ERR_PROTOCOL, ok ? o.msg : why, ok ? o.index : -1);
+            lc_svc_job_done(j, ok ? o.status : broken_status(c), ok ? o.msg : why, ok ? o.index : -1);
         if (!ok)
             break;
     }

@@ -126,9 +126,10 @@ typedef struct lc_svc_job {
 } lc_svc_job;
 
 typedef struct lc_svc_conn {
-    pthread_mutex_t mu; /* refs, dead, pending, next_id */
+    pthread_mutex_t mu; /* refs, dead, closing, pending, next_id */
     int refs;
     int dead;
+    int closing; /* this side is closing the connection (engine destroyed) */
     char why[200];
     lc_svc_job *pending;
     uint64_t next_id;
