@@ -32,9 +32,14 @@ uint64_t cli_rng_next(cli_rng *r);
 double cli_rng_uniform(cli_rng *r); /* [0, 1) */
 double cli_rng_normal(cli_rng *r);
 
-/* Scene generators: kinds "uniform", "clustered", "mixed", "lattice", "far".
- * Returns 6n floats (malloc) or NULL for an unknown kind. */
+/* Scene generators: kinds "uniform", "clustered", "mixed", "lattice", "far",
+ * "boxprune". Returns 6n floats (malloc) or NULL for an unknown kind. */
 float *cli_generate(const char *kind, size_t n, uint64_t seed);
+/* The same with every box edge scaled for about pairs_per_box overlapping
+ * pairs per box (0: the kind's natural size); only for the kinds
+ * cli_generator_scalable accepts (uniform, clustered, mixed). */
+float *cli_generate_ppb(const char *kind, size_t n, uint64_t seed, double pairs_per_box);
+int cli_generator_scalable(const char *kind);
 /* 1 if cli_generate knows the kind (so a NULL from it means out of memory). */
 int cli_generator_known(const char *kind);
 const char *cli_generator_kinds(void);

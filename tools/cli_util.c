@@ -299,7 +299,7 @@ double cli_rng_normal(cli_rng *r)
 
 const char *cli_generator_kinds(void)
 {
-    return "uniform, clustered, mixed, lattice, far";
+    return "uniform, clustered, mixed, lattice, far, boxprune";
 }
 
 static void put_box(float *b, double x, double y, double z, double sx, double sy, double sz)
@@ -326,6 +326,23 @@ static void gen_uniform(float *b, size_t n, double w, double off, double scale, 
         double z = cli_rng_uniform(r), y = cli_rng_uniform(r), x = cli_rng_uniform(r);
         put_box(b + 6 * i, off + scale * x * (1 - w), off + scale * y * (1 - w), off + scale * z * (1 - w), scale * w,
                 scale * w, scale * w);
+    }
+}
+
+/* Terdiman's box-pruning test scene ("Box pruning revisited"): integer
+ * centres uniform in [-2048, 2047]^3, integer half-extents 0..127 drawn
+ * per axis (about 11 pairs per box at 10^5 boxes). */
+static void gen_boxprune(float *b, size_t n, cli_rng *r)
+{
+    size_t i;
+    for (i = 0; i < n; i++) {
+        double c[3], e[3];
+        int a;
+        for (a = 0; a < 3; a++)
+            c[a] = (double)(int64_t)(cli_rng_next(r) % 4096) - 2048.0;
+        for (a = 0; a < 3; a++)
+            e[a] = (double)(cli_rng_next(r) % 128);
+        put_box(b + 6 * i, c[0] - e[0], c[1] - e[1], c[2] - e[2], 2 * e[0], 2 * e[1], 2 * e[2]);
     }
 }
 
@@ -387,10 +404,34 @@ static void gen_lattice(float *b, size_t n)
 int cli_generator_known(const char *kind)
 {
     return !strcmp(kind, "uniform") || !strcmp(kind, "clustered") || !strcmp(kind, "mixed") ||
-           !strcmp(kind, "lattice") || !strcmp(kind, "far");
+           !strcmp(kind, "lattice") || !strcmp(kind, "far") || !strcmp(kind, "boxprune");
+}
+
+/* Pairs per box of each scalable kind at its natural size (measured on
+ * 10^6 boxes, seed 1; nearly independent of n, since the edge shrinks as
+ * n^(-1/3)). Scaling every edge by s scales the pairs by about s^3. */
+static double natural_pairs_per_box(const char *kind)
+{
+    if (!strcmp(kind, "uniform"))
+        return 1.0094;
+    if (!strcmp(kind, "clustered"))
+        return 0.5335;
+    if (!strcmp(kind, "mixed"))
+        return 0.5277;
+    return 0.0;
+}
+
+int cli_generator_scalable(const char *kind)
+{
+    return natural_pairs_per_box(kind) > 0.0;
 }
 
 float *cli_generate(const char *kind, size_t n, uint64_t seed)
+{
+    return cli_generate_ppb(kind, n, seed, 0.0);
+}
+
+float *cli_generate_ppb(const char *kind, size_t n, uint64_t seed, double pairs_per_box)
 {
     cli_rng r;
     float *b;
@@ -399,6 +440,8 @@ float *cli_generate(const char *kind, size_t n, uint64_t seed)
     double w = n ? pow(4.0 * (double)n, -1.0 / 3.0) : 0.0;
     if (!cli_generator_known(kind))
         return NULL;
+    if (pairs_per_box > 0.0 && cli_generator_scalable(kind))
+        w *= cbrt(pairs_per_box / natural_pairs_per_box(kind));
     b = malloc(n ? n * 6 * sizeof(float) : 1);
     if (!b)
         return NULL;
@@ -413,6 +456,8 @@ float *cli_generate(const char *kind, size_t n, uint64_t seed)
         gen_clustered(b, n, w, &r);
     else if (!strcmp(kind, "mixed"))
         gen_mixed(b, n, w, &r);
+    else if (!strcmp(kind, "boxprune"))
+        gen_boxprune(b, n, &r);
     else
         gen_lattice(b, n);
     return b;
