@@ -110,30 +110,57 @@ LC_INLINE void lc_cell_of(const int32_t q[6], uint64_t cm, uint32_t s, int32_t c
     cell[2] = (q[2] >> s) + (((q[2] >> s) ^ (int32_t)(cm >> 2)) & 1);
 }
 
-/* A cell's x range cut into LC_SLABS slabs; boxes starting left of the cell
- * count in the first slab, so slab order is x order up to the slab. */
-#define LC_SLABS 16
-#define LC_SLAB_BITS 4
+/* A dense cell's x and y ranges cut into slabs, its entries bucketed by the
+ * (x slab, y slab) where each box starts: 2^bits[0] slabs on x and 2^bits[1]
+ * on y, as many as the cell's population pays for (16 x 1 from
+ * LC_SLAB_MIN entries, 16 x 16 from LC_YSLAB_MIN, 32 x 32 from
+ * LC_FINE_MIN). Boxes starting left of (below) the cell count in the first
+ * slab, so bucket order is x order up to the slab, and y order up to the
+ * slab within one. */
+#define LC_MAX_SLAB_BITS 5
+#define LC_BUCKETS (1u << (2 * LC_MAX_SLAB_BITS))
 /* Fewer entries than this: ordering a cell costs more than it saves. */
 #define LC_SLAB_MIN 12
+/* Entries from which y is cut too (16 x 16 buckets), and from which both
+ * axes are cut finer (32 x 32). Below LC_YSLAB_MIN the extra runs of a 2-D
+ * window cost more time than the candidates they save (measured on the
+ * uniform scene, about 54 entries a cell: half the candidates, a quarter
+ * more sweep time). */
+#define LC_YSLAB_MIN 96
+#define LC_FINE_MIN 768
 typedef struct lc_slabs {
-    int64_t origin; /* the cell's low x */
-    uint32_t shift; /* log2 of a slab's width */
+    int64_t origin[2]; /* the cell's low x and y */
+    uint32_t shift[2]; /* log2 of a slab's width on x and y */
+    uint32_t bits[2];  /* log2 of the number of slabs on x and y */
 } lc_slabs;
 
-static void slabs_of(lc_slabs *sl, int32_t cell_x, uint32_t s)
+/* The slabs of the cell with integer coordinates cell at shift s, for m entries. */
+static void slabs_of(lc_slabs *sl, const int32_t cell[3], uint32_t s, size_t m)
 {
-    sl->origin = (int64_t)cell_x << s;
-    sl->shift = s > LC_SLAB_BITS ? s - LC_SLAB_BITS : 0;
+    int a;
+    sl->bits[0] = m >= LC_FINE_MIN ? 5u : 4u;
+    sl->bits[1] = m >= LC_FINE_MIN ? 5u : m >= LC_YSLAB_MIN ? 4u : 0u;
+    for (a = 0; a < 2; a++) {
+        sl->origin[a] = (int64_t)cell[a] << s;
+        sl->shift[a] = s > sl->bits[a] ? s - sl->bits[a] : 0;
+    }
 }
 
-LC_INLINE uint32_t slab_of(const lc_slabs *sl, int64_t x)
+/* The slab of coordinate x on axis a (0: x, 1: y), clamped to the cell. */
+LC_INLINE uint32_t slab_of(const lc_slabs *sl, int a, int64_t x)
 {
-    int64_t b = x - sl->origin;
+    const int64_t top = ((int64_t)1 << sl->bits[a]) - 1;
+    int64_t b = x - sl->origin[a];
     if (b < 0)
         return 0;
-    b >>= sl->shift;
-    return b >= LC_SLABS ? LC_SLABS - 1 : (uint32_t)b;
+    b >>= sl->shift[a];
+    return b >= top ? (uint32_t)top : (uint32_t)b;
+}
+
+/* The bucket of x slab bx and y slab by (row-major: x slab first). */
+LC_INLINE uint32_t bucket_of(const lc_slabs *sl, uint32_t bx, uint32_t by)
+{
+    return (bx << sl->bits[1]) | by;
 }
 
 /* Grows the pair buffer to `values` uint32 (two per pair), keeping the
@@ -357,7 +384,10 @@ static size_t scan_scalar(const lc_scan *sc, size_t first, size_t end, uint32_t 
 }
 
 #ifdef LC_HAVE_AVX2_KERNEL
-__attribute__((target("avx2"))) static size_t scan_avx2(const lc_scan *sc, size_t first, size_t end,
+/* Inlined into the AVX2 main loop (sweep_range_*_avx2), whose runs of
+ * candidates are short; pick_scan takes its address for nothing else. */
+#define LC_AVX2 __attribute__((target("avx2")))
+LC_AVX2 LC_INLINE size_t scan_avx2(const lc_scan *sc, size_t first, size_t end,
                                                         uint32_t *pairs, size_t np, uint64_t *exact)
 {
     const __m256i lo0 = _mm256_set1_epi32(sc->lo[0]), lo1 = _mm256_set1_epi32(sc->lo[1]),
@@ -491,9 +521,9 @@ typedef struct lc_sweep_state {
     uint32_t nseg;
     size_t ncand; /* records in use (the segments' and the open cell's) */
     lc_scan sc;   /* the entry being tested, and its cell */
-    lc_slabs sl;  /* the slab order of the last cell loaded with one */
-    size_t slab[LC_SLABS + 1];
-    int64_t ext;
+    lc_slabs sl;  /* the bucket order of the last cell loaded with one */
+    size_t slab[LC_BUCKETS + 1]; /* its buckets' first rows */
+    int64_t ext[2];              /* its largest x and y extents */
 } lc_sweep_state;
 
 static void sweep_ctx_init(lc_sweep_ctx *cx, lc_sweep_state *ss, const locd_grid *g, const void *boxes, int f64,
@@ -548,6 +578,16 @@ LC_INLINE locd_status reserve_pairs(lc_sweep_ctx *cx, size_t cand)
     return LOCD_OK;
 }
 
+/* Makes room for the pairs of at most `bound` candidates without counting
+ * them (the caller counts the ones it tests). */
+LC_INLINE locd_status reserve_room(lc_sweep_ctx *cx, size_t bound)
+{
+    const size_t need = cx->npairs + bound + LC_PAIR_SLACK;
+    if (2 * need > cx->o->pairs.cap)
+        return pairs_reserve(cx->o, 2 * need, cx->npairs);
+    return LOCD_OK;
+}
+
 /* Makes box q (lo xyz, hi xyz) of object idx the entry under test. */
 LC_INLINE void entry_from_box(lc_scan *sc, const int32_t q[6], uint32_t idx)
 {
@@ -573,9 +613,9 @@ LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
 }
 
 /* The main loop, once per input precision and per kernel family (the
- * include-template of octree.h): through the scan function pointer (scalar,
- * AVX2), and with the AVX-512 scan inlined into a loop compiled for
- * AVX-512. */
+ * include-template of octree.h): through the scan function pointer (the
+ * portable loop: scalar), and with the AVX2 or AVX-512 scan inlined into a
+ * loop compiled for that target. */
 #define LC_TARGET
 #define LC_SCAN(cx, sc, first, end, pairs, np, exact) (cx)->scan(sc, first, end, pairs, np, exact)
 #define LC_T float
@@ -586,6 +626,19 @@ LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
 #include "sweep_impl.h"
 #undef LC_TARGET
 #undef LC_SCAN
+
+#ifdef LC_HAVE_AVX2_KERNEL
+#define LC_TARGET LC_AVX2
+#define LC_SCAN(cx, sc, first, end, pairs, np, exact) scan_avx2(sc, first, end, pairs, np, exact)
+#define LC_T float
+#define LC_SUFFIX f32_avx2
+#include "sweep_impl.h"
+#define LC_T double
+#define LC_SUFFIX f64_avx2
+#include "sweep_impl.h"
+#undef LC_TARGET
+#undef LC_SCAN
+#endif
 
 #ifdef LC_HAVE_AVX512_KERNEL
 /* lc_quantize on a box's six coordinates at once, to the sweep's 21 bits:
@@ -626,6 +679,10 @@ locd_status lc_sweep_range_f32(const locd_grid *g, const float *boxes, const uin
     if (o->kernel == LC_KERNEL_AVX512)
         return sweep_range_f32_avx512(g, boxes, qbox, entries, count, begin, end, o);
 #endif
+#ifdef LC_HAVE_AVX2_KERNEL
+    if (o->kernel >= LC_KERNEL_AVX2)
+        return sweep_range_f32_avx2(g, boxes, qbox, entries, count, begin, end, o);
+#endif
     return sweep_range_f32_generic(g, boxes, qbox, entries, count, begin, end, o);
 }
 
@@ -635,6 +692,10 @@ locd_status lc_sweep_range_f64(const locd_grid *g, const double *boxes, const ui
 #ifdef LC_HAVE_AVX512_KERNEL
     if (o->kernel == LC_KERNEL_AVX512)
         return sweep_range_f64_avx512(g, boxes, qbox, entries, count, begin, end, o);
+#endif
+#ifdef LC_HAVE_AVX2_KERNEL
+    if (o->kernel >= LC_KERNEL_AVX2)
+        return sweep_range_f64_avx2(g, boxes, qbox, entries, count, begin, end, o);
 #endif
     return sweep_range_f64_generic(g, boxes, qbox, entries, count, begin, end, o);
 }

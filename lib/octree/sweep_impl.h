@@ -52,22 +52,24 @@ LC_INLINE void LC_FN(prefetch_)(const locd_grid *g, const LC_T *boxes, const uin
 }
 
 /* Loads the records of one cell's entries [p, q) at rows at.. of the
- * columns. A cell of LC_SLAB_MIN entries or more is ordered by the x slab
- * (1/LC_SLABS of the cell) where each box starts, then by object, and
- * slab[b] receives the first row of slab b: an entry then needs only the
- * rows from the slab where a box ending at its own start could begin (see
- * the main loop), not the whole cell, and 1 is returned. A smaller cell
- * keeps entry order and returns 0 (every row is a candidate). A negative
- * locd_status when the slab buffer cannot grow (raised). */
+ * columns. A cell of LC_SLAB_MIN entries or more is ordered by the bucket
+ * (x slab, y slab: lc_slabs, made by slabs_of for this cell and m = q - p)
+ * where each box starts, then by object, and slab[b] receives the first row
+ * of bucket b (slab[nbuckets] the end): an entry then needs only the rows of
+ * the buckets where a box overlapping it can start (see scan_cell_), not
+ * the whole cell, and 1 is returned; ext[a] receives the largest extent on
+ * axis a. A smaller cell keeps entry order and returns 0 (every row is a
+ * candidate). A negative locd_status when the bucket buffer cannot grow
+ * (raised). */
 static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox,
                                       const uint64_t *entries, size_t p, size_t q, lc_sweep_out *o,
-                                      size_t at, const lc_slabs *sl, size_t slab[LC_SLABS + 1], int64_t *ext)
+                                      size_t at, const lc_slabs *sl, size_t slab[LC_BUCKETS + 1], int64_t ext[2])
 {
-    const uint32_t ib = g->index_bits;
+    const uint32_t ib = g->index_bits, nb = 1u << (sl->bits[0] + sl->bits[1]);
     const uint64_t imask = (1ull << ib) - 1;
     const size_t m = q - p;
     uint64_t *tag;
-    int64_t wide = 0;
+    int64_t wide = 0, tall = 0;
     lc_cols c;
     size_t i;
     uint32_t b;
@@ -86,23 +88,25 @@ static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, co
     if (m > o->group.cap && (st = lc_buf_reserve(o->alloc, &o->group, sizeof(uint64_t), m)) != LOCD_OK)
         return st;
     tag = (uint64_t *)o->group.data;
-    for (b = 0; b <= LC_SLABS; b++)
+    for (b = 0; b <= nb; b++)
         slab[b] = 0;
     for (i = 0; i < m; i++) {
         const uint32_t idx = (uint32_t)(entries[p + i] & imask);
         int32_t qb[8];
         LC_FN(qbox_of_)(g, boxes, qbox, idx, qb);
-        b = slab_of(sl, qb[0]);
+        b = bucket_of(sl, slab_of(sl, 0, qb[0]), slab_of(sl, 1, qb[1]));
         slab[b + 1]++;
         tag[i] = ((uint64_t)b << 32) | idx;
         if ((int64_t)qb[3] - qb[0] > wide)
             wide = (int64_t)qb[3] - qb[0];
+        if ((int64_t)qb[4] - qb[1] > tall)
+            tall = (int64_t)qb[4] - qb[1];
     }
-    for (b = 0; b < LC_SLABS; b++)
+    for (b = 0; b < nb; b++)
         slab[b + 1] += slab[b];
     {
-        size_t fill[LC_SLABS];
-        for (b = 0; b < LC_SLABS; b++)
+        size_t fill[LC_BUCKETS];
+        for (b = 0; b < nb; b++)
             fill[b] = at + slab[b];
         for (i = 0; i < m; i++) {
             const uint32_t idx = (uint32_t)tag[i];
@@ -111,9 +115,10 @@ static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, co
             cand_put(&c, fill[tag[i] >> 32]++, qb, idx);
         }
     }
-    for (b = 0; b <= LC_SLABS; b++)
+    for (b = 0; b <= nb; b++)
         slab[b] += at;
-    *ext = wide;
+    ext[0] = wide;
+    ext[1] = tall;
     return 1;
 }
 
@@ -141,9 +146,9 @@ static LC_TARGET locd_status LC_FN(rebuild_stack_)(const lc_sweep_ctx *cx, lc_sw
             continue;
         if ((st = push_filtered(cx->g, cx->o, ss->segs, &ss->nseg, &ss->ncand, pml, l, cl, b - a)) != LOCD_OK)
             return st;
-        slabs_of(&ss->sl, cl[0], LC_SBITS - l);
+        slabs_of(&ss->sl, cl, LC_SBITS - l, b - a);
         if ((st = LC_FN(load_cell_)(cx->g, boxes, cx->qbox, cx->entries, a, b, cx->o, ss->ncand, &ss->sl, ss->slab,
-                                    &ss->ext)) < 0)
+                                    ss->ext)) < 0)
             return st;
         ss->ncand += b - a;
     }
@@ -184,29 +189,72 @@ LC_TARGET LC_INLINE locd_status LC_FN(sweep_lone_)(lc_sweep_ctx *cx, lc_sweep_st
 }
 
 /* Entry own+t meets the ancestors' records that overlap the cell ([first,
- * own)) and the cell's earlier rows from the slab where a box of x extent
- * <= ext ending at its low x could start: rows of earlier slabs start
- * before that point, so they miss it. Without slab order (slabbed 0) every
- * earlier row of the cell is a candidate. */
+ * own)) and the cell's earlier rows that can overlap it. With bucket order
+ * (slabbed 1), an earlier row j that overlaps entry r starts, on x, at or
+ * after lo_x(r) - ext[0] (it ends at or after lo_x(r) and is at most ext[0]
+ * wide), and on y between lo_y(r) - ext[1] and hi_y(r); the slab map is
+ * monotone, so j's x slab lies in [bx0, sx] and its y slab in [by0, by1]
+ * (sx: r's own x slab). Rows are ordered by (x slab, y slab, object), so
+ * these are, for each x slab bx < sx, the buckets (bx, by0..by1), one
+ * contiguous run, and for bx = sx the rows from bucket (sx, by0) up to r.
+ * Each run is scanned (runs that touch are scanned as one). Without bucket
+ * order (slabbed 0) every earlier row of the cell is a candidate. */
 LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, lc_sweep_state *ss, size_t first, size_t own,
                                                   size_t m, int slabbed)
 {
+    const lc_slabs *sl = &ss->sl;
     size_t t;
     locd_status st;
     for (t = 0; t < m; t++) {
         const size_t r = own + t;
         size_t win;
+        uint32_t bx, bx0, sx, by0, by1;
         entry_from_row(&ss->sc, r);
-        win = slabbed ? ss->slab[slab_of(&ss->sl, (int64_t)ss->sc.lo[0] - ss->ext)] : own;
-        if ((st = reserve_pairs(cx, (own - first) + (r - win))) != LOCD_OK)
-            return st;
-        if (win == own) { /* one contiguous run of candidates */
+        if (!slabbed) { /* one contiguous run of candidates */
+            if ((st = reserve_pairs(cx, r - first)) != LOCD_OK)
+                return st;
             if (r > first)
                 LC_FN(scan_)(cx, ss, first, r);
-        } else {
+            continue;
+        }
+        bx0 = slab_of(sl, 0, (int64_t)ss->sc.lo[0] - ss->ext[0]);
+        win = ss->slab[bucket_of(sl, bx0, 0)]; /* the x window's first row */
+        if (!sl->bits[1]) { /* one y slab: the x window is one run */
+            if ((st = reserve_pairs(cx, (own - first) + (r - win))) != LOCD_OK)
+                return st;
             if (own > first)
                 LC_FN(scan_)(cx, ss, first, own);
-            LC_FN(scan_)(cx, ss, win, r);
+            if (r > win)
+                LC_FN(scan_)(cx, ss, win, r);
+            continue;
+        }
+        /* The runs lie inside the x window: room for that many pairs. */
+        if ((st = reserve_room(cx, (own - first) + (r - win))) != LOCD_OK)
+            return st;
+        cx->candidates += own - first;
+        if (own > first)
+            LC_FN(scan_)(cx, ss, first, own);
+        sx = slab_of(sl, 0, ss->sc.lo[0]);
+        by0 = slab_of(sl, 1, (int64_t)ss->sc.lo[1] - ss->ext[1]);
+        by1 = slab_of(sl, 1, ss->sc.hi[1]);
+        {
+            size_t a = ss->slab[bucket_of(sl, bx0, by0)], e = a;
+            for (bx = bx0; bx <= sx; bx++) {
+                const size_t ra = ss->slab[bucket_of(sl, bx, by0)];
+                const size_t re = bx < sx ? ss->slab[bucket_of(sl, bx, by1) + 1] : r;
+                if (ra != e) { /* a gap: scan the run so far */
+                    if (e > a) {
+                        cx->candidates += e - a;
+                        LC_FN(scan_)(cx, ss, a, e);
+                    }
+                    a = ra;
+                }
+                e = re;
+            }
+            if (e > a) {
+                cx->candidates += e - a;
+                LC_FN(scan_)(cx, ss, a, e);
+            }
         }
     }
     return LOCD_OK;
@@ -229,9 +277,9 @@ LC_TARGET LC_INLINE locd_status LC_FN(sweep_dense_)(lc_sweep_ctx *cx, lc_sweep_s
     if (m == 1) { /* the common lone entry: its box is already loaded */
         cand_put(&ss->sc.c, own, me, (uint32_t)(cx->entries[p] & ((1ull << cx->ib) - 1)));
     } else {
-        slabs_of(&ss->sl, ss->sc.cell[0], ss->sc.s);
+        slabs_of(&ss->sl, ss->sc.cell, ss->sc.s, m);
         slabbed = LC_FN(load_cell_)(cx->g, boxes, cx->qbox, cx->entries, p, q, cx->o, own, &ss->sl, ss->slab,
-                                    &ss->ext);
+                                    ss->ext);
         if (slabbed < 0)
             return slabbed;
     }
