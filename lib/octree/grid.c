@@ -208,11 +208,75 @@ LC_AVX512 static void bounds_avx512_f32(const float *boxes, size_t begin, size_t
 }
 #endif
 
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+#define LC_HAVE_AVX2_BOUNDS 1
+
+/* Four boxes (24 floats, three vectors) per step: float p of a block is
+ * coordinate p % 6 of its box in every block, so per-lane running minima
+ * and maxima suffice, as in the AVX-512 loop. Each vector is compared with
+ * the floats three places on (an unaligned load) in the lanes that hold a
+ * low corner: box ends p and p + 3. A block with a bad box goes to the
+ * scalar loop, which finds the first bad box exactly. The loads reach 3
+ * floats past the block, so the loop stops one box early. */
+__attribute__((target("avx2"))) static void bounds_avx2_f32(const float *boxes, size_t begin, size_t end,
+                                                            lc_bounds *out)
+{
+    /* lanes holding a low corner (p % 6 < 3) in each of the three vectors */
+    static const int lo_lanes[3] = {0xc7, 0x71, 0x1c};
+    __m256 mn[3], mx[3];
+    float vmin[24], vmax[24];
+    size_t i = begin;
+    int v, p;
+    for (v = 0; v < 3; v++) {
+        mn[v] = _mm256_set1_ps(HUGE_VALF);
+        mx[v] = _mm256_set1_ps(-HUGE_VALF);
+    }
+    for (; i + 5 <= end; i += 4) {
+        const float *b = boxes + 6 * i;
+        int bad = 0;
+        __m256 x[3];
+        for (v = 0; v < 3; v++) {
+            const __m256 up = _mm256_loadu_ps(b + 8 * v + 3);
+            x[v] = _mm256_loadu_ps(b + 8 * v);
+            /* x - x is NaN exactly for NaN and infinities */
+            bad |= _mm256_movemask_ps(_mm256_cmp_ps(_mm256_sub_ps(x[v], x[v]), _mm256_setzero_ps(), _CMP_NEQ_UQ));
+            bad |= _mm256_movemask_ps(_mm256_cmp_ps(x[v], up, _CMP_GT_OQ)) & lo_lanes[v];
+        }
+        if (LC_UNLIKELY(bad))
+            break;
+        for (v = 0; v < 3; v++) {
+            mn[v] = _mm256_min_ps(mn[v], x[v]);
+            mx[v] = _mm256_max_ps(mx[v], x[v]);
+        }
+    }
+    for (v = 0; v < 3; v++) {
+        _mm256_storeu_ps(vmin + 8 * v, mn[v]);
+        _mm256_storeu_ps(vmax + 8 * v, mx[v]);
+    }
+    for (p = 0; p < 24; p++) {
+        const int a = p % 6;
+        if (a < 3 && vmin[p] < out->lo[a])
+            out->lo[a] = vmin[p];
+        if (a >= 3 && vmax[p] > out->hi[a - 3])
+            out->hi[a - 3] = vmax[p];
+    }
+    if (i < end)
+        bounds_scalar_f32(boxes, i, end, out);
+}
+#endif
+
 void lc_bounds_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out, int kernel)
 {
 #ifdef LC_HAVE_AVX512_KERNEL
     if (kernel == LC_KERNEL_AVX512) {
         bounds_avx512_f32(boxes, begin, end, out);
+        return;
+    }
+#endif
+#ifdef LC_HAVE_AVX2_BOUNDS
+    if (kernel >= LC_KERNEL_AVX2) {
+        bounds_avx2_f32(boxes, begin, end, out);
         return;
     }
 #endif
