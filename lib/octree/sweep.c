@@ -387,22 +387,70 @@ static size_t scan_scalar(const lc_scan *sc, size_t first, size_t end, uint32_t 
 /* Inlined into the AVX2 main loop (sweep_range_*_avx2), whose runs of
  * candidates are short; pick_scan takes its address for nothing else. */
 #define LC_AVX2 __attribute__((target("avx2")))
-LC_AVX2 LC_INLINE size_t scan_avx2(const lc_scan *sc, size_t first, size_t end,
-                                                        uint32_t *pairs, size_t np, uint64_t *exact)
+LC_AVX2 LC_INLINE size_t scan_avx2(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np,
+                                   uint64_t *exact)
 {
+    /* The columns in locals: read through sc in the loop, they would be
+       reloaded from memory on every step. */
+    const int32_t *const X0 = sc->c.lo[0], *const Y0 = sc->c.lo[1], *const Z0 = sc->c.lo[2];
+    const int32_t *const X1 = sc->c.hi[0], *const Y1 = sc->c.hi[1], *const Z1 = sc->c.hi[2];
+    const uint32_t *const J = sc->c.idx;
+    const uint32_t me = sc->idx, split = sc->split;
     const __m256i lo0 = _mm256_set1_epi32(sc->lo[0]), lo1 = _mm256_set1_epi32(sc->lo[1]),
                   lo2 = _mm256_set1_epi32(sc->lo[2]);
     const __m256i hi0 = _mm256_set1_epi32(sc->hi[0]), hi1 = _mm256_set1_epi32(sc->hi[1]),
                   hi2 = _mm256_set1_epi32(sc->hi[2]);
+    const __m256i cx = _mm256_set1_epi32(sc->cell[0]), cy = _mm256_set1_epi32(sc->cell[1]),
+                  cz = _mm256_set1_epi32(sc->cell[2]);
+    const __m128i sh = _mm_cvtsi32_si128((int)sc->s);
     size_t r;
-    /* Past `end` lie padding or stale rows: masked off. */
     for (r = first; r < end; r += 8) {
-        unsigned m = overlap8(&sc->c, r, lo0, lo1, lo2, hi0, hi1, hi2);
-        if (end - r < 8)
+        const __m256i L0 = _mm256_loadu_si256((const __m256i *)(X0 + r)),
+                      H0 = _mm256_loadu_si256((const __m256i *)(X1 + r));
+        const __m256i L1 = _mm256_loadu_si256((const __m256i *)(Y0 + r)),
+                      H1 = _mm256_loadu_si256((const __m256i *)(Y1 + r));
+        const __m256i L2 = _mm256_loadu_si256((const __m256i *)(Z0 + r)),
+                      H2 = _mm256_loadu_si256((const __m256i *)(Z1 + r));
+        /* Independent compares, one OR tree: the reject test. */
+        const __m256i rej = _mm256_or_si256(
+            _mm256_or_si256(_mm256_or_si256(_mm256_cmpgt_epi32(lo0, H0), _mm256_cmpgt_epi32(L0, hi0)),
+                            _mm256_or_si256(_mm256_cmpgt_epi32(lo1, H1), _mm256_cmpgt_epi32(L1, hi1))),
+            _mm256_or_si256(_mm256_cmpgt_epi32(lo2, H2), _mm256_cmpgt_epi32(L2, hi2)));
+        unsigned m = ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(rej)) & 0xffu, weak;
+        if (end - r < 8) /* past `end` lie padding or stale rows: masked off */
             m &= (1u << (end - r)) - 1u;
-        while (m) {
-            np = emit_if_canonical(sc, r + (size_t)__builtin_ctz(m), pairs, np, exact);
-            m &= m - 1;
+        if (!m)
+            continue; /* the common case */
+        {
+            /* Canonical cell: the intersection's low corner lies in this cell. */
+            const __m256i canon = _mm256_and_si256(
+                _mm256_and_si256(_mm256_cmpeq_epi32(_mm256_sra_epi32(_mm256_max_epi32(L0, lo0), sh), cx),
+                                 _mm256_cmpeq_epi32(_mm256_sra_epi32(_mm256_max_epi32(L1, lo1), sh), cy)),
+                _mm256_cmpeq_epi32(_mm256_sra_epi32(_mm256_max_epi32(L2, lo2), sh), cz));
+            /* Strictly inside each other's quantized range: a true overlap.
+               Equal ends need the exact test. */
+            const __m256i strict = _mm256_and_si256(
+                _mm256_and_si256(_mm256_and_si256(_mm256_cmpgt_epi32(H0, lo0), _mm256_cmpgt_epi32(hi0, L0)),
+                                 _mm256_and_si256(_mm256_cmpgt_epi32(H1, lo1), _mm256_cmpgt_epi32(hi1, L1))),
+                _mm256_and_si256(_mm256_cmpgt_epi32(H2, lo2), _mm256_cmpgt_epi32(hi2, L2)));
+            m &= (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(canon));
+            weak = m & ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(strict));
+        }
+        /* In lane order, as the scalar path: the two-set filter, then the
+           exact test for equal ends. */
+        for (; m; m &= m - 1) {
+            const unsigned lane = (unsigned)__builtin_ctz(m);
+            const uint32_t j = J[r + lane];
+            if (split && (j < split) == (me < split))
+                continue; /* two sets: both objects in the same one */
+            if (weak & (1u << lane)) {
+                ++*exact;
+                if (!exact_overlap(sc->boxes, sc->f64, me, j))
+                    continue;
+            }
+            pairs[2 * np] = j < me ? j : me;
+            pairs[2 * np + 1] = j < me ? me : j;
+            np++;
         }
     }
     return np;
