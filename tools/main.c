@@ -11,7 +11,7 @@ typedef struct command {
 } command;
 
 static const command commands[] = {
-    {"gen", cmd_gen, "gen KIND N [--seed S] -o FILE.aabb    make a scene (kinds: uniform, clustered, mixed, lattice, far)"},
+    {"gen", cmd_gen, "gen KIND N [--seed S] [--pairs-per-box X] -o FILE.aabb    make a scene (kinds: uniform, clustered, mixed, lattice, far, boxprune)"},
     {"pairs", cmd_pairs, "pairs SCENE [--against B] [--threads K] [--out PAIRS.bin|-] ...   find all overlapping pairs (.aabb, .aabb64, .npy, -)"},
     {"bench", cmd_bench, "bench [--sizes 1e6,2e6] [--repeat R] [--threads-max P]   the paper's Tables 1-2 on this machine"},
     {"serve", cmd_serve, "serve --listen unix:PATH|tcp:HOST:PORT   run the level-3 service"},
