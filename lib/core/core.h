@@ -123,7 +123,9 @@ LC_SHARED locd_status lc_struct_check(const void *dst, size_t full_size, size_t 
 LC_SHARED void lc_struct_out(void *dst, const void *src);
 
 /* ---- SIMD kernels (kernel.c) ---- */
-enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512 };
+/* AVX2 and AVX-512 on x86-64, NEON on aarch64: a machine has scalar and
+ * one family, so only the x86 values are ordered (AVX-512 > AVX2). */
+enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512, LC_KERNEL_NEON };
 /* The best kernel family this CPU has, capped by LOCD_KERNEL / LOCD_SCALAR.
  * It reads the environment and the CPU, so it is called once where a choice
  * can live: when an engine's level state is created; the stages take the
