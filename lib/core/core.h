@@ -156,7 +156,7 @@ struct locd_pairs {
 locd_status lc_pairs_check(const locd_pairs *p);
 LC_SHARED locd_status lc_pairs_reserve(locd_pairs *p, size_t pairs);
 /* Sorts 2*count interleaved uint32 pairs by (i, j); scratch of count uint64. */
-void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch, uint64_t *scratch2);
+void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch);
 locd_status lc_pairs_init_embedded(locd_pairs *p, const locd_allocator *a);
 void lc_pairs_fini_embedded(locd_pairs *p);
 /* Hands the finished pairs of *from over to *out, replacing out's: a swap of
