@@ -7,7 +7,10 @@
 # grid, no locd code). Prints a Markdown table: pairs, independent count,
 # in-call time (median of the repeats) and time per object, peak memory and
 # the bytes per object beyond the input (24 bytes: float32) and the
-# process's fixed cost (the peak of a 2-box run).
+# process's fixed cost (the peak of a 2-box run). At the largest size it
+# also runs `locd pairs` with the address space limited to the input and
+# half of what the call needs beyond it
+# and prints the message (out of memory is an error, never a crash).
 #   bench/scale.sh [BUILD_DIR] [MAX_EXPONENT]   (defaults: build, 8; MIN_EXP=3)
 # A 10^8 scene is 2.4 GB and the run needs about 8.5 GB: check `free -g`
 # first. Scenes go to ${TMPDIR:-/tmp} and are deleted after each decade.
@@ -42,6 +45,13 @@ for e in $(seq "${MIN_EXP:-3}" "$MAX"); do
   /usr/bin/time -v "$locd" pairs "$scene" --threads "$T" --repeat "$reps" >"$dir/run.json" 2>"$dir/run.time"
   /usr/bin/time -v "$locd" pairs "$scene" --threads "$T" --repeat 1 --out "$dir/pairs.bin" >/dev/null 2>"$dir/out.time"
   rm -f "$dir/pairs.bin"
+  if [ "$e" = "$MAX" ]; then # out of memory: room for the input and half of what the call needs beyond it
+    input_kb=$(( n * 24 / 1024 ))
+    lim=$(( base + input_kb + ($(peak_kb "$dir/run.time") - base - input_kb) / 2 ))
+    oom_rc=0
+    oom_msg=$( (ulimit -v "$lim"; "$locd" pairs "$scene" --threads "$T" --repeat 1 2>&1 >/dev/null) ) || oom_rc=$?
+    oom="With the address space limited to ${lim} kB (\`ulimit -v\`: the input and half of what the call needs beyond it) at 10^$e, \`locd pairs\` exits $oom_rc with: \`$oom_msg\`"
+  fi
   ref=$(field pairs < <("$count" "$scene"))
   rm -f "$scene"
   pairs=$(field pairs < "$dir/run.json")
@@ -57,8 +67,9 @@ def per(kb):  # below 10^5 objects the fixed cost's noise is larger than the dat
     v = (kb - base) * 1024.0 / n - 24
     return f"{v:.1f}" if n >= 10**5 else "(fixed cost)"
 mark = "" if pairs == ref else " **MISMATCH**"
-print(f"| 10^{len(str(n)) - 1} | {pairs:,} | {ref:,}{mark} | {ms:,.1f} | {ms * 1e6 / n:.0f} | {p1 / 1024:,.0f} | {per(p1)} | {p2 / 1024:,.0f} | {per(p2)} | {gen:.1f} |")
+print(f"| 10^{len(str(n)) - 1} | {pairs:,} | {ref:,}{mark} | {ms:,.2f} | {ms * 1e6 / n:.0f} | {p1 / 1024:,.0f} | {per(p1)} | {p2 / 1024:,.0f} | {per(p2)} | {gen:.1f} |")
 PY
 done
 echo
+[ -n "${oom:-}" ] && echo "$oom" && echo
 echo "_Fixed cost subtracted: ${base} kB (the peak of a 2-box run). CPU: $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1), $(nproc) cores; kernel: ${LOCD_KERNEL:-(best the CPU has)}; command: \`bench/scale.sh $B $MAX\`; locd $(git -C "$(dirname "$0")" rev-parse --short HEAD 2>/dev/null || echo '?'), $(date -u '+%Y-%m-%d %H:%M') UTC._"
