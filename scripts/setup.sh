@@ -12,6 +12,10 @@ libbullet-dev libcgal-dev libgmp-dev libmpfr-dev python3-venv time cmake"
 # winpthreads) and wine to run its C tests (CI step 35-windows).
 APT_PKGS="$APT_PKGS gcc-mingw-w64-x86-64-posix wine64"
 
+# Linux on 64-bit ARM: the aarch64 cross compiler and its C library, and
+# qemu-user to run the NEON kernel's tests (CI step 38-arm).
+APT_PKGS="$APT_PKGS gcc-aarch64-linux-gnu libc6-dev-arm64-cross qemu-user"
+
 missing=""
 for p in $APT_PKGS; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"

@@ -25,4 +25,14 @@ uint32_t *ts_sorted_copy(const locd_pairs *p, size_t *m);
 int ts_same_as_brute_f32(const float *boxes, size_t n, const locd_pairs *result);
 int ts_same_as_brute_f64(const double *boxes, size_t n, const locd_pairs *result);
 
+/* The LOCD_KERNEL names of this architecture's kernels, scalar first (the
+ * reference the others must match byte for byte); TS_KERNEL_COUNT of them. */
+#if defined(__aarch64__)
+#define TS_KERNELS {"scalar", "neon"}
+#define TS_KERNEL_COUNT 2
+#else
+#define TS_KERNELS {"scalar", "avx2", "avx512"}
+#define TS_KERNEL_COUNT 3
+#endif
+
 #endif

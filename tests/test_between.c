@@ -284,7 +284,7 @@ static void bad_box_names_its_index(void)
  * creation) gives the same pairs in the same order. */
 static void every_kernel_gives_the_same_pairs(void)
 {
-    static const char *kernels[] = {"scalar", "avx2", "avx512"};
+    static const char *kernels[] = TS_KERNELS;
     const size_t na = 4000, nb = 3000;
     float *fa = ts_scene(2, na, 31), *fb = ts_scene(1, nb, 32);
     double *a = widen(fa, na), *b = widen(fb, nb);
@@ -294,7 +294,7 @@ static void every_kernel_gives_the_same_pairs(void)
     size_t c0 = 0, k;
     if (saved)
         strncpy(keep, saved, sizeof keep - 1);
-    for (k = 0; k < 3; k++) {
+    for (k = 0; k < TS_KERNEL_COUNT; k++) {
         locd_engine *e;
         size_t c;
         uint32_t *r;

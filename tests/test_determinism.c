@@ -225,7 +225,7 @@ static void sorted_flag_is_brute_force_order(void)
  * encodings; and the scalar result is the brute-force set. */
 static void every_kernel_same_bytes(void)
 {
-    static const char *const kernels[] = {"scalar", "avx2", "avx512"};
+    static const char *const kernels[] = TS_KERNELS;
     const char *saved = getenv("LOCD_KERNEL");
     char *keep = saved ? strdup(saved) : NULL;
     int kind, k, cubes;
@@ -246,7 +246,7 @@ static void every_kernel_same_bytes(void)
                 locd_engine_destroy(e1);
             }
             TEST_ASSERT_TRUE(ts_same_as_brute_f32(f, n, ref));
-            for (k = 1; k < 3; k++) {
+            for (k = 1; k < TS_KERNEL_COUNT; k++) {
                 setenv("LOCD_KERNEL", kernels[k], 1);
                 for (t = 1; t <= 3; t += 2) {
                     locd_engine *e = engine_for(t, LOCD_DEFAULT_CELL_BIAS, 0, cubes ? LOCD_CONFIG_CUBES : 0);

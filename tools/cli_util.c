@@ -2,6 +2,8 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <stdint.h>
+#include <sys/stat.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -42,6 +44,11 @@ static int read_all(const char *path, unsigned char **data, size_t *size)
     if (!f) {
         fprintf(stderr, "locd: cannot open %s: %s\n", path, strerror(errno));
         return -1;
+    }
+    if (!from_stdin) { /* a file's size is known: no doubling past it (a 2.4 GB scene took 4 GB) */
+        struct stat st;
+        if (fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode) && (uintmax_t)st.st_size < SIZE_MAX)
+            cap = (size_t)st.st_size + 1; /* + 1: the read that sees the end needs room */
     }
     buf = malloc(cap);
     while (buf && (got = fread(buf + len, 1, cap - len, f)) > 0) {

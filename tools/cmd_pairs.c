@@ -294,7 +294,7 @@ static int check_reference(const cli_scene *sc, const locd_pairs *pairs)
     return rc;
 }
 
-static void print_summary(const pairs_opts *p, const cli_scene *sc, const cli_scene *b, locd_engine *eng,
+static void print_summary(const pairs_opts *p, const cli_scene *sc, const cli_scene *b, int level,
                           const locd_pairs *pairs, const locd_stats *st, pairs_times *t, int rc)
 {
     size_t m = p->repeat;
@@ -308,7 +308,7 @@ static void print_summary(const pairs_opts *p, const cli_scene *sc, const cli_sc
            "\"total_ms\":%.3f,\"stage_ms\":{\"bounds\":%.3f,\"encode\":%.3f,\"sort\":%.3f,\"merge\":%.3f,"
            "\"sweep\":%.3f,\"order\":%.3f,\"transfer\":%.3f},\"entries\":%llu,\"candidates\":%llu,"
            "\"exact_tests\":%llu,\"depth\":%u%s}\n",
-           b ? sc->n + b->n : sc->n, locd_pairs_count(pairs), (int)locd_engine_level(eng), st->threads,
+           b ? sc->n + b->n : sc->n, locd_pairs_count(pairs), level, st->threads,
            sc->f64 ? "f64" : "f32", m,
            cli_median(t->total, m), cli_median(t->stage[0], m), cli_median(t->stage[1], m),
            cli_median(t->stage[2], m), cli_median(t->stage[3], m), cli_median(t->stage[4], m),
@@ -381,16 +381,24 @@ int cmd_pairs(int argc, char **argv)
         return 1;
     }
     if ((rc = run_repeats(&p, eng, &sc, bp, pairs, &times, &st)) == 0) {
-        if (!(p.flags & LOCD_FIND_SORTED) && (p.out_path || p.check))
-            locd_pairs_sort(pairs);
-        if (p.check) {
+        const int level = (int)locd_engine_level(eng);
+        /* The engine's buffers (about 42 bytes an object) go before the
+           pairs are sorted (8 bytes a pair more): the peak stays the call's. */
+        locd_engine_destroy(eng);
+        eng = NULL;
+        if (!(p.flags & LOCD_FIND_SORTED) && (p.out_path || p.check) && locd_pairs_sort(pairs) != LOCD_OK) {
+            fprintf(stderr, "locd: pairs: cannot sort the pairs: %s\n", locd_last_error());
+            rc = 1;
+        }
+        if (p.check && rc == 0) {
             if (cli_stderr_is_terminal() && !bp)
                 fprintf(stderr, "locd: pairs: checking against the O(n^2) reference...\n");
             rc = bp ? check_between_reference(&sc, bp, pairs) : check_reference(&sc, pairs);
         }
-        if (p.out_path && cli_write_pairs(p.out_path, locd_pairs_data(pairs), locd_pairs_count(pairs)) != 0)
+        if (rc == 0 && p.out_path &&
+            cli_write_pairs(p.out_path, locd_pairs_data(pairs), locd_pairs_count(pairs)) != 0)
             rc = 1;
-        print_summary(&p, &sc, bp, eng, pairs, &st, &times, rc);
+        print_summary(&p, &sc, bp, level, pairs, &st, &times, rc);
     }
     times_free(&times);
     locd_pairs_destroy(pairs);

@@ -123,7 +123,9 @@ LC_SHARED locd_status lc_struct_check(const void *dst, size_t full_size, size_t 
 LC_SHARED void lc_struct_out(void *dst, const void *src);
 
 /* ---- SIMD kernels (kernel.c) ---- */
-enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512 };
+/* AVX2 and AVX-512 on x86-64, NEON on aarch64: a machine has scalar and
+ * one family, so only the x86 values are ordered (AVX-512 > AVX2). */
+enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512, LC_KERNEL_NEON };
 /* The best kernel family this CPU has, capped by LOCD_KERNEL / LOCD_SCALAR.
  * It reads the environment and the CPU, so it is called once where a choice
  * can live: when an engine's level state is created; the stages take the
@@ -154,7 +156,7 @@ struct locd_pairs {
 locd_status lc_pairs_check(const locd_pairs *p);
 LC_SHARED locd_status lc_pairs_reserve(locd_pairs *p, size_t pairs);
 /* Sorts 2*count interleaved uint32 pairs by (i, j); scratch of count uint64. */
-void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch, uint64_t *scratch2);
+void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch);
 locd_status lc_pairs_init_embedded(locd_pairs *p, const locd_allocator *a);
 void lc_pairs_fini_embedded(locd_pairs *p);
 /* Hands the finished pairs of *from over to *out, replacing out's: a swap of

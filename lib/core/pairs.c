@@ -115,16 +115,22 @@ locd_status lc_pairs_give(locd_pairs *from, locd_pairs *out)
     return LOCD_OK;
 }
 
-void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch, uint64_t *scratch2)
+void lc_sort_pair_array(uint32_t *pairs, size_t count, uint64_t *scratch)
 {
+    /* The pairs array is the sort's first buffer: each pair (two uint32,
+       8 bytes, 16-byte aligned by the allocator contract) becomes its
+       (i << 32 | j) key in place, so sorting costs 8 bytes a pair, not 16. */
+    uint64_t *keys = (uint64_t *)(void *)pairs, *sorted;
     size_t k;
-    uint64_t *sorted;
-    for (k = 0; k < count; k++)
-        scratch[k] = ((uint64_t)pairs[2 * k] << 32) | pairs[2 * k + 1];
-    sorted = lc_radix_sort(scratch, scratch2, count, 0);
     for (k = 0; k < count; k++) {
-        pairs[2 * k] = (uint32_t)(sorted[k] >> 32);
-        pairs[2 * k + 1] = (uint32_t)sorted[k];
+        const uint32_t i = pairs[2 * k], j = pairs[2 * k + 1];
+        keys[k] = ((uint64_t)i << 32) | j;
+    }
+    sorted = lc_radix_sort(keys, scratch, count, 0);
+    for (k = 0; k < count; k++) {
+        const uint64_t v = sorted[k];
+        pairs[2 * k] = (uint32_t)(v >> 32);
+        pairs[2 * k + 1] = (uint32_t)v;
     }
 }
 
@@ -139,12 +145,12 @@ locd_status locd_pairs_sort(locd_pairs *pairs)
         lc_clear_error();
         return LOCD_OK;
     }
-    if (!lc_mul_size(pairs->count, 2 * sizeof(uint64_t), &bytes))
+    if (!lc_mul_size(pairs->count, sizeof(uint64_t), &bytes))
         return lc_error(LOCD_ERR_NO_MEMORY, "too many pairs to sort");
     tmp = lc_alloc(&pairs->alloc, bytes);
     if (!tmp)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate %zu bytes to sort pairs", bytes);
-    lc_sort_pair_array(pairs->data, pairs->count, tmp, tmp + pairs->count);
+    lc_sort_pair_array(pairs->data, pairs->count, tmp);
     lc_free(&pairs->alloc, tmp, bytes);
     lc_clear_error();
     return LOCD_OK;

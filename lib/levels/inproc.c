@@ -328,7 +328,7 @@ static locd_status hand_over(locd_engine *e, lc_job_ctx *c, uint32_t flags, size
     size_t order_bytes = 0;
     locd_status st;
     if ((flags & LOCD_FIND_SORTED) && npairs > 1) {
-        if (!lc_mul_size(npairs, 2 * sizeof(uint64_t), &order_bytes) ||
+        if (!lc_mul_size(npairs, sizeof(uint64_t), &order_bytes) ||
             !(order_tmp = lc_alloc(&e->alloc, order_bytes)))
             return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the buffer to sort %zu pairs", npairs);
     }
@@ -342,7 +342,7 @@ static locd_status hand_over(locd_engine *e, lc_job_ctx *c, uint32_t flags, size
     stats->pairs = npairs;
     stats->ms_sweep = lap(c);
     if (order_tmp) {
-        lc_sort_pair_array(out->data, npairs, order_tmp, order_tmp + npairs);
+        lc_sort_pair_array(out->data, npairs, order_tmp);
         stats->ms_order = lap(c);
         lc_free(&e->alloc, order_tmp, order_bytes);
     }

@@ -280,6 +280,7 @@ void lc_bounds_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out,
         return;
     }
 #endif
+    (void)kernel; /* no vector variant on other CPUs */
     bounds_scalar_f32(boxes, begin, end, out);
 }
 

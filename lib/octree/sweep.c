@@ -457,6 +457,11 @@ LC_AVX2 LC_INLINE size_t scan_avx2(const lc_scan *sc, size_t first, size_t end, 
 }
 #endif
 
+#if defined(__GNUC__) && defined(__aarch64__) && defined(__ARM_NEON)
+#define LC_HAVE_NEON_KERNEL 1
+#include "sweep_neon.h"
+#endif
+
 #ifdef LC_HAVE_AVX512_KERNEL
 /* Candidates first..end-1 against one entry, 16 at a time, with every test
  * the scalar path makes (closed overlap, canonical cell, strict overlap or
@@ -531,6 +536,10 @@ LC_AVX512 LC_INLINE size_t scan_avx512(const lc_scan *sc, size_t first, size_t e
 
 static lc_filter_fn pick_filter(int kernel)
 {
+#ifdef LC_HAVE_NEON_KERNEL
+    if (kernel == LC_KERNEL_NEON)
+        return filter_neon;
+#endif
 #ifdef LC_HAVE_AVX2_KERNEL
     if (kernel >= LC_KERNEL_AVX2)
         return filter_avx2;
@@ -541,6 +550,10 @@ static lc_filter_fn pick_filter(int kernel)
 
 static lc_scan_fn pick_scan(int kernel)
 {
+#ifdef LC_HAVE_NEON_KERNEL
+    if (kernel == LC_KERNEL_NEON)
+        return scan_neon;
+#endif
 #ifdef LC_HAVE_AVX2_KERNEL
     if (kernel >= LC_KERNEL_AVX2)
         return scan_avx2;
