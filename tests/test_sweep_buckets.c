@@ -105,7 +105,7 @@ static void same_bytes(const locd_pairs *got, const locd_pairs *want, const char
  * threads, float32 and float64: the same bytes. */
 static void check_scene(const float *f, size_t n, uint32_t depth, const char *name)
 {
-    static const char *const kernels[] = {"scalar", "avx2", "avx512"};
+    static const char *const kernels[] = TS_KERNELS;
     const char *saved = getenv("LOCD_KERNEL");
     char *keep = saved ? strdup(saved) : NULL;
     double *d = malloc(n * 6 * sizeof *d);
@@ -130,7 +130,7 @@ static void check_scene(const float *f, size_t n, uint32_t depth, const char *na
     }
     if (!ts_same_as_brute_f32(f, n, ref))
         LT_FAIL("%s: the scalar kernel's pairs are not the brute-force set", name);
-    for (k = 0; k < 3; k++) {
+    for (k = 0; k < TS_KERNEL_COUNT; k++) {
         uint32_t t;
         setenv("LOCD_KERNEL", kernels[k], 1);
         for (t = 1; t <= 3; t += 2) {
