@@ -3,9 +3,11 @@
  *
  *   mpirun -np K locd-mpi SCENE.aabb [--strategy distributed|master] [--out PAIRS.bin] [--check]
  *                                    [--threads T] [--depth D] [--bias B] [--cubes] [--samples S]
+ *                                    [--counts C0,C1,...]
  *
  * Each rank reads only its slice of the scene (pread at its offset: rank r
- * holds boxes [n*r/K, n*(r+1)/K)) and calls locd_mpi_find_pairs_*. With
+ * holds boxes [n*r/K, n*(r+1)/K), or the counts --counts gives, which
+ * the tests use for empty ranks and a rank holding all) and calls locd_mpi_find_pairs_*. With
  * --out or --check the pairs are gathered on rank 0 (in the whole sweep's
  * order): --check compares them, order included, with a level-1 engine run
  * on the whole scene on rank 0; --out writes them sorted by (i, j), the
@@ -28,6 +30,7 @@
 
 typedef struct mpi_opts {
     const char *path, *out_path;
+    const char *counts; /* --counts c0,c1,...: boxes per rank (tests: empty ranks, one rank with all) */
     int check;
     locd_mpi_options o;
 } mpi_opts;
@@ -43,7 +46,7 @@ static int usage(int rank)
 {
     if (rank == 0)
         fprintf(stderr, "usage: mpirun -np K locd-mpi SCENE.aabb [--strategy distributed|master] [--out PAIRS.bin] "
-                        "[--check] [--threads T] [--depth D] [--bias B] [--cubes] [--samples S]\n");
+                        "[--check] [--threads T] [--depth D] [--bias B] [--cubes] [--samples S] [--counts C0,C1,...]\n");
     return 2;
 }
 
@@ -73,6 +76,8 @@ static int parse_args(int argc, char **argv, int rank, mpi_opts *m)
             m->o.cell_bias = atoi(argv[++a]);
         else if (!strcmp(argv[a], "--samples") && a + 1 < argc)
             m->o.samples = (uint32_t)atoi(argv[++a]);
+        else if (!strcmp(argv[a], "--counts") && a + 1 < argc)
+            m->counts = argv[++a];
         else if (!strcmp(argv[a], "--cubes"))
             m->o.flags |= LOCD_CONFIG_CUBES;
         else if (argv[a][0] != '-' && !m->path)
@@ -93,9 +98,30 @@ static int ends_with(const char *s, const char *suffix)
     return a >= b && !strcmp(s + a - b, suffix);
 }
 
+/* The slice of rank `rank` under --counts (K numbers summing to n). 0, or -1. */
+static int counted_slice(const char *counts, int rank, int ranks, slice *s)
+{
+    size_t at = 0, c;
+    const char *p = counts;
+    int r;
+    for (r = 0; r < ranks; r++) {
+        char *end;
+        c = (size_t)strtoull(p, &end, 10);
+        if (end == p || (r + 1 < ranks && *end != ',') || (r + 1 == ranks && *end))
+            return -1;
+        if (r == rank) {
+            s->first = at;
+            s->count = c;
+        }
+        at += c;
+        p = end + 1;
+    }
+    return at == s->n ? 0 : -1;
+}
+
 /* Reads boxes [first, first + count) of the file: pread at the slice's
  * offset, nothing else of the file. 0, or -1 with a message. */
-static int read_slice(const char *path, int rank, int ranks, slice *s)
+static int read_slice(const char *path, const char *counts, int rank, int ranks, slice *s)
 {
     struct stat stt;
     size_t bytes, done = 0, rowb;
@@ -117,6 +143,11 @@ static int read_slice(const char *path, int rank, int ranks, slice *s)
     s->n = (size_t)stt.st_size / rowb;
     s->first = s->n / (size_t)ranks * (size_t)rank + ((size_t)rank < s->n % (size_t)ranks ? (size_t)rank : s->n % (size_t)ranks);
     s->count = s->n / (size_t)ranks + ((size_t)rank < s->n % (size_t)ranks ? 1 : 0);
+    if (counts && counted_slice(counts, rank, ranks, s) != 0) {
+        fprintf(stderr, "locd-mpi (rank %d): --counts needs %d numbers summing to %zu\n", rank, ranks, s->n);
+        close(fd);
+        return -1;
+    }
     bytes = s->count * rowb;
     s->boxes = malloc(bytes ? bytes : 1);
     while (s->boxes && done < bytes) {
@@ -229,7 +260,7 @@ int main(int argc, char **argv)
         MPI_Finalize();
         return rc;
     }
-    ok = read_slice(m.path, rank, ranks, &sl) == 0 && locd_pairs_create(NULL, &pairs) == LOCD_OK;
+    ok = read_slice(m.path, m.counts, rank, ranks, &sl) == 0 && locd_pairs_create(NULL, &pairs) == LOCD_OK;
     MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
     if (!all_ok) {
         free(sl.boxes);
