@@ -36,6 +36,7 @@ typedef struct lm_held {
     void *boxes;
     uint32_t *gidx; /* NULL: the boxes are the whole scene in global order */
     size_t nobj;
+    int borrowed; /* boxes are the caller's (one rank: nothing moved), not freed */
 } lm_held;
 
 /* ---- comm.c ---- */

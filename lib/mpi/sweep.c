@@ -97,7 +97,8 @@ locd_status lm_sweep(lm_ctx *c, const lm_held *h, locd_pairs *out)
 void lm_held_free(lm_held *h)
 {
     free(h->ent);
-    free(h->boxes);
+    if (!h->borrowed)
+        free(h->boxes);
     free(h->gidx);
     memset(h, 0, sizeof *h);
 }
