@@ -161,36 +161,67 @@ static void test_union_is_brute_force(void)
                 }
 }
 
-/* Large enough (>= 16384 boxes) for the automatic depth's sample. */
+/* Large enough (>= 16384 boxes) for the automatic depth's sample: the
+ * gathered pairs are level 1's, in level 1's order, with either strategy. */
 static void test_gather_root_has_level1_order(void)
 {
     const size_t n = 20000;
     double *b = scene(n, 7, 1);
     size_t first, count;
-    locd_pairs *mine = NULL, *ref = NULL;
+    locd_pairs *ref = NULL;
     locd_engine *e = NULL;
+    int strategy, ok = 1;
+    slice_of(n, rank, &first, &count);
+    if (rank == ranks - 1) {
+        locd_engine_create(NULL, &e);
+        locd_pairs_create(NULL, &ref);
+        ok = locd_engine_find_pairs_f64(e, b, n, 0, ref) == LOCD_OK;
+    }
+    for (strategy = 0; strategy < 2; strategy++) {
+        locd_pairs *mine = NULL;
+        locd_mpi_options o;
+        locd_mpi_stats stt;
+        locd_pairs_create(NULL, &mine);
+        locd_mpi_options_init(&o);
+        o.strategy = strategy;
+        o.gather_root = ranks - 1;
+        locd_mpi_stats_init(&stt);
+        ok = ok && locd_mpi_find_pairs_f64(MPI_COMM_WORLD, b + 6 * first, count, &o, mine, &stt) == LOCD_OK;
+        if (ok && rank == ranks - 1)
+            ok = locd_pairs_count(ref) == locd_pairs_count(mine) &&
+                 !memcmp(locd_pairs_data(ref), locd_pairs_data(mine), locd_pairs_count(ref) * 2 * sizeof(uint32_t)) &&
+                 stt.pairs == locd_pairs_count(ref);
+        else if (ok)
+            ok = locd_pairs_count(mine) == 0;
+        ok = ok && stt.rank == rank && stt.ranks == ranks && stt.objects == n && stt.local_objects == count &&
+             stt.first_index == first && stt.imbalance >= 1.0 && stt.strategy == strategy;
+        locd_pairs_destroy(mine);
+        TEST_ASSERT_TRUE(all_true(ok));
+    }
+    locd_pairs_destroy(ref);
+    locd_engine_destroy(e);
+    free(b);
+}
+
+/* LOCD_FIND_SORTED: each rank's own pairs in (i, j) order. */
+static void test_sorted_flag(void)
+{
+    const size_t n = 5000;
+    double *b = scene(n, 13, 0);
+    size_t first, count, i;
+    locd_pairs *mine = NULL;
     locd_mpi_options o;
-    locd_mpi_stats stt;
+    const uint32_t *d;
     int ok;
     slice_of(n, rank, &first, &count);
     locd_pairs_create(NULL, &mine);
     locd_mpi_options_init(&o);
-    o.gather_root = ranks - 1;
-    locd_mpi_stats_init(&stt);
-    ok = locd_mpi_find_pairs_f64(MPI_COMM_WORLD, b + 6 * first, count, &o, mine, &stt) == LOCD_OK;
-    if (ok && rank == ranks - 1) {
-        locd_engine_create(NULL, &e);
-        locd_pairs_create(NULL, &ref);
-        ok = locd_engine_find_pairs_f64(e, b, n, 0, ref) == LOCD_OK && locd_pairs_count(ref) == locd_pairs_count(mine) &&
-             !memcmp(locd_pairs_data(ref), locd_pairs_data(mine), locd_pairs_count(ref) * 2 * sizeof(uint32_t)) &&
-             stt.pairs == locd_pairs_count(ref);
-    } else if (ok) {
-        ok = locd_pairs_count(mine) == 0;
-    }
-    ok = ok && stt.rank == rank && stt.ranks == ranks && stt.objects == n && stt.local_objects == count &&
-         stt.first_index == first && stt.imbalance >= 1.0;
-    locd_pairs_destroy(ref);
-    locd_engine_destroy(e);
+    o.find_flags = LOCD_FIND_SORTED;
+    o.threads = 2;
+    ok = locd_mpi_find_pairs_f64(MPI_COMM_WORLD, b + 6 * first, count, &o, mine, NULL) == LOCD_OK;
+    d = locd_pairs_data(mine);
+    for (i = 1; ok && i < locd_pairs_count(mine); i++)
+        ok = by_pair(d + 2 * (i - 1), d + 2 * i) < 0;
     locd_pairs_destroy(mine);
     free(b);
     TEST_ASSERT_TRUE(all_true(ok));
@@ -285,6 +316,7 @@ int main(int argc, char **argv)
     static const lt_test tests[] = {
         LT_TEST(test_union_is_brute_force),
         LT_TEST(test_gather_root_has_level1_order),
+        LT_TEST(test_sorted_flag),
         LT_TEST(test_spanning_box_is_replicated),
         LT_TEST(test_one_rank_error_is_every_rank_error),
     };
