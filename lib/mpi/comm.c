@@ -71,31 +71,21 @@ static void run_streams(lm_ctx *c, lm_stream *sm, int ns, MPI_Datatype type, siz
     }
 }
 
-void lm_alltoallv(lm_ctx *c, const void *send, const uint64_t *scount, const uint64_t *sdispl, void *recv,
-                  const uint64_t *rcount, const uint64_t *rdispl, MPI_Datatype type, size_t esize)
+void lm_sendrecv(lm_ctx *c, int to, const void *send, uint64_t scount, int from, void *recv, uint64_t rcount,
+                 MPI_Datatype type, size_t esize)
 {
-    const char *s = send;
-    char *r = recv;
-    int step;
-    if (scount[c->rank])
-        memcpy(r + rdispl[c->rank] * esize, s + sdispl[c->rank] * esize, scount[c->rank] * esize);
-    /* Round `step`: send to rank + step, receive from rank - step; one
-       round in flight at a time bounds the buffering. */
-    for (step = 1; step < c->ranks; step++) {
-        const int to = (c->rank + step) % c->ranks, from = (c->rank - step + c->ranks) % c->ranks;
-        lm_stream sm[2];
-        sm[0].p = r + rdispl[from] * esize;
-        sm[0].left = rcount[from];
-        sm[0].peer = from;
-        sm[0].send = 0;
-        sm[1].p = (char *)(uintptr_t)(s + sdispl[to] * esize); /* only read: MPI_Isend takes const void * */
-        sm[1].left = scount[to];
-        sm[1].peer = to;
-        sm[1].send = 1;
-        run_streams(c, sm, 2, type, esize);
-        c->st.bytes_sent += scount[to] * esize;
-        c->st.bytes_received += rcount[from] * esize;
-    }
+    lm_stream sm[2];
+    sm[0].p = recv;
+    sm[0].left = rcount;
+    sm[0].peer = from;
+    sm[0].send = 0;
+    sm[1].p = (char *)(uintptr_t)send; /* only read: MPI_Isend takes const void * */
+    sm[1].left = scount;
+    sm[1].peer = to;
+    sm[1].send = 1;
+    run_streams(c, sm, 2, type, esize);
+    c->st.bytes_sent += scount * esize;
+    c->st.bytes_received += rcount * esize;
 }
 
 void lm_gather(lm_ctx *c, int root, const void *send, const uint64_t *counts, void *recv, MPI_Datatype type,

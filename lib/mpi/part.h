@@ -45,12 +45,11 @@ typedef struct lm_held {
 locd_status lm_agree(lm_ctx *c, locd_status st);
 /* ms since the last lap. */
 double lm_lap(lm_ctx *c);
-/* Sends send[sdispl[r] .. + scount[r]) to rank r and receives rcount[s]
- * elements from rank s at recv + rdispl[s], for every pair of ranks
- * (pairwise rounds of nonblocking chunks: no int count or displacement
- * limit). Counts bytes to and from other ranks into the stats. */
-void lm_alltoallv(lm_ctx *c, const void *send, const uint64_t *scount, const uint64_t *sdispl, void *recv,
-                  const uint64_t *rcount, const uint64_t *rdispl, MPI_Datatype type, size_t esize);
+/* One round of an exchange: scount elements to rank `to` while rcount
+ * arrive from rank `from` (nonblocking chunks: no int count limit).
+ * Counts the bytes into the stats. */
+void lm_sendrecv(lm_ctx *c, int to, const void *send, uint64_t scount, int from, void *recv, uint64_t rcount,
+                 MPI_Datatype type, size_t esize);
 /* Rank root receives every rank's `count` elements, back to back in rank
  * order, at recv (counts: every rank's count, known on every rank). */
 void lm_gather(lm_ctx *c, int root, const void *send, const uint64_t *counts, void *recv, MPI_Datatype type,

@@ -44,6 +44,31 @@ static void append(const lm_held *h, const locd_pairs *from, locd_pairs *out)
     out->count += k;
 }
 
+/* One thread: the sweep writes into out itself (reserved for about one
+ * pair an entry: pages it does not touch cost no memory), renumbered in
+ * place. */
+static locd_status sweep_one(lm_ctx *c, const lm_held *h, locd_pairs *out)
+{
+    lm_slice sl;
+    size_t i;
+    out->count = 0;
+    sl.c = c;
+    sl.h = h;
+    sl.begin = h->begin;
+    sl.end = h->count;
+    sl.pairs = out;
+    if ((sl.st = lc_pairs_reserve(out, h->count - h->begin + 64)) != LOCD_OK)
+        return sl.st;
+    sweep_slice(&sl);
+    if (sl.st)
+        return sl.st;
+    if (h->gidx)
+        for (i = 0; i < 2 * out->count; i++)
+            out->data[i] = h->gidx[out->data[i]];
+    c->st.candidates += sl.stats.candidates;
+    return LOCD_OK;
+}
+
 locd_status lm_sweep(lm_ctx *c, const lm_held *h, locd_pairs *out)
 {
     uint32_t t, k = c->opt.threads ? c->opt.threads : 1;
@@ -52,6 +77,14 @@ locd_status lm_sweep(lm_ctx *c, const lm_held *h, locd_pairs *out)
     int started[LC_MAX_THREADS];
     size_t total = 0;
     locd_status st = LOCD_OK;
+    c->st.entries_held = h->count;
+    c->st.entries_replicated = h->begin;
+    c->st.objects_held = h->nobj;
+    if (k == 1) {
+        st = sweep_one(c, h, out);
+        c->st.pairs_owned = out->count;
+        return st;
+    }
     if (k > LC_MAX_THREADS)
         k = LC_MAX_THREADS;
     for (t = 0; t < k; t++) {

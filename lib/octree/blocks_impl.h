@@ -80,11 +80,15 @@ locd_status LC_FN(lc_block_sweep_range_)(const locd_grid *grid, const LC_T *boxe
             return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entry %zu names object >= n", i);
     lc_sweep_out_init(&o, &out->alloc, kernel);
     o.split = (uint32_t)split;
+    /* An empty out's buffer has nothing to keep: the sweep writes into it
+       directly (one copy of the pairs fewer) while it has room. */
+    if (out->count == 0 && out->cap)
+        lc_sweep_out_lend(&o, out->data, 2 * out->cap);
     st = LC_FN(lc_sweep_range_)(grid, boxes, NULL, entries, count, begin, end, &o);
-    if (!st)
+    if (!st && !(o.pairs_lent && o.pairs.data == (void *)out->data))
         st = lc_pairs_reserve(out, o.count);
     if (!st) {
-        if (o.count)
+        if (o.count && o.pairs.data != (void *)out->data)
             memcpy(out->data, o.pairs.data, o.count * 2 * sizeof(uint32_t));
         if (split) /* two sets: the sweep wrote (i, split + j) */
             for (i = 0; i < o.count; i++)
