@@ -86,10 +86,6 @@ def figure(ranks, ref):
             ax[0, 1].plot(ks, sent, style, marker="o", color=c, label=lab)
             held = [max(r["entries_held"] for r in ranks[(n, strategy, k)]) / n for k in ks]
             ax[0, 2].plot(ks, held, style, marker="o", color=c, label=lab)
-            if strategy == "distributed":
-                rep = [sum(r["entries_replicated"] for r in ranks[(n, strategy, k)]) for k in ks]
-                for k, v in zip(ks, rep):
-                    ax[0, 2].annotate(f"{v} repl.", (k, held[ks.index(k)]), fontsize=7, color=c)
             imb = [ranks[(n, strategy, k)][0]["imbalance"] for k in ks]
             ax[1, 0].plot(ks, imb, style, marker="o", color=c, label=lab)
             rss1 = max(r["peak_rss_kb"] for r in ranks[(n, strategy, 1)]) if (n, strategy, 1) in ranks else None
@@ -97,11 +93,14 @@ def figure(ranks, ref):
             ax[1, 1].plot(ks, rss, style, marker="o", color=c, label=lab)
             if strategy == "distributed" and rss1:
                 ax[1, 1].plot(ks, [rss1 / 1024 / k for k in ks], ":", color="gray")
+                if n == sizes[-1]:  # the target: at most 40% of the 1-rank peak at 4 ranks
+                    ax[1, 1].plot([4], [0.4 * rss1 / 1024], "kx")
+                    ax[1, 1].annotate("40% of 1 rank", (3.3, 0.4 * rss1 / 1024 + 15), fontsize=7)
         if n in ref:
             ax[1, 1].axhline(ref[n]["peak_rss_kb"] / 1024, color="black", lw=0.8, ls=style)
             ax[1, 1].annotate(f"locd pairs n={n:.0e}", (3.0, ref[n]["peak_rss_kb"] / 1024), fontsize=7)
     ax[0, 1].set_title("bulk MB sent or received by the busiest rank", fontsize=9)
-    ax[0, 2].set_title("entries held by the largest rank / n (distributed: + replicated)", fontsize=9)
+    ax[0, 2].set_title("entries held by the largest rank / n (replicated ones included)", fontsize=9)
     ax[1, 0].set_title("imbalance: max / mean of sweep work (entries + candidates)", fontsize=9)
     ax[1, 1].set_title("peak memory per rank (MB, ru_maxrss); dotted: 1/K of -np 1", fontsize=9)
     for a in (ax[0, 1], ax[0, 2], ax[1, 0], ax[1, 1]):
@@ -112,16 +111,22 @@ def figure(ranks, ref):
 
 
 def calibrate(ranks, ref, n):
-    """Per-object costs from the single-process run of each strategy at n."""
+    """Per-object costs from the single-process run of each strategy at n;
+    the exchange's local work (routing, packing, the copies over shared
+    memory) and the sort of what arrives, which one rank does not have,
+    and the master's merge of several runs, from the 2-rank runs (two ranks
+    on two cores), per object a rank holds."""
     d = ranks[(n, "distributed", 1)][0]
     m = ranks[(n, "master", 1)][0]
+    d2 = max(ranks[(n, "distributed", 2)], key=lambda r: r["total_ms"])
+    m2 = [r for r in ranks[(n, "master", 2)] if r["rank"] == 0][0]
     k4 = ranks.get((n, "distributed", 4))
     cal = {
         "encode": d["stage_ms"]["encode_sort"] / 1e3 / n,
-        "pack": d["stage_ms"]["exchange"] / 1e3 / n,  # routing, box packing, the copies (no network)
-        "sort": d["stage_ms"]["merge"] / 1e3 / n,
+        "pack": d2["stage_ms"]["exchange"] / 1e3 / (n / 2),
+        "sort": d2["stage_ms"]["merge"] / 1e3 / (n / 2),
         "sweep": d["stage_ms"]["sweep"] / 1e3 / n,
-        "mmerge": m["stage_ms"]["merge"] / 1e3 / n,
+        "mmerge": m2["stage_ms"]["merge"] / 1e3 / n,
         "msweep": m["stage_ms"]["sweep"] / 1e3 / n,
         "entries": d["entries_encoded"] / n,
         "serial": ref[n]["total_ms"] / 1e3 / n if n in ref else None,
@@ -148,12 +153,17 @@ def model(cal, n, machines, per_machine, gbit, latency_s):
     # machine's link (the ranks of a machine share it; 1/machines stays home)
     off = (machines - 1) / machines if machines > 1 else 0.0
     xfer = per_machine * local * cal["xbytes"] * off / bw + (k - 1) * latency_s
-    dist = local * (cal["encode"] + cal["pack"] + cal["sort"]) + local * cal["sweep"] * cal["imbalance"] + xfer
+    if k == 1:  # one rank moves nothing
+        dist = n * (cal["encode"] + cal["sweep"])
+    else:
+        dist = local * (cal["encode"] + cal["pack"] + cal["sort"]) + local * cal["sweep"] * cal["imbalance"] + xfer
     dist += rounds * latency_s
     # master: encode and sort in parallel, then everything into one link,
     # the merge of k runs and the whole sweep on one rank
     gather = n * cal["mbytes"] * off / bw + (k - 1) * latency_s
     merge = n * cal["mmerge"] * max(1.0, math.log2(k) / 2)
+    if k == 1:
+        merge = 0.0
     master = local * cal["encode"] + gather + merge + n * cal["msweep"] + rounds * latency_s
     return dist, master
 
@@ -162,8 +172,8 @@ def model_table(cal, n_cal):
     serial = lambda n: n * (cal["serial"] or (cal["encode"] + cal["sweep"]))  # noqa: E731
     nets = [("1 Gb/s (the paper's era)", 1.0, 50e-6), ("25 Gb/s", 25.0, 5e-6)]
     L = [f"Model calibrated on the single-process runs at n = {n_cal:.0e} (per object: encode+sort "
-         f"{cal['encode']*1e9:.0f} ns, packing {cal['pack']*1e9:.0f} ns, received-entry sort {cal['sort']*1e9:.0f} ns, "
-         f"sweep {cal['sweep']*1e9:.0f} ns; exchange {cal['xbytes']:.1f} bytes per object; master gather "
+         f"{cal['encode']*1e9:.0f} ns, exchange's local work {cal['pack']*1e9:.0f} ns and received-entry sort {cal['sort']*1e9:.0f} ns (2-rank run), "
+         f"sweep {cal['sweep']*1e9:.0f} ns, master's merge of 2 runs {cal['mmerge']*1e9:.0f} ns; exchange {cal['xbytes']:.1f} bytes per object; master gather "
          f"{cal['mbytes']:.1f} bytes per object; imbalance {cal['imbalance']:.3f}); serial reference "
          f"{(cal['serial'] or 0)*1e9:.0f} ns per object (`locd pairs --threads 1`).", ""]
     L.append("| objects | machines x processes | network | distributed | speedup | efficiency | master | speedup | "
