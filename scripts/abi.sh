@@ -13,6 +13,9 @@ cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 BUILD=${LOCD_ABI_BUILD:-build-ci/abi}
 LIBS=(liblocd liblocd_narrow)
+# liblocd_mpi (include/locd/mpi.h) is built only where Meson finds MPI:
+# checked when its baseline exists and the build made it.
+OPTIONAL_LIBS=(liblocd_mpi)
 SUPPRESSIONS=abi/locd.abignore
 HEADERS=include/locd
 # Only what the public headers expose through exported functions: without
@@ -55,6 +58,7 @@ case "${1:-}" in
     ;;
   update)
     build
+    for name in "${OPTIONAL_LIBS[@]}"; do [ -e "$BUILD/lib/$name.so" ] && LIBS+=("$name"); done
     mkdir -p abi
     for name in "${LIBS[@]}"; do
       lib=$(library "$name")
@@ -71,6 +75,13 @@ case "${1:-}" in
       guard "abi/$name.abi"
     done
     build
+    for name in "${OPTIONAL_LIBS[@]}"; do
+      if [ -f "abi/$name.abi" ] && [ -e "$BUILD/lib/$name.so" ]; then
+        LIBS+=("$name")
+      else
+        echo "abi: $name not checked (no baseline or not built: MPI missing)"
+      fi
+    done
     tmp=$(mktemp)
     trap 'rm -f "$tmp"' EXIT
     failed=0

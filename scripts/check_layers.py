@@ -2,7 +2,11 @@
 """Checks the library's architecture (docs/architecture.md) against the code.
 
 1. Layers: a file in lib/F/ includes only the private headers of F and of the
-   folders below F (core < octree < engine < levels < scene < service < narrow).
+   folders below F (core < octree < engine < levels < scene < service < narrow
+   < mpi). lib/mpi/ (liblocd_mpi, a library of its own) sits on the core
+   alone: it includes core/ and octree/ only, and reaches liblocd through
+   its public functions and the LC_SHARED helpers (the linker refuses any
+   other).
 2. No circular dependencies between files: in the compiled objects of
    liblocd, file A depends on file B when A uses a symbol (function or data)
    that B defines; the graph must have no cycle. Reading the objects (nm)
@@ -18,7 +22,9 @@ import re
 import subprocess
 import sys
 
-LAYERS = ["core", "octree", "engine", "levels", "scene", "service", "narrow"]
+LAYERS = ["core", "octree", "engine", "levels", "scene", "service", "narrow", "mpi"]
+# Folders that may include only some of the layers below them.
+ONLY = {"mpi": {"core", "octree", "mpi"}}
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([a-z_]+)/[a-z_]+\.h"', re.M)
 
 
@@ -33,6 +39,9 @@ def check_includes(lib):
                     continue  # "locd/locd.h" and friends: the public headers
                 if LAYERS.index(target) > rank:
                     bad.append(f"{os.path.relpath(path, lib)} includes {target}/ (a layer above {folder}/)")
+                elif folder in ONLY and target not in ONLY[folder]:
+                    bad.append(f"{os.path.relpath(path, lib)} includes {target}/ ({folder}/ uses only "
+                               f"{', '.join(sorted(ONLY[folder] - {folder}))})")
     return bad
 
 

@@ -131,7 +131,7 @@ enum { LC_KERNEL_SCALAR, LC_KERNEL_AVX2, LC_KERNEL_AVX512, LC_KERNEL_NEON };
  * can live: when an engine's level state is created; the stages take the
  * choice as an argument. The public building blocks have no engine and
  * choose per call. */
-int lc_kernel_choose(void);
+LC_SHARED int lc_kernel_choose(void);
 #if defined(__GNUC__) && defined(__x86_64__) && (__GNUC__ >= 8 || defined(__clang__))
 #define LC_HAVE_AVX512_KERNEL 1
 #define LC_AVX512 __attribute__((target("avx512f,avx512vl,avx512bw,avx512dq,avx512cd,popcnt,bmi,bmi2")))

@@ -1,10 +1,6 @@
 /* The work split of levels 1 and 2: shares of the objects and the entry
- * regions they encode into (levels.h).
- *
- * This file calls nothing but the C library (it takes only declarations and
- * constants from the private headers), so tools/meson.build also compiles
- * it into locd-mpi, which links only the public library, where lc_* symbols
- * are hidden: MPI ranks split the boxes exactly as threads and workers do. */
+ * regions they encode into (levels.h). It calls nothing but the C library
+ * (it takes only declarations and constants from the private headers). */
 #include "levels/levels.h"
 
 #include <math.h>
@@ -31,7 +27,7 @@ double lc_entries_per_object_guess(int32_t cell_bias)
 size_t lc_region_capacity(size_t m, double per_object)
 {
     size_t cap = (size_t)((double)m * per_object) + LC_REGION_SLACK;
-    /* + 1: an empty share still gets a region (and locd-mpi a non-empty malloc). */
+    /* + 1: an empty share still gets a region (a non-empty malloc). */
     return cap > m * LOCD_MAX_ENTRIES_PER_BOX ? m * LOCD_MAX_ENTRIES_PER_BOX + 1 : cap;
 }
 

@@ -53,6 +53,13 @@ locd_status LC_FN(lc_block_encode_)(const locd_grid *grid, const LC_T *boxes, si
 locd_status LC_FN(lc_block_sweep_)(const locd_grid *grid, const LC_T *boxes, size_t n, const uint64_t *entries,
                                    size_t count, size_t split, locd_pairs *out, locd_stats *stats, int kernel)
 {
+    return LC_FN(lc_block_sweep_range_)(grid, boxes, n, entries, count, 0, count, split, out, stats, kernel);
+}
+
+locd_status LC_FN(lc_block_sweep_range_)(const locd_grid *grid, const LC_T *boxes, size_t n, const uint64_t *entries,
+                                         size_t count, size_t begin, size_t end, size_t split, locd_pairs *out,
+                                         locd_stats *stats, int kernel)
+{
     lc_sweep_out o;
     locd_status st = lc_grid_check(grid);
     size_t i;
@@ -64,6 +71,8 @@ locd_status LC_FN(lc_block_sweep_)(const locd_grid *grid, const LC_T *boxes, siz
         return lc_error(LOCD_ERR_NULL_POINTER, "entries and boxes must not be NULL");
     if (stats && (st = lc_struct_check(stats, sizeof *stats, LOCD_STATS_MIN_SIZE, "stats")) != LOCD_OK)
         return st;
+    if (begin > end || end > count)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "range [%zu, %zu) outside the %zu entries", begin, end, count);
     if (!entries_sorted(entries, count))
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entries are not strictly ascending");
     for (i = 0; i < count; i++)
@@ -71,11 +80,15 @@ locd_status LC_FN(lc_block_sweep_)(const locd_grid *grid, const LC_T *boxes, siz
             return lc_error(LOCD_ERR_INVALID_ARGUMENT, "entry %zu names object >= n", i);
     lc_sweep_out_init(&o, &out->alloc, kernel);
     o.split = (uint32_t)split;
-    st = LC_FN(lc_sweep_range_)(grid, boxes, NULL, entries, count, 0, count, &o);
-    if (!st)
+    /* An empty out's buffer has nothing to keep: the sweep writes into it
+       directly (one copy of the pairs fewer) while it has room. */
+    if (out->count == 0 && out->cap)
+        lc_sweep_out_lend(&o, out->data, 2 * out->cap);
+    st = LC_FN(lc_sweep_range_)(grid, boxes, NULL, entries, count, begin, end, &o);
+    if (!st && !(o.pairs_lent && o.pairs.data == (void *)out->data))
         st = lc_pairs_reserve(out, o.count);
     if (!st) {
-        if (o.count)
+        if (o.count && o.pairs.data != (void *)out->data)
             memcpy(out->data, o.pairs.data, o.count * 2 * sizeof(uint32_t));
         if (split) /* two sets: the sweep wrote (i, split + j) */
             for (i = 0; i < o.count; i++)

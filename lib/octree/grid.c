@@ -115,8 +115,6 @@ locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth
  * so every path (engine, building blocks, workers, MPI) picks the same. Its
  * arrays take 32 KiB of the calling thread's stack, the radix sort of the
  * sample 48 KiB more (as any lc_radix_sort call). */
-#define LC_TUNE_SAMPLE 1024
-#define LC_TUNE_MIN_N 16384
 #define LC_TUNE_NEIGHBOURS 16.0
 
 /* Estimated boxes sharing an object's cell at depth d. */
@@ -151,6 +149,11 @@ static double tune_neighbours(const int32_t (*q)[3], const uint32_t *lvl, size_t
 #define LC_T double
 #define LC_SUFFIX f64
 #include "grid_impl.h"
+
+void lc_grid_tune_sample(locd_grid *g, const double *sample, size_t n)
+{
+    tune_strided_f64(g, sample, 1, n);
+}
 
 #ifdef LC_HAVE_AVX512_KERNEL
 #include <immintrin.h>

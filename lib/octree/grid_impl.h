@@ -36,12 +36,15 @@ static void LC_FN(bounds_scalar_)(const LC_T *boxes, size_t begin, size_t end, l
     out->hi[2] = hi2;
 }
 
-void LC_FN(lc_grid_tune_depth_)(locd_grid *g, const LC_T *boxes, size_t n)
+/* The depth from the sample boxes k * stride, k < LC_TUNE_SAMPLE, of a
+ * scene of n boxes (stride n / LC_TUNE_SAMPLE for the whole scene, 1 for a
+ * sample gathered beforehand: lc_grid_tune_sample). */
+static void LC_FN(tune_strided_)(locd_grid *g, const LC_T *boxes, size_t stride, size_t n)
 {
     int32_t q[LC_TUNE_SAMPLE][3];
     uint32_t lvl[LC_TUNE_SAMPLE], lo = 1, hi = g->depth;
     uint64_t code[LC_TUNE_SAMPLE], tmp[LC_TUNE_SAMPLE];
-    const size_t s = LC_TUNE_SAMPLE, stride = n / LC_TUNE_SAMPLE;
+    const size_t s = LC_TUNE_SAMPLE;
     size_t k;
     if (n < LC_TUNE_MIN_N)
         return;
@@ -66,6 +69,11 @@ void LC_FN(lc_grid_tune_depth_)(locd_grid *g, const LC_T *boxes, size_t n)
             lo = mid + 1;
     }
     g->depth = lo;
+}
+
+void LC_FN(lc_grid_tune_depth_)(locd_grid *g, const LC_T *boxes, size_t n)
+{
+    LC_FN(tune_strided_)(g, boxes, n / LC_TUNE_SAMPLE, n);
 }
 
 #undef LC_T

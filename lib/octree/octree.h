@@ -36,15 +36,18 @@ typedef struct lc_bounds {
     int64_t bad;       /* first bad box index, or -1 */
     locd_status bad_status;
 } lc_bounds;
-void lc_bounds_init(lc_bounds *b);
+/* LC_SHARED here and below: the helpers liblocd_mpi (lib/mpi/) calls to fit
+ * one grid over boxes spread across ranks and to sweep a key range
+ * (docs/cluster.md); private node of lib/locd.map.in, no part of the ABI. */
+LC_SHARED void lc_bounds_init(lc_bounds *b);
 /* Grows out to hold boxes [begin, end), stopping at the first bad one;
  * kernel is an LC_KERNEL_* value (lc_kernel_choose). */
-void lc_bounds_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out, int kernel);
-void lc_bounds_f64(const double *boxes, size_t begin, size_t end, lc_bounds *out, int kernel);
+LC_SHARED void lc_bounds_f32(const float *boxes, size_t begin, size_t end, lc_bounds *out, int kernel);
+LC_SHARED void lc_bounds_f64(const double *boxes, size_t begin, size_t end, lc_bounds *out, int kernel);
 /* Combines b into acc (a later chunk's bad index never hides an earlier one). */
 void lc_bounds_merge(lc_bounds *acc, const lc_bounds *b);
-locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth, int32_t cell_bias, uint32_t flags,
-                                locd_grid *grid);
+LC_SHARED locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth, int32_t cell_bias,
+                                          uint32_t flags, locd_grid *grid);
 /* The one check of the depth limit, for a config's max_depth, a fit's and
  * a grid's depth (`what` names it in the error). */
 locd_status lc_depth_check(uint32_t depth, const char *what);
@@ -52,6 +55,14 @@ locd_status lc_grid_check(const locd_grid *g);
 /* The automatic depth (max_depth 0): may lower g->depth (see grid.c). */
 void lc_grid_tune_depth_f32(locd_grid *g, const float *boxes, size_t n);
 void lc_grid_tune_depth_f64(locd_grid *g, const double *boxes, size_t n);
+/* The automatic depth reads LC_TUNE_SAMPLE boxes, box k * (n / LC_TUNE_SAMPLE)
+ * for k < LC_TUNE_SAMPLE, of scenes of at least LC_TUNE_MIN_N boxes. */
+#define LC_TUNE_SAMPLE 1024
+#define LC_TUNE_MIN_N 16384
+/* The same depth from those sample boxes gathered beforehand (6 doubles a
+ * box, in k order; a float scene's values converted exactly), for a scene
+ * whose boxes no one process holds (liblocd_mpi). n is the whole scene's. */
+LC_SHARED void lc_grid_tune_sample(locd_grid *g, const double *sample, size_t n);
 
 /* Quantization: a monotone map from coordinates to [0, 2^31). Monotone is all
  * exactness needs: a <= b implies q(a) <= q(b), so overlapping boxes always
@@ -172,6 +183,17 @@ locd_status lc_block_sweep_f32(const locd_grid *grid, const float *boxes, size_t
                                size_t count, size_t split, locd_pairs *out, locd_stats *stats, int kernel);
 locd_status lc_block_sweep_f64(const locd_grid *grid, const double *boxes, size_t n, const uint64_t *entries,
                                size_t count, size_t split, locd_pairs *out, locd_stats *stats, int kernel);
+/* The same on entries [begin, end) only: the entries before begin are the
+ * context a serial sweep would hold there (its populated ancestor cells),
+ * and both ends move forward to a cell start (lc_sweep_range_*). Sweeps of
+ * [0, b1), [b1, b2), ... [bk, count) report exactly the whole sweep's pairs,
+ * in its order. */
+LC_SHARED locd_status lc_block_sweep_range_f32(const locd_grid *grid, const float *boxes, size_t n,
+                                               const uint64_t *entries, size_t count, size_t begin, size_t end,
+                                               size_t split, locd_pairs *out, locd_stats *stats, int kernel);
+LC_SHARED locd_status lc_block_sweep_range_f64(const locd_grid *grid, const double *boxes, size_t n,
+                                               const uint64_t *entries, size_t count, size_t begin, size_t end,
+                                               size_t split, locd_pairs *out, locd_stats *stats, int kernel);
 
 /* ---- 3-D Morton (Z-order) interleaving of 21-bit coordinates ---- */
 static __inline__ uint64_t lc_morton_split3(uint32_t a)

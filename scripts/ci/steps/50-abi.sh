@@ -28,9 +28,13 @@ soversion=$(sed -n "s/^locd_soversion = '\([0-9]*\)'.*/\1/p" meson.build)
 version=$(sed -n "s/^  version: '\([0-9.]*\)'.*/\1/p" meson.build | head -1)
 # liblocd: locd_* in LOCD_0, plus the lc_* helpers liblocd_narrow calls, in
 # the private node LOCD_PRIVATE_<version> only (docs/abi.md, "Two
-# libraries"). liblocd_narrow: locd_* only.
-for name in liblocd liblocd_narrow; do
+# libraries"). liblocd_narrow: locd_* only; liblocd_mpi: locd_mpi_* in LOCD_MPI_0.
+for name in liblocd liblocd_narrow liblocd_mpi; do
   lib=$(readlink -f "${LOCD_ABI_BUILD:-build-ci/abi}/lib/$name.so" 2>/dev/null || true)
+  if [ "$name" = liblocd_mpi ] && [ -z "$lib" ]; then
+    echo "liblocd_mpi: not built (MPI missing): not inspected"
+    continue
+  fi
   if [ -z "$lib" ] || [ ! -f "$lib" ]; then
     case_result "exports-$name" failed "no $name to inspect (the ABI build failed)"
     rc=1
@@ -40,6 +44,8 @@ for name in liblocd liblocd_narrow; do
   syms=$(nm -D --defined-only "$lib" | awk '$2 != "A" { sub(/@@/, "@", $3); print $3 }')
   if [ "$name" = liblocd ]; then
     stray=$(echo "$syms" | grep -v -E '^locd_[a-z0-9_]+@LOCD_0$' | grep -v -E "^lc_[a-z0-9_]+@LOCD_PRIVATE_${version//./\\.}\$" || true)
+  elif [ "$name" = liblocd_mpi ]; then
+    stray=$(echo "$syms" | grep -v -E '^locd_mpi_[a-z0-9_]+@LOCD_MPI_0$' || true)
   else
     stray=$(echo "$syms" | grep -v -E '^locd_[a-z0-9_]+@LOCD_NARROW_0$' || true)
   fi
