@@ -10,7 +10,9 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <stdio.h>
+#include <sys/eventfd.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -32,6 +34,8 @@ void lc_svc_conn_unref(lc_svc_conn *c)
         return;
     if (c->fd >= 0)
         close(c->fd);
+    if (c->wake >= 0)
+        close(c->wake);
     pthread_mutex_destroy(&c->mu);
     pthread_mutex_destroy(&c->wmu);
     lc_free(&c->alloc, c, sizeof *c);
@@ -122,6 +126,31 @@ static locd_status handshake(lc_svc_conn *c, const char *secret)
     return lc_error(LOCD_ERR_PROTOCOL, "unexpected answer (type %u) to the handshake", h.type);
 }
 
+/* The engine's per-job deadline base in ms (service_timeout_ms, 0 =
+ * the default); negative = none. */
+int64_t lc_svc_timeout_ms(const locd_engine *e)
+{
+    int64_t t = e->cfg.service_timeout_ms;
+    return t == 0 ? LOCD_DEFAULT_SERVICE_TIMEOUT_MS : t;
+}
+
+/* A send that cannot move a byte for this long fails (the job then ends
+ * with LOCD_ERR_TIMEOUT): a stopped service must not hold a submit that
+ * fills the socket. The deadline base, at most LC_MSG_TIMEOUT_MS; none
+ * when the engine has no deadline. */
+static void bound_sends(const locd_engine *e, int fd)
+{
+    int64_t t = lc_svc_timeout_ms(e);
+    struct timeval tv;
+    if (t < 0)
+        return;
+    if (t > LC_MSG_TIMEOUT_MS)
+        t = LC_MSG_TIMEOUT_MS;
+    tv.tv_sec = (time_t)(t / 1000);
+    tv.tv_usec = (suseconds_t)((t % 1000) * 1000);
+    setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+}
+
 static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
 {
     lc_svc_conn *c;
@@ -142,6 +171,11 @@ static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
     pthread_mutex_init(&c->mu, NULL);
     pthread_mutex_init(&c->wmu, NULL);
     c->fd = -1;
+    c->wake = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+    if (c->wake < 0) {
+        lc_svc_conn_unref(c);
+        return lc_error(LOCD_ERR_IO, "eventfd: %s", strerror(errno));
+    }
     if (!connect_socket(&a, &c->fd, why, sizeof why)) {
         lc_svc_conn_unref(c);
         return lc_error(LOCD_ERR_CONNECTION, "%s", why);
@@ -152,6 +186,7 @@ static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
     }
     if (a.tcp)
         c->shm_ok = 0;
+    bound_sends(e, c->fd);
     if (pthread_create(&c->reader, NULL, lc_svc_reader_main, c) != 0) {
         lc_svc_conn_unref(c);
         return lc_error(LOCD_ERR_THREAD, "could not start the connection's reader thread");

@@ -3,13 +3,22 @@
  * matching jobs. A RESULT that is truncated or inconsistent finishes its
  * job with LOCD_ERR_PROTOCOL and closes the connection; when the
  * connection ends, every job still pending finishes with
- * LOCD_ERR_CONNECTION. No job is left unfinished. */
+ * LOCD_ERR_CONNECTION. No job is left unfinished.
+ *
+ * Between messages the thread also keeps the jobs' deadlines: a job with
+ * no result by its deadline (a stopped or hung service) finishes with
+ * LOCD_ERR_TIMEOUT and the service is asked to cancel it; a RESULT that
+ * comes later is dropped like any result of a job no longer pending. */
 #define _GNU_SOURCE
 #include "service/service.h"
 
+#include <errno.h>
+#include <limits.h>
+#include <poll.h>
 #include <stdio.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
+#include <unistd.h>
 
 #define LC_RESULT_MAX_BYTES (1ull << 37)
 
@@ -155,6 +164,98 @@ static locd_status broken_status(lc_svc_conn *c)
     return closing ? LOCD_ERR_CONNECTION : LOCD_ERR_PROTOCOL;
 }
 
+/* ---- deadlines ---- */
+
+int lc_svc_deadline_added_locked(lc_svc_conn *c, const lc_svc_job *j)
+{
+    return j->deadline > 0 && (c->reader_next <= 0 || j->deadline < c->reader_next);
+}
+
+/* Best effort: a CANCEL for job id, unless a writer is in the middle of a
+ * message (the service then runs the job to its end and its result is
+ * dropped). A CANCEL that went out only in part breaks the stream. */
+static void send_cancel_nowait(lc_svc_conn *c, uint64_t id)
+{
+    uint8_t hb[LC_PROTO_HEADER];
+    ssize_t w;
+    lc_proto_put_header(hb, LC_MSG_CANCEL, id, 0);
+    if (pthread_mutex_trylock(&c->wmu) != 0)
+        return;
+    if (c->fd >= 0) {
+        w = send(c->fd, hb, sizeof hb, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (w > 0 && (size_t)w < sizeof hb)
+            shutdown(c->fd, SHUT_RDWR);
+    }
+    pthread_mutex_unlock(&c->wmu);
+}
+
+/* Finishes every pending job past its deadline with LOCD_ERR_TIMEOUT and
+ * returns the earliest deadline still ahead (0 = none), which is also
+ * recorded as the reader's next check. */
+static double expire_overdue(lc_svc_conn *c)
+{
+    lc_svc_job **pp, *j, *overdue = NULL;
+    double now = lc_now_ms(), next = 0;
+    char msg[160];
+    pthread_mutex_lock(&c->mu);
+    for (pp = &c->pending; (j = *pp) != NULL;) {
+        if (j->deadline > 0 && j->deadline <= now) {
+            *pp = j->next;
+            j->next = overdue;
+            overdue = j;
+            continue;
+        }
+        if (j->deadline > 0 && (next <= 0 || j->deadline < next))
+            next = j->deadline;
+        pp = &j->next;
+    }
+    c->reader_next = next;
+    pthread_mutex_unlock(&c->mu);
+    while ((j = overdue) != NULL) {
+        overdue = j->next;
+        j->next = NULL;
+        send_cancel_nowait(c, j->id);
+        snprintf(msg, sizeof msg,
+                 "no result from the service within %.0f ms (the job's deadline, service_timeout_ms); "
+                 "the service was asked to cancel it",
+                 j->deadline - j->job.t_submit);
+        lc_svc_job_done(j, LOCD_ERR_TIMEOUT, msg, -1);
+    }
+    return next;
+}
+
+/* Waits until a message starts on the connection, finishing overdue jobs
+ * meanwhile. 1 when bytes (or the end of the stream) are there, 0 when
+ * the wait failed (why). */
+static int wait_for_message(lc_svc_conn *c, char *why, size_t wl)
+{
+    for (;;) {
+        struct pollfd pfd[2];
+        double next = expire_overdue(c), left;
+        int timeout = -1, pr;
+        uint64_t drain;
+        if (next > 0) {
+            left = next - lc_now_ms() + 1.0;
+            timeout = left < 1.0 ? 1 : left > (double)INT_MAX ? INT_MAX : (int)left;
+        }
+        pfd[0].fd = c->fd;
+        pfd[0].events = POLLIN;
+        pfd[0].revents = 0;
+        pfd[1].fd = c->wake;
+        pfd[1].events = POLLIN;
+        pfd[1].revents = 0;
+        pr = poll(pfd, c->wake >= 0 ? 2 : 1, timeout);
+        if (pr < 0 && errno != EINTR) {
+            snprintf(why, wl, "poll failed: %s", strerror(errno));
+            return 0;
+        }
+        if (pr > 0 && (pfd[1].revents & POLLIN) && read(c->wake, &drain, sizeof drain) < 0)
+            drain = 0; /* nothing to drain: another wake-up read it */
+        if (pr > 0 && pfd[0].revents)
+            return 1;
+    }
+}
+
 void *lc_svc_reader_main(void *arg)
 {
     lc_svc_conn *c = arg;
@@ -166,7 +267,11 @@ void *lc_svc_reader_main(void *arg)
     lc_outcome o;
     int ok;
     for (;;) {
-        int rd = lc_proto_read_all(c->fd, hb, sizeof hb, -1, why, sizeof why);
+        int rd;
+        if (!wait_for_message(c, why, sizeof why))
+            break;
+        /* A message that has started must arrive within LC_MSG_TIMEOUT_MS. */
+        rd = lc_proto_read_all(c->fd, hb, sizeof hb, LC_MSG_TIMEOUT_MS, why, sizeof why);
         if (rd != 1)
             break;
         if (!lc_proto_get_header(hb, LC_RESULT_MAX_BYTES, &h, why, sizeof why))

@@ -122,6 +122,7 @@ typedef struct lc_svc_job {
     struct lc_svc_conn *conn;
     uint64_t id;
     char shm_name[64];       /* bulk input segment to unlink when done ("" = none) */
+    double deadline;         /* lc_now_ms() past which the job fails with LOCD_ERR_TIMEOUT; 0 = none */
     struct lc_svc_job *next; /* in the connection's pending list */
 } lc_svc_job;
 
@@ -136,6 +137,8 @@ typedef struct lc_svc_conn {
     pthread_mutex_t wmu; /* one writer at a time; fd */
     int fd;
     int shm_ok;
+    int wake;           /* eventfd: a job with an earlier deadline than the reader's wait arrived */
+    double reader_next; /* under mu: when the reader wakes up next to check deadlines (0 = never) */
     pthread_t reader;
     locd_allocator alloc;
 } lc_svc_conn;
@@ -143,6 +146,9 @@ typedef struct lc_svc_conn {
 /* lc_backend.open / close: the engine's connection. */
 locd_status lc_svc_open(locd_engine *e);
 void lc_svc_close(locd_engine *e);
+/* The engine's per-job deadline base in ms (config service_timeout_ms, 0
+ * = LOCD_DEFAULT_SERVICE_TIMEOUT_MS); negative = no deadline. */
+int64_t lc_svc_timeout_ms(const locd_engine *e);
 /* The live connection with a reference for the caller, reconnecting once
  * when the last one broke. */
 locd_status lc_svc_get_conn(locd_engine *e, lc_svc_conn **out);
@@ -155,6 +161,10 @@ lc_svc_job *lc_svc_take_pending(lc_svc_conn *c, uint64_t id);
 /* Finishes a job, unlinking its input segment, and drops the runner's
  * reference. */
 void lc_svc_job_done(lc_svc_job *j, locd_status st, const char *msg, int64_t index);
+/* Called with c->mu held, after j joined the pending list: 1 when the
+ * reader must be woken (c->wake) because j's deadline comes before its
+ * next check. The reader finishes overdue jobs with LOCD_ERR_TIMEOUT. */
+int lc_svc_deadline_added_locked(lc_svc_conn *c, const lc_svc_job *j);
 /* lc_backend.submit. */
 locd_status lc_svc_submit(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags, locd_job **out);
 
