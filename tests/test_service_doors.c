@@ -12,6 +12,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sched.h>
+#include <sys/mount.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -148,6 +150,140 @@ static void no_deadline_and_default(void)
     free(b);
 }
 
+/* ---- item 10: no shared /dev/shm ---- */
+
+/* Gives this process its own mount namespace with a fresh tmpfs of
+ * `size` on /dev/shm (mounts made private first, so nothing leaks to the
+ * host). 0, or -1 when not allowed (not root, no namespaces). */
+static int private_dev_shm(const char *size)
+{
+    char opts[64];
+    if (unshare(CLONE_NEWNS) != 0 || mount(NULL, "/", NULL, MS_REC | MS_PRIVATE, NULL) != 0)
+        return -1;
+    snprintf(opts, sizeof opts, "size=%s,mode=1777", size);
+    return mount("tmpfs", "/dev/shm", "tmpfs", MS_NOSUID | MS_NODEV, opts) == 0 ? 0 : -1;
+}
+
+/* 1 when this machine lets a child give itself a private /dev/shm. */
+static int can_private_shm(void)
+{
+    int status = 0;
+    pid_t pid = fork();
+    if (pid == 0)
+        _exit(private_dev_shm("1m") == 0 ? 0 : 1);
+    if (pid < 0 || waitpid(pid, &status, 0) != pid)
+        return 0;
+    return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
+/* `locd serve --listen addr` in its own mount namespace with a private
+ * /dev/shm: the container that shares only the socket. Its stderr goes to
+ * log; returns its pid once it listens, or -1. */
+static pid_t start_service_private_shm(const char *addr, const char *log)
+{
+    const char *cli = lu_setup();
+    pid_t pid = fork();
+    if (pid == 0) {
+        int fd = open(log, O_WRONLY | O_CREAT | O_TRUNC, 0600);
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
+        if (fd >= 0) {
+            dup2(fd, 2);
+            close(fd);
+        }
+        if (private_dev_shm("64m") != 0)
+            _exit(126);
+        execl(cli, cli, "serve", "--listen", addr, "--threads", "1", (char *)NULL);
+        _exit(127);
+    }
+    if (pid < 0 || !lu_wait_file_contains(log, "listening on", 10000)) {
+        if (pid > 0)
+            lu_stop_service(pid, SIGKILL);
+        return -1;
+    }
+    return pid;
+}
+
+/* Every size of job, below and above the shared-memory threshold, f32 and
+ * f64, synchronous and asynchronous: all exact through a service that
+ * cannot see this process's segments. */
+static void private_shm_service_gets_every_job(void)
+{
+    char dir[256], log[300], addr[300];
+    size_t sizes[] = {100, 3000, 20000}; /* 2.4 KB, 72 KB, 480 KB of float32 */
+    locd_engine *e = NULL;
+    locd_pairs *p = NULL, *q = NULL;
+    locd_job *j = NULL;
+    pid_t svc;
+    size_t k;
+    if (!can_private_shm())
+        TEST_IGNORE_MESSAGE("no mount namespaces here (needs root): private /dev/shm not testable");
+    lu_temp_dir(dir, sizeof dir);
+    snprintf(log, sizeof log, "%s/serve.log", dir);
+    snprintf(addr, sizeof addr, "unix:%s/s.sock", dir);
+    svc = start_service_private_shm(addr, log);
+    TEST_ASSERT_TRUE(svc > 0);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, make_engine(addr, NULL, 0, &e));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &q));
+    for (k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+        size_t n = sizes[k], i;
+        float *b = ts_scene((int)k, n, 40 + k);
+        double *d = malloc(n * 6 * sizeof *d);
+        for (i = 0; i < n * 6; i++)
+            d[i] = b[i];
+        TEST_ASSERT_EQUAL_INT_MESSAGE(LOCD_OK, locd_engine_find_pairs_f32(e, b, n, 0, p), locd_last_error());
+        TEST_ASSERT_TRUE(ts_same_as_brute_f32(b, n, p));
+        TEST_ASSERT_EQUAL_INT_MESSAGE(LOCD_OK, locd_engine_find_pairs_f64(e, d, n, 0, q), locd_last_error());
+        TEST_ASSERT_TRUE(lu_same_pairs(p, q));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_submit_f32(e, b, n, 0, &j));
+        TEST_ASSERT_EQUAL_INT_MESSAGE(LOCD_OK, locd_job_wait(j, -1), locd_last_error());
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_job_take(j, q));
+        TEST_ASSERT_TRUE(lu_same_pairs(p, q));
+        locd_job_release(j);
+        free(d);
+        free(b);
+    }
+    locd_pairs_destroy(p);
+    locd_pairs_destroy(q);
+    locd_engine_destroy(e);
+    lu_stop_service(svc, SIGTERM);
+    TEST_ASSERT_EQUAL_INT(0, lu_count_shm("/locd-")); /* no probe or job segment left here */
+    lu_cleanup_dir(dir);
+}
+
+/* The client's /dev/shm is full (a 64 KiB tmpfs): a 480 KB job cannot get
+ * a segment and is streamed instead of failing. Runs in a child, which
+ * owns the namespace; the service is the suite's. */
+static void full_shm_client_streams(void)
+{
+    int status = 0;
+    pid_t pid;
+    if (!can_private_shm())
+        TEST_IGNORE_MESSAGE("no mount namespaces here (needs root): full /dev/shm not testable");
+    pid = fork();
+    if (pid == 0) {
+        size_t n = 20000;
+        float *b = ts_scene(0, n, 77);
+        locd_engine *e = NULL;
+        locd_pairs *p = NULL;
+        int rc;
+        if (private_dev_shm("64k") != 0)
+            _exit(3);
+        if (make_engine(g_fx.addr, NULL, 0, &e) != LOCD_OK || locd_pairs_create(NULL, &p) != LOCD_OK)
+            _exit(4);
+        rc = locd_engine_find_pairs_f32(e, b, n, 0, p);
+        if (rc != LOCD_OK) {
+            fprintf(stderr, "# find with a full /dev/shm: %d %s\n", rc, locd_last_error());
+            _exit(5);
+        }
+        _exit(ts_same_as_brute_f32(b, n, p) ? 0 : 6);
+    }
+    TEST_ASSERT_TRUE(pid > 0);
+    TEST_ASSERT_EQUAL_INT(pid, waitpid(pid, &status, 0));
+    TEST_ASSERT_TRUE(WIFEXITED(status));
+    TEST_ASSERT_EQUAL_INT_MESSAGE(0, WEXITSTATUS(status), "the job failed with a full /dev/shm (5) or was wrong (6)");
+}
+
 static int setup(void)
 {
     return lu_fixture_up(&g_fx);
@@ -164,6 +300,8 @@ int main(void)
         LT_TEST_FIXTURE(stopped_service_find_times_out, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(stopped_service_big_send_times_out, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(no_deadline_and_default, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(private_shm_service_gets_every_job, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(full_shm_client_streams, lu_timer_start, lu_timer_print),
     };
     return LT_RUN_GROUP(tests, setup, teardown);
 }

@@ -6,11 +6,13 @@
 #include "service/service.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <netdb.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <stdio.h>
 #include <sys/eventfd.h>
+#include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/time.h>
 #include <sys/un.h>
@@ -151,6 +153,58 @@ static void bound_sends(const locd_engine *e, int fd)
     setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
 }
 
+/* Whether the service sees this process's /dev/shm: a service in another
+ * mount namespace (a container sharing only the socket) has its own. The
+ * probe is a job of no boxes passed through an empty segment; the service
+ * removes the segment's name once it opened it, so a name still there
+ * after the RESULT means it could not: the connection then streams every
+ * job's boxes. 1 (probed), or 0 when the connection broke (why). Runs
+ * before the reader thread starts. */
+static int probe_shared_memory(lc_svc_conn *c, char *why, size_t wl)
+{
+    uint8_t buf[LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4 + 64];
+    char name[64];
+    lc_submit_fixed f;
+    lc_msg_header h;
+    size_t nl;
+    int fd = -1, tries;
+    for (tries = 0; tries < 8 && fd < 0; tries++) {
+        lc_shm_unique_name(name, sizeof name, "p");
+        fd = shm_open(name, O_RDWR | O_CREAT | O_EXCL, 0600);
+        if (fd < 0 && errno != EEXIST)
+            break;
+    }
+    if (fd < 0) { /* this side cannot make segments: stream */
+        c->shm_ok = 0;
+        return 1;
+    }
+    close(fd);
+    nl = strlen(name);
+    memset(&f, 0, sizeof f);
+    f.transport = 1;
+    lc_proto_put_header(buf, LC_MSG_SUBMIT, ++c->next_id, LC_PROTO_SUBMIT_FIXED + 4 + nl);
+    lc_proto_put_submit(buf + LC_PROTO_HEADER, &f);
+    lc_put_u32(buf + LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED, (uint32_t)nl);
+    memcpy(buf + LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4, name, nl);
+    if (!lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4 + nl) ||
+        lc_proto_read_all(c->fd, buf, LC_PROTO_HEADER, LC_CONNECT_TIMEOUT_MS, why, wl) != 1 ||
+        !lc_proto_get_header(buf, 16 + LC_PROTO_MAX_TEXT + LC_PROTO_STATS_BYTES + 8, &h, why, wl) ||
+        h.type != LC_MSG_RESULT || h.id != c->next_id ||
+        !lc_proto_skip(c->fd, h.length, LC_CONNECT_TIMEOUT_MS, why, wl)) {
+        if (!why[0])
+            snprintf(why, wl, "no answer to the shared-memory probe");
+        shm_unlink(name);
+        return 0;
+    }
+    fd = shm_open(name, O_RDONLY, 0);
+    if (fd >= 0) { /* the service never opened it */
+        close(fd);
+        shm_unlink(name);
+        c->shm_ok = 0;
+    }
+    return 1;
+}
+
 static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
 {
     lc_svc_conn *c;
@@ -186,6 +240,14 @@ static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
     }
     if (a.tcp)
         c->shm_ok = 0;
+    why[0] = '\0';
+    if (c->shm_ok && !probe_shared_memory(c, why, sizeof why)) {
+        lc_svc_conn_unref(c);
+        return lc_error(LOCD_ERR_CONNECTION, "the service did not answer the shared-memory probe: %s", why);
+    }
+    if (!a.tcp && !c->shm_ok)
+        lc_engine_log(e, LOCD_LOG_INFO, "level 3: %s does not share /dev/shm with this process: boxes are streamed",
+                      e->cfg.service_address);
     bound_sends(e, c->fd);
     if (pthread_create(&c->reader, NULL, lc_svc_reader_main, c) != 0) {
         lc_svc_conn_unref(c);

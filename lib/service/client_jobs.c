@@ -220,8 +220,12 @@ locd_status lc_svc_submit(locd_engine *e, const void *boxes, size_t n, int f64, 
     j = (lc_svc_job *)job;
     j->conn = c; /* the job keeps the caller's reference on c */
     j->deadline = job_deadline(e, j, n);
-    if ((c->shm_ok && bytes >= LC_PROTO_SHM_MIN_BYTES && (st = boxes_to_shm(j, boxes, bytes)) != LOCD_OK) ||
-        (st = register_job(c, j)) != LOCD_OK) {
+    if (c->shm_ok && bytes >= LC_PROTO_SHM_MIN_BYTES && boxes_to_shm(j, boxes, bytes) != LOCD_OK) {
+        /* A full /dev/shm (or no segment allowed): the boxes are streamed. */
+        lc_engine_log(e, LOCD_LOG_WARNING, "level 3: %s; streaming the boxes instead", lc_last_error_detail());
+        lc_clear_error();
+    }
+    if ((st = register_job(c, j)) != LOCD_OK) {
         lc_job_discard(job);
         return st;
     }
