@@ -6,6 +6,7 @@
 #define _GNU_SOURCE
 #include <errno.h>
 #include <fcntl.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -148,6 +149,109 @@ static void no_deadline_and_default(void)
     locd_engine_destroy(e);
     locd_pairs_destroy(p);
     free(b);
+}
+
+/* ---- item 9: secrets ---- */
+
+typedef struct guess {
+    const char *addr;
+    locd_status st;
+} guess;
+
+static void *guess_main(void *arg)
+{
+    guess *g = arg;
+    locd_engine *e = NULL;
+    g->st = make_engine(g->addr, "wrong-secret-guess-0000000000", 0, &e);
+    locd_engine_destroy(e);
+    return NULL;
+}
+
+/* A wrong secret is answered after a second, and a flood of guesses gets
+ * at most LC_AUTH_MAX_FAILS (10) of them checked per second: the others
+ * are refused unchecked with LOCD_ERR_BUSY. The right secret works again
+ * once the flood stops. */
+static void wrong_secrets_are_slow_and_capped(void)
+{
+    enum { GUESSES = 40 };
+    char dir[256], log[300], actual[300];
+    static guess g[GUESSES];
+    pthread_t th[GUESSES];
+    locd_engine *e = NULL;
+    int k, auth = 0, busy = 0;
+    double t0, took;
+    pid_t svc;
+    lu_temp_dir(dir, sizeof dir);
+    snprintf(log, sizeof log, "%s/serve.log", dir);
+    svc = lu_start_service("tcp:127.0.0.1:0", DOORS_SECRET, 1, log, actual, sizeof actual);
+    TEST_ASSERT_TRUE(svc > 0);
+    t0 = lu_now_ms();
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_AUTH, make_engine(actual, "not-the-secret-at-all-000000", 0, &e));
+    took = lu_now_ms() - t0;
+    LT_PRINT("# one wrong secret answered after %.0f ms\n", took);
+    TEST_ASSERT_TRUE_MESSAGE(took >= 900, "a wrong secret was answered at once");
+
+    t0 = lu_now_ms();
+    for (k = 0; k < GUESSES; k++) {
+        g[k].addr = actual;
+        TEST_ASSERT_EQUAL_INT(0, pthread_create(&th[k], NULL, guess_main, &g[k]));
+    }
+    for (k = 0; k < GUESSES; k++) {
+        pthread_join(th[k], NULL);
+        auth += g[k].st == LOCD_ERR_AUTH;
+        busy += g[k].st == LOCD_ERR_BUSY;
+    }
+    took = lu_now_ms() - t0;
+    LT_PRINT("# %d parallel guesses in %.0f ms: %d checked (LOCD_ERR_AUTH), %d refused unchecked (LOCD_ERR_BUSY)\n",
+             GUESSES, took, auth, busy);
+    TEST_ASSERT_EQUAL_INT(GUESSES, auth + busy);
+    TEST_ASSERT_TRUE_MESSAGE(auth <= 10 * (1 + (int)(took / 1000.0)), "more than 10 guesses a second were checked");
+    TEST_ASSERT_TRUE(busy > 0);
+    TEST_ASSERT_TRUE(lu_wait_file_contains(log, "wrong secrets within a second", 2000));
+
+    lu_sleep_ms(1100); /* the next second: checks again */
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, make_engine(actual, DOORS_SECRET, 0, &e));
+    locd_engine_destroy(e);
+    lu_stop_service(svc, SIGTERM);
+    lu_cleanup_dir(dir);
+}
+
+typedef struct log_capture {
+    char text[2048];
+} log_capture;
+
+static void capture(int32_t severity, const char *message, void *user)
+{
+    log_capture *c = user;
+    size_t used = strlen(c->text);
+    if (severity <= LOCD_LOG_WARNING)
+        snprintf(c->text + used, sizeof c->text - used, "%s\n", message);
+}
+
+/* A short secret and a bind to every interface are logged as warnings by
+ * the library itself (locd serve refuses the short secret outright). */
+static void short_secret_and_wildcard_bind_are_warned_about(void)
+{
+    static log_capture cap;
+    locd_service_config sc;
+    locd_service *svc = NULL;
+    locd_service_config_init(&sc);
+    sc.listen = "tcp:0.0.0.0:0";
+    sc.secret = "short";
+    sc.threads = 1;
+    sc.log = capture;
+    sc.log_user = &cap;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_service_create(&sc, &svc));
+    LT_PRINT("# warnings: %s", cap.text);
+    TEST_ASSERT_NOT_NULL(strstr(cap.text, "5 bytes; use at least 16"));
+    TEST_ASSERT_NOT_NULL(strstr(cap.text, "every network interface"));
+    locd_service_destroy(svc);
+    memset(&cap, 0, sizeof cap);
+    sc.listen = "tcp:127.0.0.1:0";
+    sc.secret = DOORS_SECRET;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_service_create(&sc, &svc));
+    TEST_ASSERT_EQUAL_STRING("", cap.text);
+    locd_service_destroy(svc);
 }
 
 /* ---- item 10: no shared /dev/shm ---- */
@@ -300,6 +404,8 @@ int main(void)
         LT_TEST_FIXTURE(stopped_service_find_times_out, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(stopped_service_big_send_times_out, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(no_deadline_and_default, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(wrong_secrets_are_slow_and_capped, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(short_secret_and_wildcard_bind_are_warned_about, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(private_shm_service_gets_every_job, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(full_shm_client_streams, lu_timer_start, lu_timer_print),
     };

@@ -237,6 +237,9 @@ struct lc_server {
     pthread_t *runners;
     uint32_t nrunners;
     uint64_t served;
+    double auth_window;   /* under mu: start of the current second of secret checks (server_auth.c) */
+    uint32_t auth_fails;  /* under mu: wrong secrets in it */
+    int auth_logged;      /* under mu: the throttle was logged in it */
 };
 
 /* server_conn.c */
@@ -267,6 +270,18 @@ void *lc_srv_runner_main(void *service);
  * *out, or NULL there when the job was refused (an error result was sent);
  * 0 to drop the connection (why). */
 int lc_srv_read_submit(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **out, char *why, size_t wl);
+
+/* server_auth.c */
+#define LC_AUTH_MIN_SECRET 16      /* shorter secrets are logged as a warning (locd serve refuses them) */
+#define LC_AUTH_FAIL_DELAY_MS 1000 /* a wrong secret is answered after this */
+#define LC_AUTH_MAX_FAILS 10       /* wrong secrets checked per second, service-wide */
+#define LC_AUTH_OK 1
+#define LC_AUTH_WRONG 0     /* answered after LC_AUTH_FAIL_DELAY_MS */
+#define LC_AUTH_THROTTLED -1 /* not checked: too many wrong secrets this second */
+/* Checks a client's secret (LC_AUTH_OK when the service has none). */
+int lc_srv_auth_check(lc_server *s, const uint8_t *secret, size_t len);
+/* Logs a short secret and a TCP bind to every interface. */
+void lc_srv_warn_exposure(const lc_server *s, const lc_address *a);
 
 /* server_session.c */
 /* Accepts one connection on s->lfd and starts its thread. */
