@@ -1,5 +1,6 @@
 /* locd gen KIND N [--seed S] -o FILE.aabb */
 #include "cli.h"
+#include "json.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -48,6 +49,10 @@ int cmd_gen(int argc, char **argv)
         return 1;
     }
     free(b);
-    printf("{\"kind\":\"%s\",\"n\":%zu,\"seed\":%llu,\"out\":\"%s\"}\n", kind, n, (unsigned long long)seed, out);
+    printf("{\"kind\":");
+    json_write_string(stdout, kind);
+    printf(",\"n\":%zu,\"seed\":%llu,\"out\":", n, (unsigned long long)seed);
+    json_write_string(stdout, out);
+    printf("}\n");
     return 0;
 }

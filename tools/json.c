@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 typedef struct parser {
     const char *s, *p;
@@ -378,6 +379,7 @@ static char *read_stdin(size_t *size)
 
 json_value *json_parse_file(const char *path, char *err, size_t errlen)
 {
+    struct stat sb;
     FILE *f;
     char *text;
     long size;
@@ -396,6 +398,11 @@ json_value *json_parse_file(const char *path, char *err, size_t errlen)
     f = fopen(path, "rb");
     if (!f) {
         snprintf(err, errlen, "cannot open: %s", strerror(errno));
+        return NULL;
+    }
+    if (fstat(fileno(f), &sb) == 0 && S_ISDIR(sb.st_mode)) { /* ftell says LONG_MAX for one */
+        snprintf(err, errlen, "is a directory, not a scene file");
+        fclose(f);
         return NULL;
     }
     if (fseek(f, 0, SEEK_END) != 0 || (size = ftell(f)) < 0 || fseek(f, 0, SEEK_SET) != 0 ||
@@ -490,4 +497,19 @@ int json_get_vec(const json_value *obj, const char *key, double *out, size_t n)
     for (i = 0; i < n; i++)
         out[i] = v->items[i].number;
     return 1;
+}
+
+void json_write_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; s && *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\')
+            fprintf(f, "\\%c", c);
+        else if (c < 0x20 || c == 0x7f)
+            fprintf(f, "\\u%04x", c);
+        else
+            fputc(c, f);
+    }
+    fputc('"', f);
 }

@@ -272,6 +272,32 @@ def bad_scene_numbers_are_refused_not_crashed_on():
                 "cannot write")
 
 
+@test
+def a_directory_as_scene_says_so():  # issue 18: "size 9223372036854775807 is not a multiple of 24"
+    with Tmp() as t:
+        for cmd in (["pairs", t.dir], ["simulate", t.dir], ["frames", t.dir, "--moving", "0.1", "--frames", "1"]):
+            r = run(cmd)
+            assert r.returncode != 0 and b"is a directory" in r.stderr, (cmd, r.stderr.decode())
+            assert b"9223372036854775807" not in r.stderr
+
+
+@test
+def names_and_paths_are_escaped_in_the_json_output():  # issue 18: names were not escaped
+    import json
+    with Tmp() as t:
+        out = t.path('a"b\\c\td.aabb')
+        r = run(["gen", "uniform", "10", "-o", out])
+        assert r.returncode == 0, r.stderr.decode()
+        assert json.loads(r.stdout.decode())["out"] == out
+        scene = {"name": 'he said "hi"\n\\', "objects": [
+            {"shape": "sphere", "radius": 0.5, "position": [0, 0, 1], "name": 'x"y\u0001'}]}
+        r = run(["simulate", "-", "--steps", "2", "--quiet"], input=json.dumps(scene).encode())
+        assert r.returncode == 0, r.stderr.decode()
+        summary = json.loads(r.stdout.decode().strip().splitlines()[-1])["summary"]
+        assert summary["scene"] == scene["name"], summary["scene"]
+        assert list(summary["tracked"]) == ['x"y\u0001'], summary["tracked"]
+
+
 class Serve:
     """`locd serve ARGS` in the background, its stderr in a file; .address once it listens."""
 
