@@ -39,6 +39,7 @@ import numbers
 import os
 import dataclasses
 import math
+import collections
 import threading
 import weakref
 from typing import Any, Dict, Optional, Union
@@ -404,15 +405,25 @@ class Service:
 
 _local = threading.local()
 
+# find_pairs() keeps an engine per Python thread and thread count, so that
+# repeated calls reuse its threads and buffers. Only the engines of the last
+# _ENGINES_PER_THREAD thread counts a Python thread used stay open (the least
+# recently used one is closed): a caller trying threads=1..64 must not be
+# left with 2,000 idle threads and their buffers. A thread's engines go with it.
+_ENGINES_PER_THREAD = 2
+
 
 def _engine_for(threads: Optional[int]) -> Engine:
     engines = getattr(_local, "engines", None)
     if engines is None:
-        engines = _local.engines = {}
+        engines = _local.engines = collections.OrderedDict()
     key = _count("threads", threads)
-    engine = engines.get(key)
+    engine = engines.pop(key, None)
     if engine is None:
-        engine = engines[key] = Engine(threads=threads)
+        engine = Engine(threads=threads)
+    engines[key] = engine
+    while len(engines) > _ENGINES_PER_THREAD:
+        engines.popitem(last=False)[1].close()
     return engine
 
 
