@@ -6,7 +6,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 typedef struct parser {
     const char *s, *p;
@@ -379,7 +378,6 @@ static char *read_stdin(size_t *size)
 
 json_value *json_parse_file(const char *path, char *err, size_t errlen)
 {
-    struct stat sb;
     FILE *f;
     char *text;
     long size;
@@ -400,11 +398,15 @@ json_value *json_parse_file(const char *path, char *err, size_t errlen)
         snprintf(err, errlen, "cannot open: %s", strerror(errno));
         return NULL;
     }
-    if (fstat(fileno(f), &sb) == 0 && S_ISDIR(sb.st_mode)) { /* ftell says LONG_MAX for one */
-        snprintf(err, errlen, "is a directory, not a scene file");
+    /* fopen opens a directory, and ftell then says LONG_MAX: read a byte
+     * first (portable C: no fstat on every target this file builds for). */
+    errno = 0;
+    if (getc(f) == EOF && ferror(f)) {
+        snprintf(err, errlen, "%s", errno == EISDIR ? "is a directory, not a scene file" : "cannot read");
         fclose(f);
         return NULL;
     }
+    rewind(f);
     if (fseek(f, 0, SEEK_END) != 0 || (size = ftell(f)) < 0 || fseek(f, 0, SEEK_SET) != 0 ||
         !(text = malloc((size_t)size + 1)) || fread(text, 1, (size_t)size, f) != (size_t)size) {
         snprintf(err, errlen, "cannot read");
