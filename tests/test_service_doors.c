@@ -5,6 +5,7 @@
  * only the socket) still gets every job, streamed. */
 #define _GNU_SOURCE
 #include <errno.h>
+#include <dirent.h>
 #include <fcntl.h>
 #include <pthread.h>
 #include <signal.h>
@@ -16,6 +17,8 @@
 #include <sched.h>
 #include <sys/mount.h>
 #include <sys/prctl.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -41,6 +44,39 @@ static locd_status make_engine(const char *addr, const char *secret, int64_t tim
 
 /* ---- item 3: per-call deadlines ---- */
 
+/* SIGSTOP, then waits until every thread of pid is stopped (kill returns
+ * before they are: a runner could still be writing a result). */
+static void stop_process(pid_t pid)
+{
+    char dir[64], path[400], buf[512];
+    double until = lu_now_ms() + 5000.0;
+    kill(pid, SIGSTOP);
+    snprintf(dir, sizeof dir, "/proc/%ld/task", (long)pid);
+    while (lu_now_ms() < until) {
+        DIR *d = opendir(dir);
+        struct dirent *de;
+        int running = 0;
+        if (!d)
+            return;
+        while ((de = readdir(d)) != NULL) {
+            FILE *f;
+            char *r;
+            if (de->d_name[0] == '.')
+                continue;
+            snprintf(path, sizeof path, "%s/%s/stat", dir, de->d_name);
+            if (!(f = fopen(path, "r")))
+                continue;
+            if (fgets(buf, sizeof buf, f) && (r = strrchr(buf, ')')) != NULL && r[2] != 'T' && r[2] != 't')
+                running = 1;
+            fclose(f);
+        }
+        closedir(d);
+        if (!running)
+            return;
+        lu_sleep_ms(2);
+    }
+}
+
 /* A stopped service: a synchronous find and an asynchronous job waited on
  * with -1 both end with LOCD_ERR_TIMEOUT soon after the deadline; once
  * the service runs again the same engine works (the late results are
@@ -64,7 +100,7 @@ static void stopped_service_find_times_out(void)
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_find_pairs_f32(e, b, 2000, 0, p));
     TEST_ASSERT_TRUE(ts_same_as_brute_f32(b, 2000, p));
 
-    kill(svc, SIGSTOP);
+    stop_process(svc);
     t0 = lu_now_ms();
     TEST_ASSERT_EQUAL_INT(LOCD_ERR_TIMEOUT, locd_engine_find_pairs_f32(e, b, 2000, 0, p));
     took = lu_now_ms() - t0;
@@ -109,7 +145,7 @@ static void stopped_service_big_send_times_out(void)
     TEST_ASSERT_TRUE(svc > 0);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, make_engine(actual, DOORS_SECRET, 1000, &e));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &p));
-    kill(svc, SIGSTOP);
+    stop_process(svc);
     t0 = lu_now_ms();
     st = locd_engine_find_pairs_f32(e, b, n, 0, p);
     took = lu_now_ms() - t0;
@@ -125,6 +161,101 @@ static void stopped_service_big_send_times_out(void)
     locd_engine_destroy(e);
     lu_stop_service(svc, SIGTERM);
     lu_cleanup_dir(dir);
+    free(b);
+}
+
+/* A fake service that answers the handshake, reads one SUBMIT (inline),
+ * then sends the first 10 bytes of a RESULT header and stalls: a service
+ * stopped in the middle of a message. */
+typedef struct stalling_service {
+    int lfd;
+    volatile int done;
+} stalling_service;
+
+static int read_n(int fd, void *buf, size_t n)
+{
+    size_t got = 0;
+    while (got < n) {
+        ssize_t r = read(fd, (char *)buf + got, n - got);
+        if (r <= 0)
+            return 0;
+        got += (size_t)r;
+    }
+    return 1;
+}
+
+static void *stalling_main(void *arg)
+{
+    stalling_service *f = arg;
+    uint8_t h[24], welcome[28], *skip;
+    uint64_t len;
+    uint32_t magic = 0x5344434cu, zero = 0;
+    uint16_t ver = 1, type = 2;
+    int fd = accept(f->lfd, NULL, NULL);
+    if (fd < 0)
+        return NULL;
+    if (read_n(fd, h, 24) && (memcpy(&len, h + 16, 8), len < 4096) && (skip = malloc(len + 1)) != NULL) {
+        read_n(fd, skip, (size_t)len); /* HELLO */
+        free(skip);
+        len = 4;
+        memcpy(welcome, &magic, 4);
+        memcpy(welcome + 4, &ver, 2);
+        memcpy(welcome + 6, &type, 2);
+        memset(welcome + 8, 0, 8);
+        memcpy(welcome + 16, &len, 8);
+        memcpy(welcome + 24, &zero, 4); /* no shared memory */
+        if (write(fd, welcome, sizeof welcome) == (ssize_t)sizeof welcome && read_n(fd, h, 24)) {
+            memcpy(&len, h + 16, 8);
+            if ((skip = malloc(len)) != NULL && read_n(fd, skip, (size_t)len)) { /* the SUBMIT */
+                type = 5; /* RESULT for that id, cut short */
+                memcpy(h + 6, &type, 2);
+                if (write(fd, h, 10) != 10)
+                    f->done = -1;
+            }
+            free(skip);
+        }
+    }
+    while (!f->done)
+        lu_sleep_ms(10);
+    close(fd);
+    return NULL;
+}
+
+/* Stalled in the middle of a RESULT: the deadline still holds. */
+static void stall_inside_a_result_times_out(void)
+{
+    char path[300], addr[320];
+    struct sockaddr_un sa;
+    float *b = ts_scene(0, 300, 9);
+    stalling_service f;
+    pthread_t t;
+    locd_engine *e = NULL;
+    locd_pairs *p = NULL;
+    double t0, took;
+    snprintf(path, sizeof path, "%s/stall.sock", g_fx.dir);
+    snprintf(addr, sizeof addr, "unix:%s", path);
+    memset(&sa, 0, sizeof sa);
+    sa.sun_family = AF_UNIX;
+    snprintf(sa.sun_path, sizeof sa.sun_path, "%.100s", path);
+    memset(&f, 0, sizeof f);
+    f.lfd = socket(AF_UNIX, SOCK_STREAM, 0);
+    unlink(path);
+    TEST_ASSERT_EQUAL_INT(0, bind(f.lfd, (struct sockaddr *)&sa, sizeof sa));
+    TEST_ASSERT_EQUAL_INT(0, listen(f.lfd, 4));
+    TEST_ASSERT_EQUAL_INT(0, pthread_create(&t, NULL, stalling_main, &f));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, make_engine(addr, NULL, 800, &e));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &p));
+    t0 = lu_now_ms();
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_TIMEOUT, locd_engine_find_pairs_f32(e, b, 300, 0, p));
+    took = lu_now_ms() - t0;
+    LT_PRINT("# a RESULT cut short by a stalled service: LOCD_ERR_TIMEOUT after %.0f ms\n", took);
+    TEST_ASSERT_TRUE_MESSAGE(took < 2000, "a stall inside a RESULT outlived the deadline");
+    f.done = 1;
+    pthread_join(t, NULL);
+    locd_pairs_destroy(p);
+    locd_engine_destroy(e);
+    close(f.lfd);
+    unlink(path);
     free(b);
 }
 
@@ -403,6 +534,7 @@ int main(void)
     static const lt_test tests[] = {
         LT_TEST_FIXTURE(stopped_service_find_times_out, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(stopped_service_big_send_times_out, lu_timer_start, lu_timer_print),
+        LT_TEST_FIXTURE(stall_inside_a_result_times_out, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(no_deadline_and_default, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(wrong_secrets_are_slow_and_capped, lu_timer_start, lu_timer_print),
         LT_TEST_FIXTURE(short_secret_and_wildcard_bind_are_warned_about, lu_timer_start, lu_timer_print),

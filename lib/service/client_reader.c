@@ -75,7 +75,7 @@ static int read_head(lc_svc_conn *c, const lc_msg_header *h, lc_result_head *r, 
         snprintf(why, wl, "short result message");
         return 0;
     }
-    if (lc_proto_read_all(c->fd, fixed, 16, LC_MSG_TIMEOUT_MS, why, wl) != 1)
+    if (lc_proto_read_all(c->fd, fixed, 16, c->msg_timeout, why, wl) != 1)
         return 0;
     r->status = (int32_t)lc_get_u32(fixed);
     r->index = (int64_t)lc_get_u64(fixed + 4);
@@ -84,9 +84,9 @@ static int read_head(lc_svc_conn *c, const lc_msg_header *h, lc_result_head *r, 
         snprintf(why, wl, "bad result message");
         return 0;
     }
-    if (lc_proto_read_all(c->fd, r->msg, mlen, LC_MSG_TIMEOUT_MS, why, wl) != 1 ||
-        lc_proto_read_all(c->fd, sbuf, sizeof sbuf, LC_MSG_TIMEOUT_MS, why, wl) != 1 ||
-        lc_proto_read_all(c->fd, cbuf, 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
+    if (lc_proto_read_all(c->fd, r->msg, mlen, c->msg_timeout, why, wl) != 1 ||
+        lc_proto_read_all(c->fd, sbuf, sizeof sbuf, c->msg_timeout, why, wl) != 1 ||
+        lc_proto_read_all(c->fd, cbuf, 8, c->msg_timeout, why, wl) != 1)
         return 0;
     r->msg[mlen] = '\0';
     r->count = lc_get_u64(cbuf);
@@ -110,13 +110,13 @@ typedef struct lc_outcome {
 static int read_pairs(lc_svc_conn *c, lc_svc_job *j, lc_result_head *r, lc_outcome *o, char *why, size_t wl)
 {
     if (lc_pairs_reserve(&j->job.result, (size_t)r->count) != LOCD_OK) {
-        if (!lc_proto_skip(c->fd, r->count * 8, LC_MSG_TIMEOUT_MS, why, wl))
+        if (!lc_proto_skip(c->fd, r->count * 8, c->msg_timeout, why, wl))
             return 0;
         o->status = LOCD_ERR_NO_MEMORY;
         o->msg = "no memory for the service's result";
         return 1;
     }
-    if (r->count && lc_proto_read_all(c->fd, j->job.result.data, (size_t)r->count * 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
+    if (r->count && lc_proto_read_all(c->fd, j->job.result.data, (size_t)r->count * 8, c->msg_timeout, why, wl) != 1)
         return 0;
     j->job.result.count = (size_t)r->count;
     /* Transfer: what the round trip cost beyond the service's own call. */
@@ -144,7 +144,7 @@ static int read_result(lc_svc_conn *c, const lc_msg_header *h, lc_svc_job *j, lc
     }
     if (j && r->status == LOCD_OK)
         return read_pairs(c, j, r, o, why, wl);
-    if (r->count && !lc_proto_skip(c->fd, r->count * 8, LC_MSG_TIMEOUT_MS, why, wl))
+    if (r->count && !lc_proto_skip(c->fd, r->count * 8, c->msg_timeout, why, wl))
         return 0;
     o->status = r->status;
     o->index = r->index;
@@ -256,6 +256,28 @@ static int wait_for_message(lc_svc_conn *c, char *why, size_t wl)
     }
 }
 
+/* How long the rest of a message that has started may stall: 30 s
+ * (LC_MSG_TIMEOUT_MS), but no later than the deadline it serves (the
+ * RESULT's job, or for a header the earliest pending deadline), with
+ * 100 ms of grace for a message that started just before it. */
+static int message_timeout(double deadline)
+{
+    double left;
+    if (deadline <= 0)
+        return LC_MSG_TIMEOUT_MS;
+    left = deadline - lc_now_ms();
+    return left < 100.0 ? 100 : left >= LC_MSG_TIMEOUT_MS ? LC_MSG_TIMEOUT_MS : (int)left + 1;
+}
+
+/* A job whose RESULT broke off: past its deadline, that is why it ends
+ * (LOCD_ERR_TIMEOUT); otherwise broken_status. */
+static locd_status cut_off_status(lc_svc_conn *c, const lc_svc_job *j)
+{
+    if (j->deadline > 0 && lc_now_ms() >= j->deadline - 100.0)
+        return LOCD_ERR_TIMEOUT;
+    return broken_status(c);
+}
+
 void *lc_svc_reader_main(void *arg)
 {
     lc_svc_conn *c = arg;
@@ -270,8 +292,10 @@ void *lc_svc_reader_main(void *arg)
         int rd;
         if (!wait_for_message(c, why, sizeof why))
             break;
-        /* A message that has started must arrive within LC_MSG_TIMEOUT_MS. */
-        rd = lc_proto_read_all(c->fd, hb, sizeof hb, LC_MSG_TIMEOUT_MS, why, sizeof why);
+        pthread_mutex_lock(&c->mu);
+        c->msg_timeout = message_timeout(c->reader_next);
+        pthread_mutex_unlock(&c->mu);
+        rd = lc_proto_read_all(c->fd, hb, sizeof hb, c->msg_timeout, why, sizeof why);
         if (rd != 1)
             break;
         if (!lc_proto_get_header(hb, LC_RESULT_MAX_BYTES, &h, why, sizeof why))
@@ -287,9 +311,10 @@ void *lc_svc_reader_main(void *arg)
         o.status = LOCD_ERR_PROTOCOL;
         o.index = -1;
         o.msg = why;
+        c->msg_timeout = message_timeout(j ? j->deadline : 0);
         ok = read_result(c, &h, j, &r, &o, why, sizeof why);
         if (j)
-            lc_svc_job_done(j, ok ? o.status : broken_status(c), ok ? o.msg : why, ok ? o.index : -1);
+            lc_svc_job_done(j, ok ? o.status : cut_off_status(c, j), ok ? o.msg : why, ok ? o.index : -1);
         if (!ok)
             break;
     }
@@ -298,6 +323,7 @@ void *lc_svc_reader_main(void *arg)
     pthread_mutex_lock(&c->wmu);
     shutdown(c->fd, SHUT_RDWR);
     pthread_mutex_unlock(&c->wmu);
+    expire_overdue(c); /* jobs past their deadline end with LOCD_ERR_TIMEOUT, not the connection's error */
     pthread_mutex_lock(&c->mu);
     c->dead = 1;
     snprintf(c->why, sizeof c->why, "%s", why);

@@ -139,6 +139,7 @@ typedef struct lc_svc_conn {
     int shm_ok;
     int wake;           /* eventfd: a job with an earlier deadline than the reader's wait arrived */
     double reader_next; /* under mu: when the reader wakes up next to check deadlines (0 = never) */
+    int msg_timeout;    /* reader thread: the current message's per-stall bound in ms */
     pthread_t reader;
     locd_allocator alloc;
 } lc_svc_conn;
