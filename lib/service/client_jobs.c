@@ -116,6 +116,14 @@ static locd_status send_submit(lc_svc_conn *c, lc_svc_job *j, lc_submit_fixed *f
     pthread_mutex_unlock(&c->wmu);
     if (ok)
         return LOCD_OK;
+    /* Dead from now on, not only once the reader notices: the next submit
+       reconnects instead of failing on this connection too. */
+    pthread_mutex_lock(&c->mu);
+    if (!c->dead)
+        snprintf(c->why, sizeof c->why, "%s", stalled ? "a send to the service stalled past the job's deadline"
+                                                      : "the connection broke while sending");
+    c->dead = 1;
+    pthread_mutex_unlock(&c->mu);
     if (stalled) /* the send timeout of client_conn.c: a stopped or hung service */
         return lc_error(LOCD_ERR_TIMEOUT, "the service did not take the job's boxes before its deadline "
                                           "(service_timeout_ms; a stopped or hung service?); the connection "
