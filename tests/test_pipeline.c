@@ -580,6 +580,46 @@ static void unsupported_without_narrow(void)
     TEST_ASSERT_EQUAL_INT64(LOCD_ERR_UNSUPPORTED, locd_world_collide(NULL, &o, NULL, NULL));
 }
 
+/* Two coplanar flat hulls (issue 18): libccd's EPA found no face and the
+ * normal came out NaN. Every route and contact method must give a finite
+ * unit normal, and the EPA one is the planes' normal with depth 0 (they
+ * touch along it), whatever the plane's orientation. */
+static void coplanar_flat_hulls_give_a_finite_normal(void)
+{
+    static const double square[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+    static const int32_t routes[] = {LOCD_ROUTE_AUTO, LOCD_ROUTE_CCD, LOCD_ROUTE_FCL};
+    static const int32_t methods[] = {LOCD_CONTACT_EPA, LOCD_CONTACT_MPR};
+    locd_shape *a = NULL;
+    const double pi = 3.14159265358979323846;
+    double s30 = sin(pi / 12.0), c30 = cos(pi / 12.0); /* a 30 degree turn about x */
+    int tilt, r, m;
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_shape_convex(square, 4, &a));
+    for (tilt = 0; tilt < 2; tilt++) {
+        double qa[7] = {0, 0, 0, tilt ? s30 : 0, 0, 0, tilt ? c30 : 1};
+        double qb[7] = {0.5, tilt ? 0.5 * cos(pi / 6.0) : 0.5, tilt ? 0.5 * sin(pi / 6.0) : 0, qa[3], 0, 0, qa[6]};
+        /* the plane's normal: z turned by 30 degrees about x */
+        double plane[3] = {0.0, tilt ? -sin(pi / 6.0) : 0.0, tilt ? cos(pi / 6.0) : 1.0};
+        for (r = 0; r < 3; r++)
+            for (m = 0; m < 2; m++) {
+                int32_t hit = 0;
+                double c[7], len, along;
+                TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_shape_collide(a, qa, a, qb, routes[r], methods[m], &hit, c));
+                TEST_ASSERT_EQUAL_INT(1, hit);
+                len = sqrt(c[1] * c[1] + c[2] * c[2] + c[3] * c[3]);
+                if (!(isfinite(len) && fabs(len - 1.0) < 1e-9 && isfinite(c[0]) && isfinite(c[4]) &&
+                      isfinite(c[5]) && isfinite(c[6])))
+                    LT_FAIL("tilt %d route %d method %d: normal %g %g %g depth %g", tilt, (int)routes[r],
+                            (int)methods[m], c[1], c[2], c[3], c[0]);
+                if (methods[m] == LOCD_CONTACT_EPA) {
+                    along = fabs(c[1] * plane[0] + c[2] * plane[1] + c[3] * plane[2]);
+                    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 1.0, along);
+                    TEST_ASSERT_DOUBLE_WITHIN(1e-9, 0.0, c[0]);
+                }
+            }
+    }
+    locd_shape_destroy(a);
+}
+
 int main(void)
 {
     static const lt_test full[] = {
@@ -591,6 +631,7 @@ int main(void)
         LT_TEST(stages_run_only_when_asked),
         LT_TEST(route_box_skips_shape_test),
         LT_TEST(bad_shapes_rejected),
+        LT_TEST(coplanar_flat_hulls_give_a_finite_normal),
     };
     static const lt_test stub[] = {
         LT_TEST(unsupported_without_narrow),

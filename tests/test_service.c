@@ -313,12 +313,12 @@ static void tcp_needs_the_secret(void)
     /* refused without a secret */
     TEST_ASSERT_TRUE(lu_start_service("tcp:127.0.0.1:0", NULL, 1, log, addr, sizeof addr) < 0);
     TEST_ASSERT_TRUE(lu_wait_file_contains(log, "secret", 5000));
-    svc = lu_start_service("tcp:127.0.0.1:0", "s3cret", 2, log, addr, sizeof addr);
+    svc = lu_start_service("tcp:127.0.0.1:0", "s3cret-tcp-test-secret", 2, log, addr, sizeof addr);
     TEST_ASSERT_TRUE(svc > 0);
     TEST_ASSERT_TRUE(strncmp(addr, "tcp:127.0.0.1:", 14) == 0);
     TEST_ASSERT_EQUAL_INT64(LOCD_ERR_AUTH, make_engine(addr, NULL, &e));
     TEST_ASSERT_EQUAL_INT64(LOCD_ERR_AUTH, make_engine(addr, "wrong", &e));
-    TEST_ASSERT_TRUE(service_works(addr, "s3cret"));
+    TEST_ASSERT_TRUE(service_works(addr, "s3cret-tcp-test-secret"));
     {
         /* large boxes stream over TCP */
         locd_engine *e1 = NULL;
@@ -327,7 +327,7 @@ static void tcp_needs_the_secret(void)
         locd_engine_config cfg;
         locd_engine_config_init(&cfg);
         TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &e1));
-        TEST_ASSERT_EQUAL_INT64(LOCD_OK, make_engine(addr, "s3cret", &e));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, make_engine(addr, "s3cret-tcp-test-secret", &e));
         TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &want));
         TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &got));
         TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e1, b, 60000, 0, want));

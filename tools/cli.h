@@ -62,6 +62,14 @@ size_t cli_size_option(const char *s, size_t lo, size_t hi, const char *fmt, ...
  * alone reads "junk" as 0 and "-1" as 2^64-1); otherwise exits naming opt. */
 uint64_t cli_seed_option(const char *s, const char *cmd);
 
+/* The shared secret of a level-3 service, from --secret-file (file),
+ * --secret (arg, which is overwritten in argv after a warning) or the
+ * LOCD_SECRET environment variable, in that order; NULL when none is
+ * given. malloc'd; exits on a bad file. cmd names the subcommand. */
+char *cli_secret(const char *cmd, char *arg, const char *file);
+/* `locd serve` refuses shorter secrets (a guessable secret is no secret). */
+#define CLI_MIN_SECRET 16
+
 /* Subcommands. argv[0] is the subcommand name. */
 int cmd_gen(int argc, char **argv);
 int cmd_pairs(int argc, char **argv);

@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -34,6 +35,13 @@ static int ends_with(const char *s, const char *suffix)
     return a >= b && strcmp(s + a - b, suffix) == 0;
 }
 
+/* 1 when the open file f is a directory (fopen opens one for reading). */
+static int is_directory(FILE *f)
+{
+    struct stat sb;
+    return fstat(fileno(f), &sb) == 0 && S_ISDIR(sb.st_mode);
+}
+
 /* The whole of a file, or of stdin for "-", in one malloc'd block. */
 static int read_all(const char *path, unsigned char **data, size_t *size)
 {
@@ -43,6 +51,12 @@ static int read_all(const char *path, unsigned char **data, size_t *size)
     unsigned char *buf;
     if (!f) {
         fprintf(stderr, "locd: cannot open %s: %s\n", path, strerror(errno));
+        return -1;
+    }
+    if (is_directory(f)) { /* fopen opens one; reading it fails with a vague message */
+        fprintf(stderr, "locd: %s is a directory, not a scene file\n", from_stdin ? "stdin" : path);
+        if (!from_stdin)
+            fclose(f);
         return -1;
     }
     if (!from_stdin) { /* a file's size is known: no doubling past it (a 2.4 GB scene took 4 GB) */

@@ -10,6 +10,7 @@
  * The CSV has a `stage` column ("broad" here) so that later stages of the
  * pipeline can append rows of their own to the same report format. */
 #include "cli.h"
+#include "json.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -793,8 +794,11 @@ int cmd_accuracy(int argc, char **argv)
     cli_progress("accuracy: scene", 1, 1);
     fclose(csv);
     write_report(&o, rows, nrows, rnd, nrnd, (cli_now_ms() - t0) / 1e3);
-    printf("{\"out\":\"%s\",\"csv\":\"%s\",\"rows\":%zu,\"seconds\":%.1f}\n", o.out, o.csv, nrows,
-           (cli_now_ms() - t0) / 1e3);
+    printf("{\"out\":");
+    json_write_string(stdout, o.out);
+    printf(",\"csv\":");
+    json_write_string(stdout, o.csv);
+    printf(",\"rows\":%zu,\"seconds\":%.1f}\n", nrows, (cli_now_ms() - t0) / 1e3);
     free(rows);
     free_lists();
     return 0;

@@ -9,6 +9,7 @@
  * line: medians per frame, and with --check every frame's pairs, created and
  * lost compared with a from-scratch call (exit 1 on any difference). */
 #include "cli.h"
+#include "json.h"
 #include "frames_motion.h"
 
 #include <locd/scene.h>
@@ -369,13 +370,17 @@ static void report(frames_run *r)
            "\"pairs\":%.0f,\"created\":%llu,\"lost\":%llu,"
            "\"counts\":\"pairs: median per frame; created, lost: totals over the frames\","
            "\"scene_ms\":{\"encode\":%.4f,\"merge\":%.4f,\"sweep\":%.4f,\"events\":%.4f},\"rebuilt_frames\":%zu,"
-           "\"checked\":%s,\"failed_frames\":%zu,\"cpu\":\"%s\",\"kernel\":\"%s\"}\n",
+           "\"checked\":%s,\"failed_frames\":%zu,\"cpu\":",
            r->sc.n, nstatic, r->a.static_frac, r->a.moving, r->m.moved, r->a.frames, ss.threads,
            (unsigned long long)r->a.seed, r->m.step, up, rb, rb > 0.0 ? up / rb : 0.0, r->first_ms,
            cli_median(r->n_pairs, r->a.frames), (unsigned long long)r->created, (unsigned long long)r->lost,
            cli_median(r->t_stage[0], r->a.frames), cli_median(r->t_stage[1], r->a.frames),
            cli_median(r->t_stage[2], r->a.frames), cli_median(r->t_stage[3], r->a.frames), r->rebuilt,
-           r->a.check ? "true" : "false", r->chk.failures, cpu, kernel && *kernel ? kernel : "auto");
+           r->a.check ? "true" : "false", r->chk.failures);
+    json_write_string(stdout, cpu);
+    printf(",\"kernel\":");
+    json_write_string(stdout, kernel && *kernel ? kernel : "auto");
+    printf("}\n");
 }
 
 static void close_run(frames_run *r)

@@ -1,5 +1,6 @@
 /* locd gen KIND N [--seed S] [--pairs-per-box X] -o FILE.aabb */
 #include "cli.h"
+#include "json.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -60,11 +61,13 @@ int cmd_gen(int argc, char **argv)
         return 1;
     }
     free(b);
+    printf("{\"kind\":");
+    json_write_string(stdout, kind);
+    printf(",\"n\":%zu,\"seed\":%llu,", n, (unsigned long long)seed);
     if (ppb > 0.0)
-        printf("{\"kind\":\"%s\",\"n\":%zu,\"seed\":%llu,\"pairs_per_box\":%g,\"out\":\"%s\"}\n", kind, n,
-               (unsigned long long)seed, ppb, out);
-    else
-        printf("{\"kind\":\"%s\",\"n\":%zu,\"seed\":%llu,\"out\":\"%s\"}\n", kind, n, (unsigned long long)seed,
-               out);
+        printf("\"pairs_per_box\":%g,", ppb);
+    printf("\"out\":");
+    json_write_string(stdout, out);
+    printf("}\n");
     return 0;
 }

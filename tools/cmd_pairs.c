@@ -16,7 +16,8 @@ static void pairs_usage(void)
            "  --level L          inprocess (1), workers (2) or service (3)\n"
            "  --workers K        worker processes (implies --level workers)\n"
            "  --service ADDR     unix:PATH or tcp:HOST:PORT (implies --level service)\n"
-           "  --secret S         shared secret for a TCP service\n"
+           "  --secret-file F    shared secret for a TCP service: F's first line (or set LOCD_SECRET;\n"
+           "                     --secret S works too, but others can read it in /proc/PID/cmdline)\n"
            "  --out PAIRS.bin    write the pairs, sorted by (i, j), as little-endian uint32 i j rows;\n"
            "                     - writes them to stdout (the JSON line then goes to stderr)\n"
            "  --repeat R         run R times; total_ms is the median (default 2)\n"
@@ -48,7 +49,8 @@ static int same_pairs(const uint32_t *a, const uint32_t *b, size_t m)
 }
 
 typedef struct pairs_opts {
-    const char *path, *out_path, *against;
+    const char *path, *out_path, *against, *secret_file;
+    char *secret_arg, *secret;
     locd_engine_config cfg;
     size_t repeat;
     uint32_t flags; /* LOCD_FIND_* */
@@ -80,7 +82,9 @@ static int parse_value_option(const char *o, const char *v, pairs_opts *p)
         p->cfg.service_address = v;
         p->cfg.level = LOCD_LEVEL_SERVICE;
     } else if (!strcmp(o, "--secret")) {
-        p->cfg.service_secret = v;
+        p->secret_arg = (char *)v; /* argv: cli_secret overwrites it */
+    } else if (!strcmp(o, "--secret-file")) {
+        p->secret_file = v;
     } else if (!strcmp(o, "--against")) {
         p->against = v;
     } else if (!strcmp(o, "--out")) {
@@ -142,6 +146,8 @@ static int parse_pairs_args(int argc, char **argv, pairs_opts *p)
     }
     if (!p->path)
         cli_die("usage: locd pairs FILE.aabb [--threads K] [--out PAIRS.bin] [--repeat R]");
+    p->secret = cli_secret("pairs", p->secret_arg, p->secret_file);
+    p->cfg.service_secret = p->secret;
     return 0;
 }
 
@@ -360,10 +366,15 @@ int cmd_pairs(int argc, char **argv)
 
     if (parse_pairs_args(argc, argv, &p))
         return 0;
-    if (load_inputs(&p, &sc, &b) != 0)
+    if (load_inputs(&p, &sc, &b) != 0) {
+        free(p.secret);
         return 1;
+    }
     bp = p.against ? &b : NULL;
-    if (locd_engine_create(&p.cfg, &eng) != LOCD_OK) {
+    rc = locd_engine_create(&p.cfg, &eng);
+    free(p.secret); /* the engine keeps its own copy */
+    p.cfg.service_secret = p.secret = NULL;
+    if (rc != LOCD_OK) {
         fprintf(stderr, "locd: cannot create the engine: %s\n", locd_last_error());
         cli_free_scene(&sc);
         cli_free_scene(&b);

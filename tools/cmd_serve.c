@@ -5,6 +5,7 @@
 
 #include <signal.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
@@ -32,7 +33,9 @@ static void serve_usage(void)
     printf("usage: locd serve [--listen unix:PATH|tcp:HOST:PORT] [options]\n"
            "  --listen ADDR        where to listen (default unix:$XDG_RUNTIME_DIR/locd/locd.sock or\n"
            "                       unix:/tmp/locd-UID/locd.sock); the socket's directory must be private (0700)\n"
-           "  --secret S           shared secret clients must present (required for tcp)\n"
+           "  --secret-file PATH   shared secret clients must present (required for tcp): the file's\n"
+           "                       first line, at least 16 bytes; or set LOCD_SECRET. --secret S works\n"
+           "                       too but every local user can read it in /proc/PID/cmdline\n"
            "  --threads K          job runners, each with its own level-1 engine (default: one per core)\n"
            "  --engine-threads T   threads of each runner's engine (default 1)\n"
            "  --max-mb M           largest message accepted, in MiB (default 1024)\n"
@@ -47,6 +50,8 @@ int cmd_serve(int argc, char **argv)
     struct sigaction sa;
     locd_status st;
     int a, verbose = 0;
+    char *secret_arg = NULL, *secret;
+    const char *secret_file = NULL;
     locd_service_config_init(&cfg);
     for (a = 1; a < argc; a++) {
         const char *o = argv[a];
@@ -57,7 +62,9 @@ int cmd_serve(int argc, char **argv)
         } else if (!strcmp(o, "--listen") && more) {
             cfg.listen = argv[++a];
         } else if (!strcmp(o, "--secret") && more) {
-            cfg.secret = argv[++a];
+            secret_arg = argv[++a];
+        } else if (!strcmp(o, "--secret-file") && more) {
+            secret_file = argv[++a];
         } else if (!strcmp(o, "--threads") && more) {
             cfg.threads = (uint32_t)cli_size_option(argv[++a], 1, 256, "serve: bad --threads (1..256)");
         } else if (!strcmp(o, "--engine-threads") && more) {
@@ -73,10 +80,20 @@ int cmd_serve(int argc, char **argv)
             cli_die("serve: unknown option '%s' (see locd serve --help)", o);
         }
     }
+    secret = cli_secret("serve", secret_arg, secret_file);
+    if (secret && strlen(secret) < CLI_MIN_SECRET) {
+        fprintf(stderr, "locd serve: the secret is %zu bytes; at least %d are required (e.g. head -c 24 /dev/urandom "
+                        "| base64 > FILE; chmod 600 FILE)\n",
+                strlen(secret), CLI_MIN_SECRET);
+        free(secret);
+        return 2;
+    }
+    cfg.secret = secret;
     cfg.log = log_line;
     cfg.log_user = &verbose;
     if ((st = locd_service_create(&cfg, &g_service)) != LOCD_OK) {
         fprintf(stderr, "locd serve: cannot start: %s\n", locd_last_error());
+        free(secret);
         return 1;
     }
     memset(&sa, 0, sizeof sa);
@@ -89,5 +106,6 @@ int cmd_serve(int argc, char **argv)
     st = locd_service_run(g_service); /* logs "listening on ADDR" first */
     locd_service_destroy(g_service);
     g_service = NULL;
+    free(secret);
     return st ? 1 : 0;
 }

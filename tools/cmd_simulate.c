@@ -3,6 +3,7 @@
  * one JSON line of per-stage statistics per step and a summary line, and
  * optionally renders PNG frames or a GIF through scripts/render_scene.py. */
 #include "cli.h"
+#include "json.h"
 #include "sim_scene.h"
 
 #include <errno.h>
@@ -248,8 +249,9 @@ static void integrate(sim_state *st)
 static void write_header(FILE *f, const sim_scene *s)
 {
     size_t i, k, n = s->n < SIM_RENDER_MAX ? s->n : SIM_RENDER_MAX;
-    fprintf(f, "{\"header\":{\"scene\":\"%s\",\"dt\":%.9g,\"objects\":%zu,\"shown\":%zu,\"shape_of\":[", s->name, s->dt,
-            s->n, n);
+    fprintf(f, "{\"header\":{\"scene\":");
+    json_write_string(f, s->name);
+    fprintf(f, ",\"dt\":%.9g,\"objects\":%zu,\"shown\":%zu,\"shape_of\":[", s->dt, s->n, n);
     for (i = 0; i < n; i++)
         fprintf(f, "%s%u", i ? "," : "", s->shape_of[i]);
     fputs("],\"static\":[", f);
@@ -472,9 +474,11 @@ static void print_summary(const sim_scene *s, const sim_state *st, const locd_pi
 {
     size_t i;
     int first = 1;
-    printf("{\"summary\":{\"scene\":\"%s\",\"steps\":%d,\"objects\":%zu,\"continuous\":\"%s\",\"shape_tests\":%s,"
+    printf("{\"summary\":{\"scene\":");
+    json_write_string(stdout, s->name);
+    printf(",\"steps\":%d,\"objects\":%zu,\"continuous\":\"%s\",\"shape_tests\":%s,"
            "\"contacts\":%s,\"response\":%s,",
-           s->name, steps, s->n, swept_name(o->swept), (o->stages & LOCD_STAGE_SHAPE) ? "true" : "false",
+           steps, s->n, swept_name(o->swept), (o->stages & LOCD_STAGE_SHAPE) ? "true" : "false",
            (o->stages & LOCD_STAGE_CONTACT) ? "true" : "false", s->response ? "true" : "false");
     printf("\"contacts_began\":%llu,\"contacts_ended\":%llu,\"removed\":%llu,", (unsigned long long)events[0],
            (unsigned long long)events[1], (unsigned long long)events[2]);
@@ -486,8 +490,9 @@ static void print_summary(const sim_scene *s, const sim_state *st, const locd_pi
         const double *p = s->poses + 7 * i;
         if (!s->names[i])
             continue;
-        printf("%s\"%s\":{\"position\":[%.6g,%.6g,%.6g],\"min_z\":%.6g,\"contacts\":%u}", first ? "" : ",",
-               s->names[i], p[0], p[1], p[2], st->min_z[i], st->hits[i]);
+        printf("%s", first ? "" : ",");
+        json_write_string(stdout, s->names[i]);
+        printf(":{\"position\":[%.6g,%.6g,%.6g],\"min_z\":%.6g,\"contacts\":%u}", p[0], p[1], p[2], st->min_z[i], st->hits[i]);
         first = 0;
     }
     printf("}}}\n");

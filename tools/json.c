@@ -398,6 +398,15 @@ json_value *json_parse_file(const char *path, char *err, size_t errlen)
         snprintf(err, errlen, "cannot open: %s", strerror(errno));
         return NULL;
     }
+    /* fopen opens a directory, and ftell then says LONG_MAX: read a byte
+     * first (portable C: no fstat on every target this file builds for). */
+    errno = 0;
+    if (getc(f) == EOF && ferror(f)) {
+        snprintf(err, errlen, "%s", errno == EISDIR ? "is a directory, not a scene file" : "cannot read");
+        fclose(f);
+        return NULL;
+    }
+    rewind(f);
     if (fseek(f, 0, SEEK_END) != 0 || (size = ftell(f)) < 0 || fseek(f, 0, SEEK_SET) != 0 ||
         !(text = malloc((size_t)size + 1)) || fread(text, 1, (size_t)size, f) != (size_t)size) {
         snprintf(err, errlen, "cannot read");
@@ -490,4 +499,19 @@ int json_get_vec(const json_value *obj, const char *key, double *out, size_t n)
     for (i = 0; i < n; i++)
         out[i] = v->items[i].number;
     return 1;
+}
+
+void json_write_string(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; s && *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\')
+            fprintf(f, "\\%c", c);
+        else if (c < 0x20 || c == 0x7f)
+            fprintf(f, "\\u%04x", c);
+        else
+            fputc(c, f);
+    }
+    fputc('"', f);
 }

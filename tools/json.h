@@ -5,6 +5,7 @@
 #define LOCD_TOOLS_JSON_H
 
 #include <stddef.h>
+#include <stdio.h>
 
 enum { JSON_NULL, JSON_FALSE, JSON_TRUE, JSON_NUMBER, JSON_STRING, JSON_ARRAY, JSON_OBJECT };
 
@@ -22,6 +23,10 @@ json_value *json_parse(const char *text, char *err, size_t errlen);
 /* Reads and parses a file; path "-" reads stdin. */
 json_value *json_parse_file(const char *path, char *err, size_t errlen);
 void json_free(json_value *v);
+/* Writes s as a JSON string, quotes included: a quote and a backslash
+ * are escaped, control characters written as \u00XX, so that a name or a
+ * path from the user cannot break the JSON the tool prints. */
+void json_write_string(FILE *f, const char *s);
 
 /* Member of an object, or NULL. */
 const json_value *json_get(const json_value *obj, const char *key);

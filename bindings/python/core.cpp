@@ -149,10 +149,11 @@ class Job;
 class Engine {
 public:
     Engine(int32_t level, uint32_t threads, uint32_t max_depth, int32_t cell_bias, bool cubes,
-           py::object service, py::object secret, py::object worker_path)
+           py::object service, py::object secret, py::object worker_path, int64_t service_timeout_ms = 0)
     {
         locd_engine_config cfg;
         locd_engine_config_init(&cfg);
+        cfg.service_timeout_ms = service_timeout_ms;
         cfg.level = level;
         cfg.threads = threads;
         cfg.max_depth = max_depth;
@@ -518,9 +519,9 @@ PYBIND11_MODULE(_core, m)
     }, py::arg("boxes"), "Address of the buffer find_pairs would hand to C (for the zero-copy test).");
 
     py::class_<Engine>(m, "Engine")
-        .def(py::init<int32_t, uint32_t, uint32_t, int32_t, bool, py::object, py::object, py::object>(),
+        .def(py::init<int32_t, uint32_t, uint32_t, int32_t, bool, py::object, py::object, py::object, int64_t>(),
              py::arg("level"), py::arg("threads"), py::arg("max_depth"), py::arg("cell_bias"), py::arg("cubes"),
-             py::arg("service"), py::arg("secret"), py::arg("worker_path"))
+             py::arg("service"), py::arg("secret"), py::arg("worker_path"), py::arg("service_timeout_ms") = 0)
         .def("find_pairs", &Engine::find_pairs, py::arg("boxes"), py::arg("sort"), py::arg("wide") = false)
         .def("find_pairs_between", &Engine::find_pairs_between, py::arg("a"), py::arg("b"), py::arg("sort"),
              py::arg("wide") = false)

@@ -76,7 +76,8 @@ typedef int32_t locd_status;
 #define LOCD_ERR_IO (-13)               /* shared memory, socket or file operation failed */
 #define LOCD_ERR_CONNECTION (-14)       /* the service is unreachable or went away */
 #define LOCD_ERR_PROTOCOL (-15)         /* malformed or unexpected message */
-#define LOCD_ERR_TIMEOUT (-16)          /* a wait ran out of time; the job is still running */
+#define LOCD_ERR_TIMEOUT (-16)          /* a wait ran out of time (the job is still running), or a level-3
+                                           job passed its deadline (then finished, the service told to cancel) */
 #define LOCD_ERR_CANCELLED (-17)        /* the job was cancelled */
 #define LOCD_ERR_AUTH (-18)             /* the service refused the shared secret */
 #define LOCD_ERR_SHAPE (-19)            /* a shape description is invalid */
@@ -160,6 +161,10 @@ typedef struct locd_engine_config {
     locd_allocator allocator;    /* all NULL = malloc/free */
     locd_log_fn log;             /* NULL = silent */
     void *log_user;
+    int64_t service_timeout_ms;  /* level 3: the deadline of each job, from its submit to its result:
+                                    0 = default (LOCD_DEFAULT_SERVICE_TIMEOUT_MS plus 10 us per box),
+                                    > 0 = that many ms plus 10 us per box, < 0 = no deadline. A job past
+                                    it finishes with LOCD_ERR_TIMEOUT (docs/levels.md, "Deadlines") */
 } locd_engine_config;
 
 /* Smallest config->size accepted: size, level, threads, max_depth, cell_bias
@@ -169,6 +174,11 @@ typedef struct locd_engine_config {
 /* Default cell_bias: a cell edge at least 4 times the box's largest extent
  * (docs/accuracy.md measures the alternatives). */
 #define LOCD_DEFAULT_CELL_BIAS 2
+
+/* Level 3's default per-job deadline (service_timeout_ms = 0): a stopped
+ * or hung service cannot block a find or a wait(-1) for longer than this
+ * plus 10 microseconds per box. */
+#define LOCD_DEFAULT_SERVICE_TIMEOUT_MS 60000
 
 /* Use bounding cubes (the paper's choice) instead of the boxes' own extents
  * when choosing cells. Exactness is unchanged; only the work differs. */

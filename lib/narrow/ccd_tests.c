@@ -145,6 +145,109 @@ static double overlap_along(const ccd_obj *o1, const ccd_obj *o2, const ccd_vec3
     return ccdVec3Dot(&s1, dir) - ccdVec3Dot(&s2, dir);
 }
 
+/* The local normal of the plane through three well-spread points of o (a
+ * mesh triangle, or a hull's points): for a flat shape, its own normal. 1,
+ * or 0 when the points are collinear. */
+static int plane_normal(const ccd_obj *o, double *n)
+{
+    const locd_shape *s = o->p->s;
+    const double *p0, *p1 = NULL, *p2 = NULL;
+    double e1[3], best = 0.0, len;
+    size_t i, count = o->tri >= 0 ? 3 : s->npoints;
+    int a;
+#define LC_PT(k) (o->tri >= 0 ? s->points + 3 * s->tris[3 * o->tri + (k)] : s->points + 3 * (k))
+    if (count < 3 || (s->kind != LOCD_SHAPE_CONVEX && o->tri < 0))
+        return 0;
+    p0 = LC_PT(0);
+    for (i = 1; i < count; i++) {
+        double d[3], q;
+        for (a = 0; a < 3; a++)
+            d[a] = LC_PT(i)[a] - p0[a];
+        if ((q = dot3(d, d)) > best) {
+            best = q;
+            p1 = LC_PT(i);
+        }
+    }
+    if (!p1)
+        return 0;
+    for (a = 0; a < 3; a++)
+        e1[a] = p1[a] - p0[a];
+    best = 0.0;
+    for (i = 1; i < count; i++) {
+        double d[3], x[3], q;
+        for (a = 0; a < 3; a++)
+            d[a] = LC_PT(i)[a] - p0[a];
+        x[0] = e1[1] * d[2] - e1[2] * d[1];
+        x[1] = e1[2] * d[0] - e1[0] * d[2];
+        x[2] = e1[0] * d[1] - e1[1] * d[0];
+        if ((q = dot3(x, x)) > best) {
+            best = q;
+            p2 = LC_PT(i);
+            memcpy(n, x, sizeof x);
+        }
+    }
+#undef LC_PT
+    if (!p2 || !((len = sqrt(best)) > 0.0))
+        return 0;
+    for (a = 0; a < 3; a++)
+        n[a] /= len;
+    return 1;
+}
+
+static int finite_unit(const ccd_vec3_t *v)
+{
+    double l = ccdVec3X(v) * ccdVec3X(v) + ccdVec3Y(v) * ccdVec3Y(v) + ccdVec3Z(v) * ccdVec3Z(v);
+    return isfinite(l) && fabs(l - 1.0) < 1e-6;
+}
+
+/* libccd's EPA has no face to report when the shapes' Minkowski difference
+ * is flat (two coplanar flat hulls: its normal comes out NaN). Then the
+ * normal is the candidate direction along which the overlap is least: the
+ * planes of both shapes (either sign), the world axes and the centre line.
+ * A finite unit normal and its exact overlap, always. */
+static double least_overlap_direction(const ccd_obj *oa, const ccd_obj *ob, const ccd_t *ccd, ccd_vec3_t *dir)
+{
+    double cand[10][3], best = INFINITY;
+    int k, m = 0, a;
+    ccd_vec3_t ca, cb;
+    for (a = 0; a < 3; a++) {
+        memset(cand[m], 0, sizeof cand[m]);
+        cand[m++][a] = 1.0;
+    }
+    for (k = 0; k < 2; k++) {
+        double n[3];
+        const ccd_obj *o = k ? ob : oa;
+        if (plane_normal(o, n)) {
+            for (a = 0; a < 3; a++)
+                cand[m][a] = o->p->R[3 * a] * n[0] + o->p->R[3 * a + 1] * n[1] + o->p->R[3 * a + 2] * n[2];
+            m++;
+        }
+    }
+    ccd->center1(oa, &ca);
+    ccd->center2(ob, &cb);
+    cand[m][0] = ccdVec3X(&cb) - ccdVec3X(&ca);
+    cand[m][1] = ccdVec3Y(&cb) - ccdVec3Y(&ca);
+    cand[m][2] = ccdVec3Z(&cb) - ccdVec3Z(&ca);
+    if (dot3(cand[m], cand[m]) > 0.0 && isfinite(dot3(cand[m], cand[m]))) {
+        double l = sqrt(dot3(cand[m], cand[m]));
+        for (a = 0; a < 3; a++)
+            cand[m][a] /= l;
+        m++;
+    }
+    ccdVec3Set(dir, 0.0, 0.0, 1.0);
+    for (k = 0; k < 2 * m; k++) {
+        double sgn = k % 2 ? -1.0 : 1.0, v;
+        ccd_vec3_t d;
+        ccdVec3Set(&d, sgn * cand[k / 2][0], sgn * cand[k / 2][1], sgn * cand[k / 2][2]);
+        v = overlap_along(oa, ob, &d);
+        if (isfinite(v) && v < best) {
+            best = v;
+            *dir = d;
+        }
+    }
+    return isfinite(best) ? best : 0.0;
+}
+
 static int ccd_pair(const ccd_obj *oa, const ccd_obj *ob, const ccd_t *ccd, int want_contact, int32_t method,
                     lc_contact *c)
 {
@@ -177,7 +280,16 @@ static int ccd_pair(const ccd_obj *oa, const ccd_obj *ob, const ccd_t *ccd, int 
                 }
             }
         }
+        if (!finite_unit(&dir)) /* a flat Minkowski difference: no face, no normal */
+            v = least_overlap_direction(oa, ob, ccd, &dir);
         depth = v > 0.0 ? v : 0.0;
+    }
+    if (!isfinite(ccdVec3X(&pos)) || !isfinite(ccdVec3Y(&pos)) || !isfinite(ccdVec3Z(&pos))) {
+        ccd_vec3_t ca, cb;
+        ccd->center1(oa, &ca);
+        ccd->center2(ob, &cb);
+        ccdVec3Set(&pos, 0.5 * (ccdVec3X(&ca) + ccdVec3X(&cb)), 0.5 * (ccdVec3Y(&ca) + ccdVec3Y(&cb)),
+                   0.5 * (ccdVec3Z(&ca) + ccdVec3Z(&cb)));
     }
     c->depth = depth;
     c->normal[0] = ccdVec3X(&dir);

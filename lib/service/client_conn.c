@@ -6,11 +6,15 @@
 #include "service/service.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <netdb.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <stdio.h>
+#include <sys/eventfd.h>
+#include <sys/mman.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -32,6 +36,8 @@ void lc_svc_conn_unref(lc_svc_conn *c)
         return;
     if (c->fd >= 0)
         close(c->fd);
+    if (c->wake >= 0)
+        close(c->wake);
     pthread_mutex_destroy(&c->mu);
     pthread_mutex_destroy(&c->wmu);
     lc_free(&c->alloc, c, sizeof *c);
@@ -122,6 +128,83 @@ static locd_status handshake(lc_svc_conn *c, const char *secret)
     return lc_error(LOCD_ERR_PROTOCOL, "unexpected answer (type %u) to the handshake", h.type);
 }
 
+/* The engine's per-job deadline base in ms (service_timeout_ms, 0 =
+ * the default); negative = none. */
+int64_t lc_svc_timeout_ms(const locd_engine *e)
+{
+    int64_t t = e->cfg.service_timeout_ms;
+    return t == 0 ? LOCD_DEFAULT_SERVICE_TIMEOUT_MS : t;
+}
+
+/* A send that cannot move a byte for this long fails (the job then ends
+ * with LOCD_ERR_TIMEOUT): a stopped service must not hold a submit that
+ * fills the socket. The deadline base, at most LC_MSG_TIMEOUT_MS; none
+ * when the engine has no deadline. */
+static void bound_sends(const locd_engine *e, int fd)
+{
+    int64_t t = lc_svc_timeout_ms(e);
+    struct timeval tv;
+    if (t < 0)
+        return;
+    if (t > LC_MSG_TIMEOUT_MS)
+        t = LC_MSG_TIMEOUT_MS;
+    tv.tv_sec = (time_t)(t / 1000);
+    tv.tv_usec = (suseconds_t)((t % 1000) * 1000);
+    setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+}
+
+/* Whether the service sees this process's /dev/shm: a service in another
+ * mount namespace (a container sharing only the socket) has its own. The
+ * probe is a job of no boxes passed through an empty segment; the service
+ * removes the segment's name once it opened it, so a name still there
+ * after the RESULT means it could not: the connection then streams every
+ * job's boxes. 1 (probed), or 0 when the connection broke (why). Runs
+ * before the reader thread starts. */
+static int probe_shared_memory(lc_svc_conn *c, char *why, size_t wl)
+{
+    uint8_t buf[LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4 + 64];
+    char name[64];
+    lc_submit_fixed f;
+    lc_msg_header h;
+    size_t nl;
+    int fd = -1, tries;
+    for (tries = 0; tries < 8 && fd < 0; tries++) {
+        lc_shm_unique_name(name, sizeof name, "p");
+        fd = shm_open(name, O_RDWR | O_CREAT | O_EXCL, 0600);
+        if (fd < 0 && errno != EEXIST)
+            break;
+    }
+    if (fd < 0) { /* this side cannot make segments: stream */
+        c->shm_ok = 0;
+        return 1;
+    }
+    close(fd);
+    nl = strlen(name);
+    memset(&f, 0, sizeof f);
+    f.transport = 1;
+    lc_proto_put_header(buf, LC_MSG_SUBMIT, ++c->next_id, LC_PROTO_SUBMIT_FIXED + 4 + nl);
+    lc_proto_put_submit(buf + LC_PROTO_HEADER, &f);
+    lc_put_u32(buf + LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED, (uint32_t)nl);
+    memcpy(buf + LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4, name, nl);
+    if (!lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4 + nl) ||
+        lc_proto_read_all(c->fd, buf, LC_PROTO_HEADER, LC_CONNECT_TIMEOUT_MS, why, wl) != 1 ||
+        !lc_proto_get_header(buf, 16 + LC_PROTO_MAX_TEXT + LC_PROTO_STATS_BYTES + 8, &h, why, wl) ||
+        h.type != LC_MSG_RESULT || h.id != c->next_id ||
+        !lc_proto_skip(c->fd, h.length, LC_CONNECT_TIMEOUT_MS, why, wl)) {
+        if (!why[0])
+            snprintf(why, wl, "no answer to the shared-memory probe");
+        shm_unlink(name);
+        return 0;
+    }
+    fd = shm_open(name, O_RDONLY, 0);
+    if (fd >= 0) { /* the service never opened it */
+        close(fd);
+        shm_unlink(name);
+        c->shm_ok = 0;
+    }
+    return 1;
+}
+
 static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
 {
     lc_svc_conn *c;
@@ -142,6 +225,11 @@ static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
     pthread_mutex_init(&c->mu, NULL);
     pthread_mutex_init(&c->wmu, NULL);
     c->fd = -1;
+    c->wake = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+    if (c->wake < 0) {
+        lc_svc_conn_unref(c);
+        return lc_error(LOCD_ERR_IO, "eventfd: %s", strerror(errno));
+    }
     if (!connect_socket(&a, &c->fd, why, sizeof why)) {
         lc_svc_conn_unref(c);
         return lc_error(LOCD_ERR_CONNECTION, "%s", why);
@@ -152,6 +240,15 @@ static locd_status conn_open(const locd_engine *e, lc_svc_conn **out)
     }
     if (a.tcp)
         c->shm_ok = 0;
+    why[0] = '\0';
+    if (c->shm_ok && !probe_shared_memory(c, why, sizeof why)) {
+        lc_svc_conn_unref(c);
+        return lc_error(LOCD_ERR_CONNECTION, "the service did not answer the shared-memory probe: %s", why);
+    }
+    if (!a.tcp && !c->shm_ok)
+        lc_engine_log(e, LOCD_LOG_INFO, "level 3: %s does not share /dev/shm with this process: boxes are streamed",
+                      e->cfg.service_address);
+    bound_sends(e, c->fd);
     if (pthread_create(&c->reader, NULL, lc_svc_reader_main, c) != 0) {
         lc_svc_conn_unref(c);
         return lc_error(LOCD_ERR_THREAD, "could not start the connection's reader thread");

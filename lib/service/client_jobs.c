@@ -11,6 +11,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <poll.h>
 #include <stdio.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
@@ -46,6 +47,37 @@ static locd_status boxes_to_shm(lc_svc_job *j, const void *boxes, size_t bytes)
     return LOCD_OK;
 }
 
+/* Writes all of buf before deadline (lc_now_ms() clock; 0 = none): 1, or
+ * 0 with errno (ETIMEDOUT when the service took too little in time, as a
+ * stopped one does once the socket is full). */
+static int write_by(int fd, const void *buf, size_t len, double deadline)
+{
+    const char *p = buf;
+    while (len) {
+        struct pollfd pfd;
+        double left;
+        ssize_t w = send(fd, p, len, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (w > 0) {
+            p += w;
+            len -= (size_t)w;
+            continue;
+        }
+        if (w < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)
+            return 0;
+        left = deadline > 0 ? deadline - lc_now_ms() : -1.0;
+        if (deadline > 0 && left <= 0) {
+            errno = ETIMEDOUT;
+            return 0;
+        }
+        pfd.fd = fd;
+        pfd.events = POLLOUT;
+        pfd.revents = 0;
+        if (poll(&pfd, 1, deadline > 0 ? (int)(left > 2e9 ? 2e9 : left + 1.0) : -1) < 0 && errno != EINTR)
+            return 0;
+    }
+    return 1;
+}
+
 /* Sends the SUBMIT message of job j: f, then the segment name or the
  * boxes themselves. */
 static locd_status send_submit(lc_svc_conn *c, lc_svc_job *j, lc_submit_fixed *f, const void *boxes,
@@ -54,7 +86,7 @@ static locd_status send_submit(lc_svc_conn *c, lc_svc_job *j, lc_submit_fixed *f
     uint8_t buf[LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4 + 64];
     char name[sizeof j->shm_name];
     size_t nl, len;
-    int ok;
+    int ok, stalled;
     /* The reader thread may fail the job (and clear its segment name) as
        soon as it is registered: read the name under the job's lock. */
     pthread_mutex_lock(&j->job.mu);
@@ -72,16 +104,31 @@ static locd_status send_submit(lc_svc_conn *c, lc_svc_job *j, lc_submit_fixed *f
     } else if (nl) {
         lc_put_u32(buf + LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED, (uint32_t)nl);
         memcpy(buf + LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED + 4, name, nl);
-        ok = lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + len);
+        ok = write_by(c->fd, buf, LC_PROTO_HEADER + len, j->deadline);
     } else {
-        ok = lc_proto_write_all(c->fd, buf, LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED);
+        ok = write_by(c->fd, buf, LC_PROTO_HEADER + LC_PROTO_SUBMIT_FIXED, j->deadline);
         if (ok && bytes)
-            ok = lc_proto_write_all(c->fd, boxes, bytes);
+            ok = write_by(c->fd, boxes, bytes, j->deadline);
     }
+    stalled = !ok && errno == ETIMEDOUT;
     if (!ok)
         shutdown(c->fd, SHUT_RDWR); /* half a message was sent: the stream is unusable */
     pthread_mutex_unlock(&c->wmu);
-    return ok ? LOCD_OK : lc_error(LOCD_ERR_CONNECTION, "the service connection broke while sending");
+    if (ok)
+        return LOCD_OK;
+    /* Dead from now on, not only once the reader notices: the next submit
+       reconnects instead of failing on this connection too. */
+    pthread_mutex_lock(&c->mu);
+    if (!c->dead)
+        snprintf(c->why, sizeof c->why, "%s", stalled ? "a send to the service stalled past the job's deadline"
+                                                      : "the connection broke while sending");
+    c->dead = 1;
+    pthread_mutex_unlock(&c->mu);
+    if (stalled) /* the send timeout of client_conn.c: a stopped or hung service */
+        return lc_error(LOCD_ERR_TIMEOUT, "the service did not take the job's boxes before its deadline "
+                                          "(service_timeout_ms; a stopped or hung service?); the connection "
+                                          "was closed");
+    return lc_error(LOCD_ERR_CONNECTION, "the service connection broke while sending");
 }
 
 /* lc_job_ops.cancel: asks the service to drop the job. */
@@ -133,6 +180,8 @@ static const lc_job_ops svc_job_ops = {sizeof(lc_svc_job), svc_job_cancel, svc_j
  * connection is already closed. */
 static locd_status register_job(lc_svc_conn *c, lc_svc_job *j)
 {
+    static const uint64_t one = 1;
+    int wake;
     pthread_mutex_lock(&c->mu);
     if (c->dead) {
         pthread_mutex_unlock(&c->mu);
@@ -141,8 +190,25 @@ static locd_status register_job(lc_svc_conn *c, lc_svc_job *j)
     j->id = ++c->next_id;
     j->next = c->pending;
     c->pending = j;
+    wake = lc_svc_deadline_added_locked(c, j);
+    if (wake)
+        c->reader_next = j->deadline;
     pthread_mutex_unlock(&c->mu);
+    if (wake && write(c->wake, &one, sizeof one) < 0) {
+        /* the counter is full: the reader has wake-ups pending anyway */
+    }
     return LOCD_OK;
+}
+
+/* When job j of n boxes must have its result (lc_now_ms() clock), 0 for
+ * no deadline: the engine's base plus 10 us per box (level 2's rule for a
+ * round of its workers), counted from the submit. */
+static double job_deadline(const locd_engine *e, const lc_svc_job *j, size_t n)
+{
+    int64_t t = lc_svc_timeout_ms(e);
+    if (t < 0)
+        return 0;
+    return j->job.t_submit + (double)t + (double)n * 0.01;
 }
 
 locd_status lc_svc_submit(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags, locd_job **out)
@@ -161,8 +227,13 @@ locd_status lc_svc_submit(locd_engine *e, const void *boxes, size_t n, int f64, 
     }
     j = (lc_svc_job *)job;
     j->conn = c; /* the job keeps the caller's reference on c */
-    if ((c->shm_ok && bytes >= LC_PROTO_SHM_MIN_BYTES && (st = boxes_to_shm(j, boxes, bytes)) != LOCD_OK) ||
-        (st = register_job(c, j)) != LOCD_OK) {
+    j->deadline = job_deadline(e, j, n);
+    if (c->shm_ok && bytes >= LC_PROTO_SHM_MIN_BYTES && boxes_to_shm(j, boxes, bytes) != LOCD_OK) {
+        /* A full /dev/shm (or no segment allowed): the boxes are streamed. */
+        lc_engine_log(e, LOCD_LOG_WARNING, "level 3: %s; streaming the boxes instead", lc_last_error_detail());
+        lc_clear_error();
+    }
+    if ((st = register_job(c, j)) != LOCD_OK) {
         lc_job_discard(job);
         return st;
     }
@@ -178,6 +249,8 @@ locd_status lc_svc_submit(locd_engine *e, const void *boxes, size_t n, int f64, 
             lc_svc_job_done(mine, st, lc_last_error_detail(), -1);
         svc_job_released(job);
         lc_job_unref(job);
+        if (st == LOCD_ERR_TIMEOUT)
+            return lc_error(st, "%s", lc_last_error_detail());
         return lc_error(LOCD_ERR_CONNECTION, "the service connection broke while sending the job");
     }
     *out = job;

@@ -3,13 +3,22 @@
  * matching jobs. A RESULT that is truncated or inconsistent finishes its
  * job with LOCD_ERR_PROTOCOL and closes the connection; when the
  * connection ends, every job still pending finishes with
- * LOCD_ERR_CONNECTION. No job is left unfinished. */
+ * LOCD_ERR_CONNECTION. No job is left unfinished.
+ *
+ * Between messages the thread also keeps the jobs' deadlines: a job with
+ * no result by its deadline (a stopped or hung service) finishes with
+ * LOCD_ERR_TIMEOUT and the service is asked to cancel it; a RESULT that
+ * comes later is dropped like any result of a job no longer pending. */
 #define _GNU_SOURCE
 #include "service/service.h"
 
+#include <errno.h>
+#include <limits.h>
+#include <poll.h>
 #include <stdio.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
+#include <unistd.h>
 
 #define LC_RESULT_MAX_BYTES (1ull << 37)
 
@@ -66,7 +75,7 @@ static int read_head(lc_svc_conn *c, const lc_msg_header *h, lc_result_head *r, 
         snprintf(why, wl, "short result message");
         return 0;
     }
-    if (lc_proto_read_all(c->fd, fixed, 16, LC_MSG_TIMEOUT_MS, why, wl) != 1)
+    if (lc_proto_read_all(c->fd, fixed, 16, c->msg_timeout, why, wl) != 1)
         return 0;
     r->status = (int32_t)lc_get_u32(fixed);
     r->index = (int64_t)lc_get_u64(fixed + 4);
@@ -75,9 +84,9 @@ static int read_head(lc_svc_conn *c, const lc_msg_header *h, lc_result_head *r, 
         snprintf(why, wl, "bad result message");
         return 0;
     }
-    if (lc_proto_read_all(c->fd, r->msg, mlen, LC_MSG_TIMEOUT_MS, why, wl) != 1 ||
-        lc_proto_read_all(c->fd, sbuf, sizeof sbuf, LC_MSG_TIMEOUT_MS, why, wl) != 1 ||
-        lc_proto_read_all(c->fd, cbuf, 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
+    if (lc_proto_read_all(c->fd, r->msg, mlen, c->msg_timeout, why, wl) != 1 ||
+        lc_proto_read_all(c->fd, sbuf, sizeof sbuf, c->msg_timeout, why, wl) != 1 ||
+        lc_proto_read_all(c->fd, cbuf, 8, c->msg_timeout, why, wl) != 1)
         return 0;
     r->msg[mlen] = '\0';
     r->count = lc_get_u64(cbuf);
@@ -101,13 +110,13 @@ typedef struct lc_outcome {
 static int read_pairs(lc_svc_conn *c, lc_svc_job *j, lc_result_head *r, lc_outcome *o, char *why, size_t wl)
 {
     if (lc_pairs_reserve(&j->job.result, (size_t)r->count) != LOCD_OK) {
-        if (!lc_proto_skip(c->fd, r->count * 8, LC_MSG_TIMEOUT_MS, why, wl))
+        if (!lc_proto_skip(c->fd, r->count * 8, c->msg_timeout, why, wl))
             return 0;
         o->status = LOCD_ERR_NO_MEMORY;
         o->msg = "no memory for the service's result";
         return 1;
     }
-    if (r->count && lc_proto_read_all(c->fd, j->job.result.data, (size_t)r->count * 8, LC_MSG_TIMEOUT_MS, why, wl) != 1)
+    if (r->count && lc_proto_read_all(c->fd, j->job.result.data, (size_t)r->count * 8, c->msg_timeout, why, wl) != 1)
         return 0;
     j->job.result.count = (size_t)r->count;
     /* Transfer: what the round trip cost beyond the service's own call. */
@@ -135,7 +144,7 @@ static int read_result(lc_svc_conn *c, const lc_msg_header *h, lc_svc_job *j, lc
     }
     if (j && r->status == LOCD_OK)
         return read_pairs(c, j, r, o, why, wl);
-    if (r->count && !lc_proto_skip(c->fd, r->count * 8, LC_MSG_TIMEOUT_MS, why, wl))
+    if (r->count && !lc_proto_skip(c->fd, r->count * 8, c->msg_timeout, why, wl))
         return 0;
     o->status = r->status;
     o->index = r->index;
@@ -155,6 +164,120 @@ static locd_status broken_status(lc_svc_conn *c)
     return closing ? LOCD_ERR_CONNECTION : LOCD_ERR_PROTOCOL;
 }
 
+/* ---- deadlines ---- */
+
+int lc_svc_deadline_added_locked(lc_svc_conn *c, const lc_svc_job *j)
+{
+    return j->deadline > 0 && (c->reader_next <= 0 || j->deadline < c->reader_next);
+}
+
+/* Best effort: a CANCEL for job id, unless a writer is in the middle of a
+ * message (the service then runs the job to its end and its result is
+ * dropped). A CANCEL that went out only in part breaks the stream. */
+static void send_cancel_nowait(lc_svc_conn *c, uint64_t id)
+{
+    uint8_t hb[LC_PROTO_HEADER];
+    ssize_t w;
+    lc_proto_put_header(hb, LC_MSG_CANCEL, id, 0);
+    if (pthread_mutex_trylock(&c->wmu) != 0)
+        return;
+    if (c->fd >= 0) {
+        w = send(c->fd, hb, sizeof hb, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (w > 0 && (size_t)w < sizeof hb)
+            shutdown(c->fd, SHUT_RDWR);
+    }
+    pthread_mutex_unlock(&c->wmu);
+}
+
+/* Finishes every pending job past its deadline with LOCD_ERR_TIMEOUT and
+ * returns the earliest deadline still ahead (0 = none), which is also
+ * recorded as the reader's next check. */
+static double expire_overdue(lc_svc_conn *c)
+{
+    lc_svc_job **pp, *j, *overdue = NULL;
+    double now = lc_now_ms(), next = 0;
+    char msg[160];
+    pthread_mutex_lock(&c->mu);
+    for (pp = &c->pending; (j = *pp) != NULL;) {
+        if (j->deadline > 0 && j->deadline <= now) {
+            *pp = j->next;
+            j->next = overdue;
+            overdue = j;
+            continue;
+        }
+        if (j->deadline > 0 && (next <= 0 || j->deadline < next))
+            next = j->deadline;
+        pp = &j->next;
+    }
+    c->reader_next = next;
+    pthread_mutex_unlock(&c->mu);
+    while ((j = overdue) != NULL) {
+        overdue = j->next;
+        j->next = NULL;
+        send_cancel_nowait(c, j->id);
+        snprintf(msg, sizeof msg,
+                 "no result from the service within %.0f ms (the job's deadline, service_timeout_ms); "
+                 "the service was asked to cancel it",
+                 j->deadline - j->job.t_submit);
+        lc_svc_job_done(j, LOCD_ERR_TIMEOUT, msg, -1);
+    }
+    return next;
+}
+
+/* Waits until a message starts on the connection, finishing overdue jobs
+ * meanwhile. 1 when bytes (or the end of the stream) are there, 0 when
+ * the wait failed (why). */
+static int wait_for_message(lc_svc_conn *c, char *why, size_t wl)
+{
+    for (;;) {
+        struct pollfd pfd[2];
+        double next = expire_overdue(c), left;
+        int timeout = -1, pr;
+        uint64_t drain;
+        if (next > 0) {
+            left = next - lc_now_ms() + 1.0;
+            timeout = left < 1.0 ? 1 : left > (double)INT_MAX ? INT_MAX : (int)left;
+        }
+        pfd[0].fd = c->fd;
+        pfd[0].events = POLLIN;
+        pfd[0].revents = 0;
+        pfd[1].fd = c->wake;
+        pfd[1].events = POLLIN;
+        pfd[1].revents = 0;
+        pr = poll(pfd, c->wake >= 0 ? 2 : 1, timeout);
+        if (pr < 0 && errno != EINTR) {
+            snprintf(why, wl, "poll failed: %s", strerror(errno));
+            return 0;
+        }
+        if (pr > 0 && (pfd[1].revents & POLLIN) && read(c->wake, &drain, sizeof drain) < 0)
+            drain = 0; /* nothing to drain: another wake-up read it */
+        if (pr > 0 && pfd[0].revents)
+            return 1;
+    }
+}
+
+/* How long the rest of a message that has started may stall: 30 s
+ * (LC_MSG_TIMEOUT_MS), but no later than the deadline it serves (the
+ * RESULT's job, or for a header the earliest pending deadline), with
+ * 100 ms of grace for a message that started just before it. */
+static int message_timeout(double deadline)
+{
+    double left;
+    if (deadline <= 0)
+        return LC_MSG_TIMEOUT_MS;
+    left = deadline - lc_now_ms();
+    return left < 100.0 ? 100 : left >= LC_MSG_TIMEOUT_MS ? LC_MSG_TIMEOUT_MS : (int)left + 1;
+}
+
+/* A job whose RESULT broke off: past its deadline, that is why it ends
+ * (LOCD_ERR_TIMEOUT); otherwise broken_status. */
+static locd_status cut_off_status(lc_svc_conn *c, const lc_svc_job *j)
+{
+    if (j->deadline > 0 && lc_now_ms() >= j->deadline - 100.0)
+        return LOCD_ERR_TIMEOUT;
+    return broken_status(c);
+}
+
 void *lc_svc_reader_main(void *arg)
 {
     lc_svc_conn *c = arg;
@@ -166,7 +289,13 @@ void *lc_svc_reader_main(void *arg)
     lc_outcome o;
     int ok;
     for (;;) {
-        int rd = lc_proto_read_all(c->fd, hb, sizeof hb, -1, why, sizeof why);
+        int rd;
+        if (!wait_for_message(c, why, sizeof why))
+            break;
+        pthread_mutex_lock(&c->mu);
+        c->msg_timeout = message_timeout(c->reader_next);
+        pthread_mutex_unlock(&c->mu);
+        rd = lc_proto_read_all(c->fd, hb, sizeof hb, c->msg_timeout, why, sizeof why);
         if (rd != 1)
             break;
         if (!lc_proto_get_header(hb, LC_RESULT_MAX_BYTES, &h, why, sizeof why))
@@ -182,9 +311,10 @@ void *lc_svc_reader_main(void *arg)
         o.status = LOCD_ERR_PROTOCOL;
         o.index = -1;
         o.msg = why;
+        c->msg_timeout = message_timeout(j ? j->deadline : 0);
         ok = read_result(c, &h, j, &r, &o, why, sizeof why);
         if (j)
-            lc_svc_job_done(j, ok ? o.status : broken_status(c), ok ? o.msg : why, ok ? o.index : -1);
+            lc_svc_job_done(j, ok ? o.status : cut_off_status(c, j), ok ? o.msg : why, ok ? o.index : -1);
         if (!ok)
             break;
     }
@@ -193,6 +323,7 @@ void *lc_svc_reader_main(void *arg)
     pthread_mutex_lock(&c->wmu);
     shutdown(c->fd, SHUT_RDWR);
     pthread_mutex_unlock(&c->wmu);
+    expire_overdue(c); /* jobs past their deadline end with LOCD_ERR_TIMEOUT, not the connection's error */
     pthread_mutex_lock(&c->mu);
     c->dead = 1;
     snprintf(c->why, sizeof c->why, "%s", why);

@@ -77,7 +77,7 @@ static locd_status check_config(const locd_service_config *cfg, lc_address *a)
     if (!lc_proto_parse_address(cfg->listen, a, why, sizeof why))
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "listen: %s", why);
     if (a->tcp && (!cfg->secret || !cfg->secret[0]))
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "a TCP service needs a shared secret (--secret)");
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "a TCP service needs a shared secret (locd serve: --secret-file or LOCD_SECRET)");
     if (cfg->secret && strlen(cfg->secret) > LC_PROTO_MAX_SECRET)
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "the secret is longer than %d bytes", LC_PROTO_MAX_SECRET);
     if (!lc_proto_host_ok())
@@ -167,6 +167,7 @@ locd_status locd_service_create(const locd_service_config *config, locd_service 
         locd_service_destroy(h);
         return st;
     }
+    lc_srv_warn_exposure(&h->srv, &a);
     *out = h;
     lc_clear_error();
     return LOCD_OK;

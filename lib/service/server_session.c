@@ -50,11 +50,17 @@ static int handshake(lc_srv_conn *c, char *why, size_t wl)
     lc_server *s = c->s;
     uint8_t pl[4 + LC_PROTO_MAX_SECRET], reply[LC_PROTO_HEADER + 4];
     uint32_t slen;
+    int auth;
     if (!read_hello_secret(c, pl, &slen, why, wl))
         return 0;
-    if (s->secret && !lc_proto_secret_equal(s->secret, strlen(s->secret), (const char *)pl + 4, (size_t)slen)) {
-        snprintf(why, wl, "%s", slen ? "wrong secret" : "no secret given");
-        lc_srv_send_error(c->fd, LOCD_ERR_AUTH, "a valid shared secret is required");
+    if ((auth = lc_srv_auth_check(s, pl + 4, (size_t)slen)) != LC_AUTH_OK) {
+        snprintf(why, wl, "%s", auth == LC_AUTH_THROTTLED ? "too many wrong secrets (not checked)"
+                                : slen                    ? "wrong secret"
+                                                          : "no secret given");
+        if (auth == LC_AUTH_THROTTLED)
+            lc_srv_send_error(c->fd, LOCD_ERR_BUSY, "too many failed authentications; try again in a second");
+        else
+            lc_srv_send_error(c->fd, LOCD_ERR_AUTH, "a valid shared secret is required");
         return 0;
     }
     lc_proto_put_header(reply, LC_MSG_WELCOME, 0, 4);

@@ -122,6 +122,7 @@ typedef struct lc_svc_job {
     struct lc_svc_conn *conn;
     uint64_t id;
     char shm_name[64];       /* bulk input segment to unlink when done ("" = none) */
+    double deadline;         /* lc_now_ms() past which the job fails with LOCD_ERR_TIMEOUT; 0 = none */
     struct lc_svc_job *next; /* in the connection's pending list */
 } lc_svc_job;
 
@@ -136,6 +137,9 @@ typedef struct lc_svc_conn {
     pthread_mutex_t wmu; /* one writer at a time; fd */
     int fd;
     int shm_ok;
+    int wake;           /* eventfd: a job with an earlier deadline than the reader's wait arrived */
+    double reader_next; /* under mu: when the reader wakes up next to check deadlines (0 = never) */
+    int msg_timeout;    /* reader thread: the current message's per-stall bound in ms */
     pthread_t reader;
     locd_allocator alloc;
 } lc_svc_conn;
@@ -143,6 +147,9 @@ typedef struct lc_svc_conn {
 /* lc_backend.open / close: the engine's connection. */
 locd_status lc_svc_open(locd_engine *e);
 void lc_svc_close(locd_engine *e);
+/* The engine's per-job deadline base in ms (config service_timeout_ms, 0
+ * = LOCD_DEFAULT_SERVICE_TIMEOUT_MS); negative = no deadline. */
+int64_t lc_svc_timeout_ms(const locd_engine *e);
 /* The live connection with a reference for the caller, reconnecting once
  * when the last one broke. */
 locd_status lc_svc_get_conn(locd_engine *e, lc_svc_conn **out);
@@ -155,6 +162,10 @@ lc_svc_job *lc_svc_take_pending(lc_svc_conn *c, uint64_t id);
 /* Finishes a job, unlinking its input segment, and drops the runner's
  * reference. */
 void lc_svc_job_done(lc_svc_job *j, locd_status st, const char *msg, int64_t index);
+/* Called with c->mu held, after j joined the pending list: 1 when the
+ * reader must be woken (c->wake) because j's deadline comes before its
+ * next check. The reader finishes overdue jobs with LOCD_ERR_TIMEOUT. */
+int lc_svc_deadline_added_locked(lc_svc_conn *c, const lc_svc_job *j);
 /* lc_backend.submit. */
 locd_status lc_svc_submit(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags, locd_job **out);
 
@@ -227,6 +238,9 @@ struct lc_server {
     pthread_t *runners;
     uint32_t nrunners;
     uint64_t served;
+    double auth_window;   /* under mu: start of the current second of secret checks (server_auth.c) */
+    uint32_t auth_fails;  /* under mu: wrong secrets in it */
+    int auth_logged;      /* under mu: the throttle was logged in it */
 };
 
 /* server_conn.c */
@@ -257,6 +271,18 @@ void *lc_srv_runner_main(void *service);
  * *out, or NULL there when the job was refused (an error result was sent);
  * 0 to drop the connection (why). */
 int lc_srv_read_submit(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **out, char *why, size_t wl);
+
+/* server_auth.c */
+#define LC_AUTH_MIN_SECRET 16      /* shorter secrets are logged as a warning (locd serve refuses them) */
+#define LC_AUTH_FAIL_DELAY_MS 1000 /* a wrong secret is answered after this */
+#define LC_AUTH_MAX_FAILS 10       /* wrong secrets checked per second, service-wide */
+#define LC_AUTH_OK 1
+#define LC_AUTH_WRONG 0     /* answered after LC_AUTH_FAIL_DELAY_MS */
+#define LC_AUTH_THROTTLED -1 /* not checked: too many wrong secrets this second */
+/* Checks a client's secret (LC_AUTH_OK when the service has none). */
+int lc_srv_auth_check(lc_server *s, const uint8_t *secret, size_t len);
+/* Logs a short secret and a TCP bind to every interface. */
+void lc_srv_warn_exposure(const lc_server *s, const lc_address *a);
 
 /* server_session.c */
 /* Accepts one connection on s->lfd and starts its thread. */

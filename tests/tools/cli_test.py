@@ -272,6 +272,119 @@ def bad_scene_numbers_are_refused_not_crashed_on():
                 "cannot write")
 
 
+@test
+def a_directory_as_scene_says_so():  # issue 18: "size 9223372036854775807 is not a multiple of 24"
+    with Tmp() as t:
+        for cmd in (["pairs", t.dir], ["simulate", t.dir], ["frames", t.dir, "--moving", "0.1", "--frames", "1"]):
+            r = run(cmd)
+            assert r.returncode != 0 and b"is a directory" in r.stderr, (cmd, r.stderr.decode())
+            assert b"9223372036854775807" not in r.stderr
+
+
+@test
+def names_and_paths_are_escaped_in_the_json_output():  # issue 18: names were not escaped
+    import json
+    with Tmp() as t:
+        out = t.path('a"b\\c\td.aabb')
+        r = run(["gen", "uniform", "10", "-o", out])
+        assert r.returncode == 0, r.stderr.decode()
+        assert json.loads(r.stdout.decode())["out"] == out
+        scene = {"name": 'he said "hi"\n\\', "objects": [
+            {"shape": "sphere", "radius": 0.5, "position": [0, 0, 1], "name": 'x"y\u0001'}]}
+        r = run(["simulate", "-", "--steps", "2", "--quiet"], input=json.dumps(scene).encode())
+        assert r.returncode == 0, r.stderr.decode()
+        summary = json.loads(r.stdout.decode().strip().splitlines()[-1])["summary"]
+        assert summary["scene"] == scene["name"], summary["scene"]
+        assert list(summary["tracked"]) == ['x"y\u0001'], summary["tracked"]
+
+
+class Serve:
+    """`locd serve ARGS` in the background, its stderr in a file; .address once it listens."""
+
+    def __init__(self, tmp, args, env=None):
+        self.log = tmp.path("serve-%d.log" % id(self))
+        self.err = open(self.log, "w")
+        self.proc = subprocess.Popen([LOCD, "serve"] + args, stdout=subprocess.DEVNULL, stderr=self.err,
+                                     env=env)
+        self.address = None
+        for _ in range(500):
+            text = self.text()
+            if "listening on " in text:
+                self.address = text.split("listening on ", 1)[1].split()[0]
+                break
+            if self.proc.poll() is not None:
+                break
+            __import__("time").sleep(0.01)
+
+    def text(self):
+        return open(self.log).read()
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.terminate()
+        self.proc.wait(timeout=30)
+        self.err.close()
+
+
+SECRET = "cli-test-secret-0123456789abcdef"
+
+
+@test
+def serve_takes_the_secret_from_a_file_or_the_environment():  # issue 18 item 9
+    with Tmp() as t:
+        scene = t.gen(300, 5)
+        secret = t.path("secret")
+        with open(secret, "w") as f:
+            f.write(SECRET + "\n")
+        os.chmod(secret, 0o600)
+        env = dict(os.environ, LOCD_SECRET=SECRET)
+        for args, senv in (([ "--secret-file", secret], None), ([], env)):
+            svc = Serve(t, ["--listen", "tcp:127.0.0.1:0", "--threads", "1"] + args, env=senv)
+            try:
+                assert svc.address, "serve did not start: " + svc.text()
+                assert "command line" not in svc.text(), svc.text()
+                r = pairs([scene, "--service", svc.address, "--secret-file", secret])
+                assert r.returncode == 0, r.stderr.decode()
+                r = pairs([scene, "--service", svc.address], env=env)
+                assert r.returncode == 0, r.stderr.decode()
+                r = pairs([scene, "--service", svc.address])
+                assert r.returncode != 0 and b"secret" in r.stderr, r.stderr.decode()
+            finally:
+                svc.stop()
+
+
+@test
+def serve_warns_about_a_command_line_secret_and_hides_it():
+    with Tmp() as t:
+        svc = Serve(t, ["--listen", "tcp:127.0.0.1:0", "--threads", "1", "--secret", SECRET])
+        try:
+            assert svc.address, "serve did not start: " + svc.text()
+            assert "/proc/PID/cmdline" in svc.text(), svc.text()
+            cmdline = open("/proc/%d/cmdline" % svc.proc.pid, "rb").read()
+            assert SECRET.encode() not in cmdline, cmdline
+            r = pairs([t.gen(200, 3), "--service", svc.address], env=dict(os.environ, LOCD_SECRET=SECRET))
+            assert r.returncode == 0, r.stderr.decode()
+        finally:
+            svc.stop()
+
+
+@test
+def serve_refuses_a_short_secret_and_warns_about_a_wildcard_bind():
+    with Tmp() as t:
+        r = run(["serve", "--listen", "tcp:127.0.0.1:0"], env=dict(os.environ, LOCD_SECRET="short"))
+        assert r.returncode == 2 and b"at least 16" in r.stderr, r.stderr.decode()
+        empty = t.path("empty")
+        open(empty, "w").close()
+        r = run(["serve", "--listen", "tcp:127.0.0.1:0", "--secret-file", empty])
+        assert r.returncode == 2 and b"no secret" in r.stderr, r.stderr.decode()
+        svc = Serve(t, ["--listen", "tcp:0.0.0.0:0", "--threads", "1"], env=dict(os.environ, LOCD_SECRET=SECRET))
+        try:
+            assert svc.address, "serve did not start: " + svc.text()
+            assert "every network interface" in svc.text(), svc.text()
+        finally:
+            svc.stop()
+
+
 def main():
     print("1..%d" % len(RESULTS))
     failed = 0

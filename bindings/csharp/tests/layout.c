@@ -32,6 +32,7 @@ int main(void)
     OFF(locd_engine_config, allocator);
     OFF(locd_engine_config, log);
     OFF(locd_engine_config, log_user);
+    OFF(locd_engine_config, service_timeout_ms);
 
     SIZE(locd_stats);
     OFF(locd_stats, size);

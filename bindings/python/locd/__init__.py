@@ -39,6 +39,7 @@ import numbers
 import os
 import dataclasses
 import math
+import collections
 import threading
 import weakref
 from typing import Any, Dict, Optional, Union
@@ -150,12 +151,16 @@ class Engine:
             the boxes' own extents. The result is the same; only the work differs.
         worker_path: level ``'workers'``: path of the locd-worker executable
             (None = the library's default).
+        service_timeout_ms: level ``'service'``: each job's deadline in ms from
+            its submit, plus 10 us per box (None = the library's default, 60 s;
+            a negative number = no deadline). A job past it raises
+            :class:`locd.WaitTimeoutError` (docs/levels.md, "Deadlines").
     """
 
     def __init__(self, level: Union[str, int] = "inprocess", threads: Optional[int] = None,
                  workers: Optional[int] = None, service: Optional[str] = None, secret: Optional[str] = None,
                  max_depth: int = 0, cell_bias: int = 2, cubes: bool = False,
-                 worker_path: Optional[str] = None) -> None:
+                 worker_path: Optional[str] = None, service_timeout_ms: Optional[int] = None) -> None:
         if isinstance(level, str):
             if level not in LEVELS:
                 raise ValueError("level must be one of %s, got %r" % (", ".join(map(repr, LEVELS)), level))
@@ -181,7 +186,11 @@ class Engine:
         service, secret = _text("service", service), _text("secret", secret)
         worker_path = _text("worker_path", worker_path)
         self._jobs: "weakref.WeakSet[Job]" = weakref.WeakSet()
-        self._core = _core.Engine(lvl, count, max_depth, cell_bias, bool(cubes), service, secret, worker_path)
+        timeout = 0 if service_timeout_ms is None else _integer("service_timeout_ms", service_timeout_ms)
+        if timeout == 0 and service_timeout_ms is not None:
+            raise ValueError("service_timeout_ms must be > 0, negative (no deadline) or None (the default)")
+        self._core = _core.Engine(lvl, count, max_depth, cell_bias, bool(cubes), service, secret, worker_path,
+                                  timeout)
 
     # -- lifetime -------------------------------------------------------------
     def close(self) -> None:
@@ -301,7 +310,10 @@ class Job(concurrent.futures.Future):
                 pairs = self._core.take(self._wide)
                 self._stats = Stats(**self._core.stats())
                 self._settle(pairs, None)
-            else:  # LOCD_ERR_CANCELLED (no timeout with -1)
+            elif status == STATUS["ERR_TIMEOUT"]:  # a level-3 job past its deadline: finished, and
+                self._core.take(self._wide)  # take raises its error (WaitTimeoutError with the detail)
+                raise WaitTimeoutError(status, "the job passed its deadline", "", -1)
+            else:  # LOCD_ERR_CANCELLED
                 self._mark_cancelled()
         except BaseException as e:  # the job's own error (InvalidBoxError, ConnectionFailedError, ...)
             self._settle(None, e)
@@ -404,15 +416,25 @@ class Service:
 
 _local = threading.local()
 
+# find_pairs() keeps an engine per Python thread and thread count, so that
+# repeated calls reuse its threads and buffers. Only the engines of the last
+# _ENGINES_PER_THREAD thread counts a Python thread used stay open (the least
+# recently used one is closed): a caller trying threads=1..64 must not be
+# left with 2,000 idle threads and their buffers. A thread's engines go with it.
+_ENGINES_PER_THREAD = 2
+
 
 def _engine_for(threads: Optional[int]) -> Engine:
     engines = getattr(_local, "engines", None)
     if engines is None:
-        engines = _local.engines = {}
+        engines = _local.engines = collections.OrderedDict()
     key = _count("threads", threads)
-    engine = engines.get(key)
+    engine = engines.pop(key, None)
     if engine is None:
-        engine = engines[key] = Engine(threads=threads)
+        engine = Engine(threads=threads)
+    engines[key] = engine
+    while len(engines) > _ENGINES_PER_THREAD:
+        engines.popitem(last=False)[1].close()
     return engine
 
 

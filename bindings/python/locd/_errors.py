@@ -100,7 +100,8 @@ class AuthError(Error, PermissionError):
 
 
 class WaitTimeoutError(Error, concurrent.futures.TimeoutError):
-    """A wait ran out of time; the work is still running."""
+    """A wait ran out of time (the work is still running), or a level-3 job
+    passed its deadline (``service_timeout_ms``; the job is then finished)."""
 
 
 class JobCancelledError(Error, concurrent.futures.CancelledError):

@@ -13,6 +13,7 @@ proof that the C ABI alone is enough. :func:`find_pairs` returns exactly what
 """
 from __future__ import annotations
 
+import collections
 import numbers
 import os
 import threading
@@ -76,22 +77,32 @@ class _Engine:
         self.engine = ffi.gc(out[0], lib.locd_engine_destroy)
         self.pairs = _new_pairs()
 
+    def close(self) -> None:
+        """Stops the engine's threads and frees its buffers now."""
+        ffi.release(self.engine)
+        ffi.release(self.pairs)
+
 
 _local = threading.local()
+# Engines kept per Python thread by find_pairs (see locd._ENGINES_PER_THREAD).
+_ENGINES_PER_THREAD = 2
 
 
 def _engine_for(threads: Optional[int]) -> _Engine:
     engines = getattr(_local, "engines", None)
     if engines is None:
-        engines = _local.engines = {}
+        engines = _local.engines = collections.OrderedDict()
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, numbers.Integral)):
         raise TypeError("threads must be an integer, got %s" % type(threads).__name__)
     if threads is not None and int(threads) < 1:
         raise ValueError("threads must be >= 1 (or None for one per core), got %d" % threads)
     key = 0 if threads is None else int(threads)
-    engine = engines.get(key)
+    engine = engines.pop(key, None)
     if engine is None:
-        engine = engines[key] = _Engine(key)
+        engine = _Engine(key)
+    engines[key] = engine
+    while len(engines) > _ENGINES_PER_THREAD:  # as locd.find_pairs: the least recently used goes
+        engines.popitem(last=False)[1].close()
     return engine
 
 

@@ -114,6 +114,7 @@ namespace Locd
             public locd_allocator allocator;
             public IntPtr log;             // locd_log_fn
             public IntPtr log_user;
+            public long service_timeout_ms; // level 3 job deadline; 0 = default, < 0 = none
         }
 
         /// <summary>locd_stats; initialize with locd_stats_init.</summary>
