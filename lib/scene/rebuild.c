@@ -257,6 +257,7 @@ void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *
     h->mask = s->mask[k];
     h->group = s->group[k];
     h->slot = (uint32_t)k;
+    h->id = s->id[k];
     h->flags = s->flags[k] & LC_SLOT_STATIC;
 }
 

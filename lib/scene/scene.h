@@ -40,8 +40,9 @@ typedef struct lc_cells {
     uint8_t level, span, pad[2];
 } lc_cells;
 
-/* What the search reads of a candidate, 48 bytes: the packed sweep box
- * (lc_pack_qbox), the filter, the slot and the flags. The records are
+/* What the search reads of a candidate, 56 bytes: the packed sweep box
+ * (lc_pack_qbox), the filter, the id (a found pair's row needs no read of
+ * the per-slot ids, a cache miss each), the slot and the flags. The records are
  * indexed by a dense index that the entries carry instead of the slot:
  * a rebuild numbers the objects in the order of the sorted entry lists,
  * so the objects of one cell have neighbouring records and a search reads
@@ -49,6 +50,7 @@ typedef struct lc_cells {
 typedef struct lc_hot {
     uint64_t qlo, qhi;
     uint64_t cat, mask, group;
+    locd_id id;
     uint32_t slot;
     uint32_t flags; /* LC_SLOT_STATIC; LC_SLOT_DIRTY while an update runs */
 } lc_hot;
