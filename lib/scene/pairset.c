@@ -13,6 +13,7 @@ void lc_plist_fini(const locd_allocator *a, lc_plist *p)
 {
     lc_buf_release(a, &p->rows, 2 * sizeof(locd_id));
     p->count = 0;
+    p->first = 0;
 }
 
 locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n)

@@ -80,7 +80,14 @@ typedef struct lc_tree {
 typedef struct lc_plist {
     lc_buf rows; /* locd_id, two a row */
     size_t count;
+    size_t first; /* the list starts at this row of the buffer (the carry pass's output; 0 elsewhere) */
 } lc_plist;
+
+/* The first row of a sorted pair list. */
+LC_INLINE locd_id *lc_plist_rows(const lc_plist *p)
+{
+    return (locd_id *)p->rows.data + 2 * p->first;
+}
 
 struct locd_scene {
     uint32_t magic;
