@@ -23,6 +23,7 @@
 #define LC_SLOT_REMOVED 0x8u /* removed since the last update; freed by the next one */
 #define LC_SLOT_INTREE 0x10u /* has entries in a tree list (its cells are in slot->cell) */
 #define LC_SLOT_REFILTER 0x20u /* its filter changed since the last update (its record is written again) */
+#define LC_SLOT_INEXACT 0x40u  /* live, and its box is not floats exactly (fbox holds it rounded) */
 
 /* An id: the serial number of the add (1, 2, ...: never reused) in the high
  * 32 bits, the slot in the low 32. Serials grow with every add, so sorting
@@ -104,6 +105,9 @@ struct locd_scene {
     size_t slot_cap;
     locd_id *id;        /* per slot; the current object's id (kept after removal until freed) */
     double *box;        /* 6 per slot */
+    float *fbox;        /* 6 per slot: the box as floats, the engine's cheaper input when every live box is floats
+                           exactly (ninexact == 0: always so through the f32 entry points) */
+    size_t ninexact;    /* live objects flagged LC_SLOT_INEXACT */
     uint64_t *cat, *mask, *group, *user;
     uint8_t *flags;
     uint32_t *stamp;     /* duplicate check of a batch */
@@ -141,6 +145,8 @@ int64_t lc_scene_slot(const locd_scene *s, locd_id id);
 locd_status lc_scene_reserve(locd_scene *s, size_t more);
 /* Takes a free slot (after lc_scene_reserve) for a new object; returns it. */
 uint32_t lc_scene_take_slot(locd_scene *s);
+/* Sets slot's box (double and float copies, the INEXACT flag and count) from 6 floats or doubles. */
+void lc_scene_set_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, size_t i);
 /* Marks a slot dirty (in scene->dirty; room reserved beforehand). */
 void lc_scene_mark_dirty(locd_scene *s, uint32_t slot);
 /* Releases every slot removed since the last update to the free list. */
@@ -182,8 +188,10 @@ LC_INLINE uint64_t lc_pair_key(const locd_id *row)
 }
 /* Sorts rows[0, n) (scratch: 2 * n locd_id) by key. */
 locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n);
-/* out = a \ b (both sorted); out has room for na rows. Returns rows written. */
-size_t lc_plist_minus(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out);
+/* Both differences of sorted a and b in one merge: amb = a \ b (room for
+ * na rows), bma = b \ a (room for nb rows). */
+void lc_plist_diff(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *amb, size_t *namb, locd_id *bma,
+                   size_t *nbma);
 
 /* ---- broad phase (rebuild.c, tree.c, find.c) ---- */
 void lc_scene_tree_fini(locd_scene *s);

@@ -362,8 +362,7 @@ static void task_diff(void *arg, uint32_t t, uint32_t k)
     const locd_id *p = c->p + 2 * c->pb[t], *n = c->n + 2 * c->nb[t];
     size_t np = c->pb[t + 1] - c->pb[t], nn = c->nb[t + 1] - c->nb[t];
     (void)k;
-    c->ncr[t] = lc_plist_minus(n, nn, p, np, c->cr + 2 * c->nb[t]);
-    c->nlo[t] = lc_plist_minus(p, np, n, nn, c->lo + 2 * c->pb[t]);
+    lc_plist_diff(n, nn, p, np, c->cr + 2 * c->nb[t], &c->ncr[t], c->lo + 2 * c->pb[t], &c->nlo[t]);
 }
 
 static locd_status events_full(upd *u)
@@ -489,8 +488,8 @@ static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, c
         /* previous = kept + dropped, now = kept + n, kept disjoint from both */
         if ((st = lc_plist_reserve(a, &u->cr, n.count + 1)) == LOCD_OK &&
             (st = lc_plist_reserve(a, &u->lo, dropped.count + 1)) == LOCD_OK) {
-            u->cr.count = lc_plist_minus(n.rows.data, n.count, lc_plist_rows(&dropped), dropped.count, u->cr.rows.data);
-            u->lo.count = lc_plist_minus(lc_plist_rows(&dropped), dropped.count, n.rows.data, n.count, u->lo.rows.data);
+            lc_plist_diff(n.rows.data, n.count, lc_plist_rows(&dropped), dropped.count, u->cr.rows.data, &u->cr.count,
+                          u->lo.rows.data, &u->lo.count);
         }
     }
     u->ms_events = lc_now_ms() - t0;
