@@ -103,8 +103,10 @@ static void task_emit(void *arg, uint32_t t, uint32_t k)
  * sum over i, then t). */
 typedef struct order_ctx {
     const uint32_t *p;
-    size_t np, n;
+    size_t np, n, kk;
     size_t *cnt[LC_MAX_THREADS];
+    size_t *start;
+    size_t sum[LC_MAX_THREADS + 1]; /* pass 3: the pairs of each thread's share of the i */
     uint32_t *second;
     int pass;
 } order_ctx;
@@ -119,6 +121,26 @@ static void task_order(void *arg, uint32_t t, uint32_t k)
         memset(cnt, 0, c->n * sizeof *cnt);
         for (x = b; x < e; x++)
             cnt[p[2 * x]]++;
+    } else if (c->pass == 3 || c->pass == 4) {
+        /* The prefix sum over i then t, split by i: pass 3 sums each
+           share, pass 4 writes the offsets from the share's start. */
+        size_t i, ib = c->n * t / k, ie = c->n * (t + 1) / k, off = 0, u;
+        if (c->pass == 3) {
+            for (i = ib; i < ie; i++)
+                for (u = 0; u < c->kk; u++)
+                    off += c->cnt[u][i];
+            c->sum[t + 1] = off; /* the share's count */
+            return;
+        }
+        off = c->sum[t]; /* pass 4: the share's start */
+        for (i = ib; i < ie; i++) {
+            for (u = 0; u < c->kk; u++) {
+                size_t n = c->cnt[u][i];
+                c->cnt[u][i] = off;
+                off += n;
+            }
+            c->start[i] = off;
+        }
     } else {
         for (x = b; x < e; x++)
             c->second[cnt[p[2 * x]]++] = p[2 * x + 1];
@@ -207,7 +229,7 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
         {
             order_ctx oc;
             size_t off = 0, t;
-            oc.p = p, oc.np = np, oc.n = n, oc.second = second;
+            oc.p = p, oc.np = np, oc.n = n, oc.kk = kk, oc.second = second, oc.start = start;
             for (t = 0; t < kk; t++)
                 oc.cnt[t] = start + (n + 1) * (t + 1);
             oc.pass = 1;
@@ -215,13 +237,20 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
                 lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
             else
                 task_order(&oc, 0, 1);
-            for (i = 0; i < n; i++) {
-                for (t = 0; t < kk; t++) {
-                    size_t c = oc.cnt[t][i];
-                    oc.cnt[t][i] = off;
-                    off += c;
+            memset(oc.sum, 0, sizeof oc.sum);
+            if (kk > 1) {
+                oc.pass = 3;
+                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
+                for (t = 0; t < kk; t++) { /* sum[t + 1] held share t's count: now the start of share t + 1 */
+                    off += oc.sum[t + 1];
+                    oc.sum[t + 1] = off;
                 }
-                start[i] = off;
+                oc.sum[0] = 0;
+                oc.pass = 4;
+                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
+            } else {
+                oc.pass = 4;
+                task_order(&oc, 0, 1);
             }
             oc.pass = 2;
             if (kk > 1)
