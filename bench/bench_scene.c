@@ -1,10 +1,13 @@
 /* The scene's update against a from-scratch find on the same boxes:
  *   bench_scene SCENE.aabb [--moving P] [--static S] [--frames F] [--threads T]
+ * [--find 0] (updates only, for a profile).
  * Puts the scene's boxes in a locd scene (the first fraction S static),
  * then for F frames moves a random fraction P of the other objects by a
  * small step (a tenth of their size) and updates (pairs and events); prints
  * one JSON line with the medians of update and of locd_engine_find_pairs_f32
- * on the same boxes. docs/scene.md quotes its figures. */
+ * on the same boxes, and the medians of the process's CPU time (every
+ * thread) over each (steadier than the wall clock on a shared machine).
+ * docs/scene.md quotes its figures. */
 #include <locd/scene.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -30,6 +33,15 @@ static double now_ms(void)
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
+/* CPU time of the whole process (every thread): on a shared machine it
+ * varies less than the wall clock, so it compares two versions better. */
+static double cpu_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
 static uint64_t rng(uint64_t *s)
 {
     *s ^= *s << 13, *s ^= *s >> 7, *s ^= *s << 17;
@@ -38,8 +50,8 @@ static uint64_t rng(uint64_t *s)
 
 int main(int argc, char **argv)
 {
-    double moving = 0.01, stat = 0.0, *upd, *reb;
-    int frames = 10, f, i;
+    double moving = 0.01, stat = 0.0, *upd, *reb, *ucpu, *rcpu;
+    int frames = 10, f, i, find = 1;
     uint32_t threads = 2;
     FILE *fp;
     long size;
@@ -67,6 +79,8 @@ int main(int argc, char **argv)
             frames = atoi(argv[i + 1]);
         else if (!strcmp(argv[i], "--threads"))
             threads = (uint32_t)atoi(argv[i + 1]);
+        else if (!strcmp(argv[i], "--find")) /* 0: updates only (for a profile of the update) */
+            find = atoi(argv[i + 1]);
     }
     fp = fopen(argv[1], "rb");
     if (!fp || fseek(fp, 0, SEEK_END) || (size = ftell(fp)) < 0 || fseek(fp, 0, SEEK_SET)) {
@@ -97,9 +111,11 @@ int main(int argc, char **argv)
     mbox = malloc((nmove + 1) * 24);
     upd = malloc((size_t)frames * sizeof *upd);
     reb = malloc((size_t)frames * sizeof *reb);
+    ucpu = malloc((size_t)frames * sizeof *ucpu);
+    rcpu = malloc((size_t)frames * sizeof *rcpu);
     locd_scene_stats_init(&st);
     for (f = 0; f < frames; f++) {
-        double t;
+        double t, c;
         /* a random subset (distinct: a stride walk from a random start) */
         size_t start = rng(&seed) % (n - nstat), stride = 1 + (n - nstat) / (nmove ? nmove : 1);
         for (k = 0; k < nmove; k++) {
@@ -117,24 +133,28 @@ int main(int argc, char **argv)
             for (k = 0; k < nmove; k++)
                 mids[k] = ids[nstat + k], memcpy(mbox + 6 * k, boxes + 6 * (nstat + k), 24);
         }
-        if (locd_scene_move_f32(s, mids, mbox, nmove) ||
-            locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS))
+        if (locd_scene_move_f32(s, mids, mbox, nmove))
             return 1;
+        c = cpu_ms();
+        if (locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS))
+            return 1;
+        ucpu[f] = cpu_ms() - c;
         locd_scene_stats_get(s, &st);
         upd[f] = st.ms_total;
-        t = 0;
+        c = cpu_ms();
         t = now_ms();
-        if (locd_engine_find_pairs_f32(e, boxes, n, 0, pairs))
+        if (find && locd_engine_find_pairs_f32(e, boxes, n, 0, pairs))
             return 1;
         t = now_ms() - t;
+        rcpu[f] = cpu_ms() - c;
         reb[f] = t;
     }
     {
-        double um = median(upd, frames), rm = median(reb, frames);
+        double um = median(upd, frames), rm = median(reb, frames), uc = median(ucpu, frames), rc = median(rcpu, frames);
         printf("{\"n\":%zu,\"static\":%zu,\"moving\":%zu,\"frames\":%d,\"threads\":%u,\"update_ms\":%.3f,"
-               "\"rebuild_ms\":%.3f,\"ratio\":%.4f,\"pairs\":%llu,\"created\":%llu,\"lost\":%llu,\"rebuilt\":%u,"
+               "\"rebuild_ms\":%.3f,\"ratio\":%.4f,\"update_cpu_ms\":%.3f,\"rebuild_cpu_ms\":%.3f,\"cpu_ratio\":%.4f,\"pairs\":%llu,\"created\":%llu,\"lost\":%llu,\"rebuilt\":%u,"
                "\"reencoded\":%llu,\"candidates\":%llu,\"entries\":%llu,\"ms_encode\":%.3f,\"ms_merge\":%.3f,\"ms_sweep\":%.3f,\"ms_events\":%.3f}\n",
-               n, nstat, nmove, frames, threads, um, rm, um / rm, (unsigned long long)st.pairs,
+               n, nstat, nmove, frames, threads, um, rm, um / rm, uc, rc, rc > 0 ? uc / rc : 0.0, (unsigned long long)st.pairs,
                (unsigned long long)st.created, (unsigned long long)st.lost, st.rebuilt,
                (unsigned long long)st.reencoded, (unsigned long long)st.candidates, (unsigned long long)st.entries, st.ms_encode, st.ms_merge, st.ms_sweep, st.ms_events);
     }

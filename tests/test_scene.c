@@ -983,6 +983,87 @@ static void move_box(locd_scene *s, model *m, locd_id id, const double *b)
     memcpy(m_find(m, id)->box, b, 6 * sizeof *b);
 }
 
+/* Moves every object of the model to its box in the model (so that the
+ * update finds its pairs from scratch), updates, checks, and checks that
+ * it was from scratch. */
+static void update_all_from_scratch(locd_scene *s, model *m)
+{
+    size_t k;
+    locd_scene_stats st;
+    for (k = 0; k < m->n; k++)
+        move_box(s, m, m->o[k].id, m->o[k].box);
+    check_update(s, m);
+    locd_scene_stats_init(&st);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
+    TEST_ASSERT_EQUAL_UINT32(1, st.rebuilt);
+}
+
+/* The from-scratch path gives the engine the float copies of the boxes
+ * only when every live box is floats exactly. Boxes 1e-12 apart, which
+ * touch once rounded to floats, go from not floats to floats and back, on
+ * slots in id order and, after removals and adds, out of it. */
+static void float_copies_follow_the_boxes(void)
+{
+    locd_engine *e = new_engine(2, NULL);
+    locd_scene *s = NULL;
+    model m;
+    const size_t n = 100;
+    double b[6 * 100];
+    locd_id ids[100], bids[100];
+    size_t k;
+    int step;
+    memset(&m, 0, sizeof m);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    for (k = 0; k < n; k++) { /* A: [2k, 2k + 1] on x */
+        double *x = b + 6 * k;
+        x[0] = 2.0 * (double)k, x[1] = 0, x[2] = 0, x[3] = 2.0 * (double)k + 1.0, x[4] = 1, x[5] = 1;
+    }
+    add_boxes(s, &m, b, n, 0, ids);
+    for (k = 0; k < n; k++) { /* B: from just past A's end: no pair, but touching in floats */
+        double *x = b + 6 * k;
+        x[0] = 2.0 * (double)k + 1.0 + 1e-12, x[1] = 0, x[2] = 0, x[3] = 2.0 * (double)k + 1.5, x[4] = 1, x[5] = 1;
+        TEST_ASSERT_TRUE((double)to_float(x[0]) != x[0]);
+    }
+    add_boxes(s, &m, b, n, 0, bids);
+    check_update(s, &m);
+    TEST_ASSERT_EQUAL_UINT64(0, m.npairs);
+    for (step = 0; step < 6; step++) {
+        /* steps 0, 2, 4: B on A's end (floats exactly: n pairs); 1, 3, 5: just past it */
+        for (k = 0; k < n; k++) {
+            m_obj *o = m_find(&m, bids[k]);
+            if (o)
+                o->box[0] = 2.0 * (double)k + 1.0 + (step % 2 ? 1e-12 : 0.0);
+        }
+        if (step == 4) /* one B past its A's end: one box not floats, the others are */
+            m_find(&m, bids[7])->box[0] += 1e-12;
+        update_all_from_scratch(s, &m);
+        if (step % 2)
+            TEST_ASSERT_EQUAL_UINT64(0, m.npairs);
+        else
+            TEST_ASSERT_TRUE(m.npairs > 0);
+        if (step == 1) { /* out of id order: a removed A's slot taken by a new object */
+            locd_id gone[10], fresh[10];
+            for (k = 0; k < 10; k++) {
+                gone[k] = ids[3 * k];
+                m_remove(&m, gone[k]);
+            }
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, gone, 10));
+            check_update(s, &m);
+            for (k = 0; k < 10; k++) {
+                double *x = b + 6 * k;
+                x[0] = 2.0 * (double)(3 * k), x[1] = 0.5, x[2] = 0, x[3] = 2.0 * (double)(3 * k) + 1.0, x[4] = 1, x[5] = 1;
+            }
+            add_boxes(s, &m, b, 10, 0, fresh);
+            for (k = 0; k < 10; k++)
+                ids[3 * k] = fresh[k];
+            check_update(s, &m);
+        }
+    }
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    free(m.o), free(m.pairs);
+}
+
 /* Identical boxes, touching faces, zero-size boxes, huge next to tiny, far
  * from the origin, -0, and a box that grows the root cube and comes back:
  * each update against the model, with queries. */
@@ -1243,6 +1324,7 @@ static const lt_test tests[] = {
     LT_TEST(queries_from_two_threads),
     LT_TEST(f32_entry_points_match_f64),
     LT_TEST(hard_cases),
+    LT_TEST(float_copies_follow_the_boxes),
     LT_TEST(large_scene_threads_and_fresh),
     LT_TEST(bad_batches_change_nothing),
     LT_TEST(levels_2_and_3_are_unsupported),

@@ -21,13 +21,27 @@
 
 /* One thread's output, on its own stack while it runs (no two threads
  * write one cache line) and copied to the context at its end. */
+/* Candidates waiting for their test, their boxes being prefetched. The
+ * queue runs across query entries, so that a query with few candidates
+ * still overlaps its misses with the next ones'. */
+#define LC_GATHER 64
+
+/* The ancestor ranges last looked up, per array searched and level: the
+ * query entries come in key order, so neighbouring ones share their
+ * shallow ancestors, whose lookups are then made once. */
+typedef struct anc_cache {
+    uint64_t key[32];
+    size_t b[32], e[32];
+} anc_cache;
+
 typedef struct find_out {
     lc_buf rows; /* locd_id, two a row */
     size_t count;
     uint64_t cand;
     locd_status st;
     uint32_t ng;
-    uint64_t g[64]; /* LC_GATHER */
+    uint64_t gq[LC_GATHER], go[LC_GATHER]; /* query entry, candidate entry */
+    anc_cache anc[4];                      /* dyn main, dyn overflow, sta main, sta overflow */
 } find_out;
 
 typedef struct find_ctx {
@@ -49,9 +63,12 @@ static int cell_holds(const locd_grid *g, uint64_t pm, uint32_t level, const uin
 
 #define FIELD(w, a) ((uint32_t)(((w) >> ((a)*LC_SBITS)) & LC_SMASK))
 
-/* Tests the candidate entry eo against the query entry eq (object m, hot
- * record hm). Only o's hot record is read until the exact test. */
-static void consider(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot *hm, uint64_t eo)
+/* The first test of the candidate entry eo against the query entry eq
+ * (object m, hot record hm), from 16 bytes of o (four to a line): the
+ * quantized boxes (conservative: they overlap whenever the boxes do), then
+ * the canonical cell pair. Returns 0 when it fails, else 1 + whether the
+ * quantized boxes tie (equal quantized ends). */
+static uint32_t consider_q(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot *hm, uint64_t eo)
 {
     const locd_scene *s = c->s;
     const locd_grid *g = &s->grid;
@@ -59,28 +76,32 @@ static void consider(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot 
     const uint64_t imask = ((uint64_t)1 << ib) - 1;
     uint32_t m = (uint32_t)(eq & imask), o = (uint32_t)(eo & imask);
     uint32_t lm = (uint32_t)(eq >> ib) & 31u, lo = (uint32_t)(eo >> ib) & 31u, p[3], a, tie = 0;
-    const lc_hot *ho;
     const uint64_t *qo;
-    locd_id *row;
     if (o == m || o == (uint32_t)imask) /* itself, or a tombstone */
-        return;
+        return 0;
     qo = s->hq + 2 * (size_t)o;
     fo->cand++;
-    /* the quantized boxes (conservative: they overlap whenever the boxes
-       do), then the canonical cell pair: 16 bytes of o, four to a line */
     for (a = 0; a < 3; a++) {
         uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(qo[0], a), mh = FIELD(hm->qhi, a), oh = FIELD(qo[1], a);
         if (ml > oh || ol > mh)
-            return;
+            return 0;
         tie |= (ml == oh) | (ol == mh);
         p[a] = ml > ol ? ml : ol;
     }
     if (lm >= lo ? !cell_holds(g, eq >> (ib + LC_LEVEL_BITS), lm, p)
                  : !cell_holds(g, eo >> (ib + LC_LEVEL_BITS), lo, p))
-        return;
-    ho = &s->hot[o];
+        return 0;
+    return 1 + tie;
+}
+
+/* The rest, from o's record ho: both moved and not m < o, the filter,
+ * the exact test on a tie; then the row. */
+static void consider_rest(const find_ctx *c, find_out *fo, const lc_hot *hm, const lc_hot *ho, uint32_t tie)
+{
+    const locd_scene *s = c->s;
+    locd_id *row;
     /* both moved: the one with the smaller id reports the pair */
-    if ((ho->flags & LC_SLOT_DIRTY) && s->id[ho->slot] < s->id[hm->slot])
+    if ((ho->flags & LC_SLOT_DIRTY) && ho->id < hm->id)
         return;
     /* the filter, before the box test */
     if ((hm->flags & ho->flags & LC_SLOT_STATIC) || !(hm->cat & ho->mask) || !(ho->cat & hm->mask) ||
@@ -98,31 +119,41 @@ static void consider(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot 
     if (fo->st != LOCD_OK)
         return;
     row = (locd_id *)fo->rows.data + 2 * fo->count++;
-    {
-        locd_id im = s->id[hm->slot], io = s->id[ho->slot];
-        row[0] = im < io ? im : io;
-        row[1] = im < io ? io : im;
-    }
+    row[0] = hm->id < ho->id ? hm->id : ho->id;
+    row[1] = hm->id < ho->id ? ho->id : hm->id;
 }
 
-/* Candidates waiting for their test, their boxes being prefetched. */
-#define LC_GATHER 64
-
-static void flush(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot *hm)
+/* Tests the gathered candidates in two rounds: the first on their packed
+ * boxes (prefetched by gather); the survivors' records are prefetched
+ * and tested in the second, so those misses overlap too. */
+static void flush(const find_ctx *c, find_out *fo)
 {
-    uint32_t k;
-    for (k = 0; k < fo->ng; k++)
-        consider(c, fo, eq, hm, fo->g[k]);
+    const lc_hot *hot = c->s->hot;
+    const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
+    uint32_t k, ns = 0, r;
+    uint32_t sm[LC_GATHER], so[LC_GATHER];
+    uint8_t st[LC_GATHER];
+    for (k = 0; k < fo->ng; k++) {
+        uint32_t m = (uint32_t)(fo->gq[k] & imask), o = (uint32_t)(fo->go[k] & imask);
+        if ((r = consider_q(c, fo, fo->gq[k], &hot[m], fo->go[k])) != 0) {
+            __builtin_prefetch(&hot[o]);
+            __builtin_prefetch((const char *)&hot[o] + sizeof(lc_hot) - 1);
+            sm[ns] = m, so[ns] = o, st[ns++] = (uint8_t)(r - 1);
+        }
+    }
+    for (k = 0; k < ns; k++)
+        consider_rest(c, fo, &hot[sm[k]], &hot[so[k]], st[k]);
     fo->ng = 0;
 }
 
-LC_INLINE void gather(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot *hm, uint64_t eo)
+LC_INLINE void gather(const find_ctx *c, find_out *fo, uint64_t eq, uint64_t eo)
 {
     const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
     __builtin_prefetch(c->s->hq + 2 * (size_t)(eo & imask));
-    fo->g[fo->ng++] = eo;
+    fo->gq[fo->ng] = eq;
+    fo->go[fo->ng++] = eo;
     if (fo->ng == LC_GATHER)
-        flush(c, fo, eq, hm);
+        flush(c, fo);
 }
 
 /* The first of e[0, n) >= v: through tr's directory for its main array. */
@@ -132,9 +163,9 @@ static size_t lower(const lc_tree *tr, const uint64_t *e, size_t n, uint64_t v)
 }
 
 /* Every entry of e[0, n) (tr's main array or overflow) on a common path
- * with the cell of entry eq. */
+ * with the cell of entry eq; ac caches this array's ancestor ranges. */
 static void search_array(const find_ctx *c, find_out *fo, const lc_tree *tr, const uint64_t *e, size_t n,
-                         uint64_t eq, const lc_hot *hm)
+                         uint64_t eq, anc_cache *ac)
 {
     const size_t *per_level = tr->per_level;
     const locd_grid *g = &c->s->grid;
@@ -152,26 +183,32 @@ static void search_array(const find_ctx *c, find_out *fo, const lc_tree *tr, con
     {
         const uint64_t end = (pm + ((uint64_t)1 << (3u * (g->depth - level)))) << LC_LEVEL_BITS;
         for (i = lower(tr, e, n, key << ib); i < n && (e[i] >> ib) < end; i++)
-            gather(c, fo, eq, hm, e[i]);
+            gather(c, fo, eq, e[i]);
     }
     /* its ancestors, at the levels that hold entries */
     for (l = 0; l < level; l++) {
         uint64_t ka;
+        size_t b, x;
         if (!per_level[l])
             continue;
         ka = ((pm & ~(((uint64_t)1 << (3u * (g->depth - l))) - 1)) << LC_LEVEL_BITS) | l;
-        for (i = lower(tr, e, n, ka << ib); i < n && (e[i] >> ib) == ka; i++)
-            gather(c, fo, eq, hm, e[i]);
+        if (ac->key[l] != ka) {
+            b = lower(tr, e, n, ka << ib);
+            for (i = b; i < n && (e[i] >> ib) == ka; i++)
+                ;
+            ac->key[l] = ka, ac->b[l] = b, ac->e[l] = i;
+        }
+        for (x = ac->b[l]; x < ac->e[l]; x++)
+            gather(c, fo, eq, e[x]);
     }
-    flush(c, fo, eq, hm);
 }
 
-static void search(const find_ctx *c, find_out *fo, const lc_tree *tr, uint64_t eq, const lc_hot *hm)
+static void search(const find_ctx *c, find_out *fo, const lc_tree *tr, uint64_t eq, anc_cache *ac)
 {
     if (tr->count)
-        search_array(c, fo, tr, tr->ent.data, tr->count, eq, hm);
+        search_array(c, fo, tr, tr->ent.data, tr->count, eq, ac);
     if (tr->novf)
-        search_array(c, fo, tr, tr->ovf.data, tr->novf, eq, hm);
+        search_array(c, fo, tr, tr->ovf.data, tr->novf, eq, ac + 1);
 }
 
 static void task_find(void *arg, uint32_t t, uint32_t k)
@@ -181,12 +218,14 @@ static void task_find(void *arg, uint32_t t, uint32_t k)
     size_t b = c->nq * t / k, e = c->nq * (t + 1) / k, i;
     find_out fo;
     memset(&fo, 0, sizeof fo);
+    memset(fo.anc, 0xff, sizeof fo.anc); /* no key: a key's level bits are at most LC_SBITS */
     for (i = b; i < e; i++) {
         const lc_hot *hm = &c->s->hot[c->q[i] & imask];
-        search(c, &fo, c->dyn, c->q[i], hm);
+        search(c, &fo, c->dyn, c->q[i], fo.anc);
         if (!(hm->flags & LC_SLOT_STATIC))
-            search(c, &fo, c->sta, c->q[i], hm);
+            search(c, &fo, c->sta, c->q[i], fo.anc + 2);
     }
+    flush(c, &fo);
     c->out[t] = fo;
 }
 

@@ -13,6 +13,7 @@ void lc_plist_fini(const locd_allocator *a, lc_plist *p)
 {
     lc_buf_release(a, &p->rows, 2 * sizeof(locd_id));
     p->count = 0;
+    p->first = 0;
 }
 
 locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n)
@@ -69,21 +70,23 @@ locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n)
     return LOCD_OK;
 }
 
-size_t lc_plist_minus(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out)
+void lc_plist_diff(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *amb, size_t *namb, locd_id *bma,
+                   size_t *nbma)
 {
-    size_t i = 0, j = 0, w = 0;
-    while (i < na) {
-        uint64_t ka = lc_pair_key(a + 2 * i);
-        while (j < nb && lc_pair_key(b + 2 * j) < ka)
-            j++;
-        if (j < nb && lc_pair_key(b + 2 * j) == ka) {
-            i++;
-            continue;
+    size_t i = 0, j = 0, wa = 0, wb = 0;
+    while (i < na && j < nb) {
+        uint64_t ka = lc_pair_key(a + 2 * i), kb = lc_pair_key(b + 2 * j);
+        if (ka < kb) {
+            amb[2 * wa] = a[2 * i], amb[2 * wa + 1] = a[2 * i + 1], wa++, i++;
+        } else if (kb < ka) {
+            bma[2 * wb] = b[2 * j], bma[2 * wb + 1] = b[2 * j + 1], wb++, j++;
+        } else {
+            i++, j++;
         }
-        out[2 * w] = a[2 * i];
-        out[2 * w + 1] = a[2 * i + 1];
-        w++;
-        i++;
     }
-    return w;
+    for (; i < na; i++)
+        amb[2 * wa] = a[2 * i], amb[2 * wa + 1] = a[2 * i + 1], wa++;
+    for (; j < nb; j++)
+        bma[2 * wb] = b[2 * j], bma[2 * wb + 1] = b[2 * j + 1], wb++;
+    *namb = wa, *nbma = wb;
 }

@@ -2,44 +2,43 @@
  * their boxes, then the filter and the ids. */
 #include "scene/scene.h"
 
-/* Copies the live boxes into f (as floats), split over the pool; ok[t] is
- * 1 if every value of thread t's share is a float exactly (then a float
- * find on them is the same find). A share stops at its first inexact value. */
+/* Copies the live boxes' float copies into f, split over the pool. */
 typedef struct floats_ctx {
     const locd_scene *s;
     const uint32_t *live;
     size_t n;
     float *f;
-    int ok[LC_MAX_THREADS];
 } floats_ctx;
 
 static void task_floats(void *arg, uint32_t t, uint32_t k)
 {
     floats_ctx *c = arg;
     size_t i = c->n * t / k, e = c->n * (t + 1) / k;
-    int a, ok = 1;
-    for (; i < e && ok; i++) {
-        const double *b = c->s->box + 6 * (size_t)c->live[i];
-        float *o = c->f + 6 * i;
-        for (a = 0; a < 6; a++) {
-            o[a] = (float)b[a];
-            ok &= (double)o[a] == b[a];
-        }
-    }
-    c->ok[t] = ok;
+    for (; i < e; i++)
+        memcpy(c->f + 6 * i, c->s->fbox + 6 * (size_t)c->live[i], 6 * sizeof(float));
 }
 
-static int boxes_as_floats(const locd_scene *s, const uint32_t *live, size_t n, float *f)
+static void gather_floats(const locd_scene *s, const uint32_t *live, size_t n, float *f)
 {
     floats_ctx c;
-    uint32_t k = s->threads > 1 && n > 65536 ? s->threads : 1, t;
+    uint32_t k = s->threads > 1 && n > 65536 ? s->threads : 1;
     c.s = s, c.live = live, c.n = n, c.f = f;
     if (k > 1)
         lc_pool_run(s->pool, k, task_floats, &c);
     else
         task_floats(&c, 0, 1);
-    for (t = 0; t < k; t++)
-        if (!c.ok[t])
+}
+
+/* 1 when the slots [0, nslots) are all live and their serials ascend: then
+ * slot order is id order and the slot arrays are the engine's input as
+ * they are (the common case: no object removed). */
+static int slots_in_id_order(const locd_scene *s)
+{
+    size_t k;
+    if (s->live != s->nslots)
+        return 0;
+    for (k = 0; k < s->nslots; k++)
+        if (!(s->flags[k] & LC_SLOT_LIVE) || (k && LC_ID_SERIAL(s->id[k]) <= LC_ID_SERIAL(s->id[k - 1])))
             return 0;
     return 1;
 }
@@ -104,8 +103,10 @@ static void task_emit(void *arg, uint32_t t, uint32_t k)
  * sum over i, then t). */
 typedef struct order_ctx {
     const uint32_t *p;
-    size_t np, n;
+    size_t np, n, kk;
     size_t *cnt[LC_MAX_THREADS];
+    size_t *start;
+    size_t sum[LC_MAX_THREADS + 1]; /* pass 3: the pairs of each thread's share of the i */
     uint32_t *second;
     int pass;
 } order_ctx;
@@ -120,6 +121,26 @@ static void task_order(void *arg, uint32_t t, uint32_t k)
         memset(cnt, 0, c->n * sizeof *cnt);
         for (x = b; x < e; x++)
             cnt[p[2 * x]]++;
+    } else if (c->pass == 3 || c->pass == 4) {
+        /* The prefix sum over i then t, split by i: pass 3 sums each
+           share, pass 4 writes the offsets from the share's start. */
+        size_t i, ib = c->n * t / k, ie = c->n * (t + 1) / k, off = 0, u;
+        if (c->pass == 3) {
+            for (i = ib; i < ie; i++)
+                for (u = 0; u < c->kk; u++)
+                    off += c->cnt[u][i];
+            c->sum[t + 1] = off; /* the share's count */
+            return;
+        }
+        off = c->sum[t]; /* pass 4: the share's start */
+        for (i = ib; i < ie; i++) {
+            for (u = 0; u < c->kk; u++) {
+                size_t n = c->cnt[u][i];
+                c->cnt[u][i] = off;
+                off += n;
+            }
+            c->start[i] = off;
+        }
     } else {
         for (x = b; x < e; x++)
             c->second[cnt[p[2 * x]]++] = p[2 * x + 1];
@@ -132,9 +153,10 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
 {
     const locd_allocator *a = s->alloc;
     size_t n = 0, k, w = 0, cap = s->nslots ? s->nslots : 1, ncap = (size_t)s->serial + 1;
-    uint32_t *live = lc_alloc(a, cap * sizeof *live), *by_serial = lc_alloc(a, ncap * sizeof *by_serial);
-    locd_id *idl = lc_alloc(a, cap * sizeof *idl);
-    float *fboxes = lc_alloc(a, cap * 6 * sizeof *fboxes);
+    const int ordered = slots_in_id_order(s);
+    uint32_t *live = lc_alloc(a, cap * sizeof *live), *by_serial = ordered ? NULL : lc_alloc(a, ncap * sizeof *by_serial);
+    locd_id *idl = ordered ? s->id : lc_alloc(a, cap * sizeof *idl);
+    float *fboxes = ordered || s->ninexact ? NULL : lc_alloc(a, cap * 6 * sizeof *fboxes);
     double *boxes = NULL;
     const void *in;
     int f64 = 0, all;
@@ -144,23 +166,36 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     locd_stats st_find;
     locd_status st;
     lc_pairs_init_embedded(&found, a);
-    if (!live || !fboxes || !by_serial || !idl) {
+    if (!live || (!ordered && (!by_serial || !idl)) || (!ordered && !s->ninexact && !fboxes)) {
         st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's rebuild buffers");
         goto done;
     }
     /* the live slots in serial (= id) order */
-    memset(by_serial, 0xff, ncap * sizeof *by_serial);
-    for (k = 0; k < s->nslots; k++)
-        if (s->flags[k] & LC_SLOT_LIVE)
-            by_serial[LC_ID_SERIAL(s->id[k])] = (uint32_t)k;
-    for (k = 0; k < ncap; k++)
-        if (by_serial[k] != 0xffffffffu)
-            idl[n] = s->id[by_serial[k]], live[n++] = by_serial[k];
+    if (ordered) {
+        for (k = 0; k < s->nslots; k++)
+            live[k] = (uint32_t)k;
+        n = s->nslots;
+    } else {
+        memset(by_serial, 0xff, ncap * sizeof *by_serial);
+        for (k = 0; k < s->nslots; k++)
+            if (s->flags[k] & LC_SLOT_LIVE)
+                by_serial[LC_ID_SERIAL(s->id[k])] = (uint32_t)k;
+        for (k = 0; k < ncap; k++)
+            if (by_serial[k] != 0xffffffffu)
+                idl[n] = s->id[by_serial[k]], live[n++] = by_serial[k];
+    }
     /* The engine's float find is cheaper than its double one; it gives the
        same pairs when every box is a float exactly (boxes given through
-       the f32 entry points always are). */
-    in = fboxes;
-    if (!boxes_as_floats(s, live, n, fboxes)) {
+       the f32 entry points always are): then the float copies are its
+       input, as they are when the slots are in id order. */
+    if (!s->ninexact) {
+        in = ordered ? s->fbox : fboxes;
+        if (!ordered)
+            gather_floats(s, live, n, fboxes);
+    } else if (ordered) {
+        f64 = 1;
+        in = s->box;
+    } else {
         f64 = 1;
         boxes = lc_alloc(a, cap * 6 * sizeof *boxes);
         if (!boxes) {
@@ -194,7 +229,7 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
         {
             order_ctx oc;
             size_t off = 0, t;
-            oc.p = p, oc.np = np, oc.n = n, oc.second = second;
+            oc.p = p, oc.np = np, oc.n = n, oc.kk = kk, oc.second = second, oc.start = start;
             for (t = 0; t < kk; t++)
                 oc.cnt[t] = start + (n + 1) * (t + 1);
             oc.pass = 1;
@@ -202,13 +237,20 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
                 lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
             else
                 task_order(&oc, 0, 1);
-            for (i = 0; i < n; i++) {
-                for (t = 0; t < kk; t++) {
-                    size_t c = oc.cnt[t][i];
-                    oc.cnt[t][i] = off;
-                    off += c;
+            memset(oc.sum, 0, sizeof oc.sum);
+            if (kk > 1) {
+                oc.pass = 3;
+                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
+                for (t = 0; t < kk; t++) { /* sum[t + 1] held share t's count: now the start of share t + 1 */
+                    off += oc.sum[t + 1];
+                    oc.sum[t + 1] = off;
                 }
-                start[i] = off;
+                oc.sum[0] = 0;
+                oc.pass = 4;
+                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
+            } else {
+                oc.pass = 4;
+                task_order(&oc, 0, 1);
             }
             oc.pass = 2;
             if (kk > 1)
@@ -242,7 +284,8 @@ done:
     lc_free(a, second, (found.count ? found.count : 1) * sizeof *second);
     lc_pairs_fini_embedded(&found);
     lc_free(a, live, cap * sizeof *live);
-    lc_free(a, idl, cap * sizeof *idl);
+    if (!ordered)
+        lc_free(a, idl, cap * sizeof *idl);
     lc_free(a, by_serial, ncap * sizeof *by_serial);
     lc_free(a, fboxes, cap * 6 * sizeof *fboxes);
     lc_free(a, boxes, cap * 6 * sizeof *boxes);
@@ -257,6 +300,7 @@ void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *
     h->mask = s->mask[k];
     h->group = s->group[k];
     h->slot = (uint32_t)k;
+    h->id = s->id[k];
     h->flags = s->flags[k] & LC_SLOT_STATIC;
 }
 

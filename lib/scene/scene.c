@@ -99,7 +99,6 @@ static locd_status add_common(locd_scene *s, const void *boxes, int f64, size_t 
     locd_scene_add_options o;
     locd_status st;
     size_t i;
-    int a;
     if ((st = lc_scene_check_handle(s)) != LOCD_OK)
         return st;
     locd_scene_add_options_init(&o);
@@ -118,15 +117,13 @@ static locd_status add_common(locd_scene *s, const void *boxes, int f64, size_t 
         return st;
     for (i = 0; i < n; i++) {
         uint32_t slot = lc_scene_take_slot(s);
-        double *b = s->box + 6 * (size_t)slot;
-        for (a = 0; a < 6; a++)
-            b[a] = f64 ? ((const double *)boxes)[6 * i + (size_t)a] : (double)((const float *)boxes)[6 * i + (size_t)a];
         s->id[slot] = (locd_id)(++s->serial) << 32 | slot;
         s->cat[slot] = attr(o.categories, o.category, i);
         s->mask[slot] = attr(o.masks, o.mask, i);
         s->group[slot] = attr(o.groups, o.group, i);
         s->user[slot] = attr(o.users, o.user, i);
         s->flags[slot] = LC_SLOT_LIVE | ((o.flags & LOCD_OBJECT_STATIC) ? LC_SLOT_STATIC : 0);
+        lc_scene_set_box(s, slot, boxes, f64, i);
         lc_scene_mark_dirty(s, slot);
         ids_out[i] = s->id[slot];
     }
@@ -153,7 +150,6 @@ static locd_status move_common(locd_scene *s, const locd_id *ids, const void *bo
 {
     locd_status st;
     size_t i;
-    int a;
     if ((st = lc_scene_check_handle(s)) != LOCD_OK || (st = lc_scene_check_ids(s, ids, n)) != LOCD_OK)
         return st;
     st = f64 ? lc_scene_check_boxes_f64(boxes, n) : lc_scene_check_boxes_f32(boxes, n);
@@ -161,9 +157,7 @@ static locd_status move_common(locd_scene *s, const locd_id *ids, const void *bo
         return st;
     for (i = 0; i < n; i++) {
         uint32_t slot = LC_ID_SLOT(ids[i]);
-        double *b = s->box + 6 * (size_t)slot;
-        for (a = 0; a < 6; a++)
-            b[a] = f64 ? ((const double *)boxes)[6 * i + (size_t)a] : (double)((const float *)boxes)[6 * i + (size_t)a];
+        lc_scene_set_box(s, slot, boxes, f64, i);
         lc_scene_mark_dirty(s, slot);
     }
     lc_clear_error();
@@ -191,7 +185,9 @@ locd_status locd_scene_remove(locd_scene *s, const locd_id *ids, size_t n)
         uint32_t slot = LC_ID_SLOT(ids[i]);
         if (s->flags[slot] & LC_SLOT_STATIC)
             s->live_static--;
-        s->flags[slot] = (uint8_t)((s->flags[slot] & ~LC_SLOT_LIVE) | LC_SLOT_REMOVED);
+        if (s->flags[slot] & LC_SLOT_INEXACT)
+            s->ninexact--;
+        s->flags[slot] = (uint8_t)((s->flags[slot] & ~(LC_SLOT_LIVE | LC_SLOT_INEXACT)) | LC_SLOT_REMOVED);
         ((uint32_t *)s->removed.data)[s->nremoved++] = slot;
     }
     s->live -= n;

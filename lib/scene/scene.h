@@ -23,6 +23,7 @@
 #define LC_SLOT_REMOVED 0x8u /* removed since the last update; freed by the next one */
 #define LC_SLOT_INTREE 0x10u /* has entries in a tree list (its cells are in slot->cell) */
 #define LC_SLOT_REFILTER 0x20u /* its filter changed since the last update (its record is written again) */
+#define LC_SLOT_INEXACT 0x40u  /* live, and its box is not floats exactly (fbox holds it rounded) */
 
 /* An id: the serial number of the add (1, 2, ...: never reused) in the high
  * 32 bits, the slot in the low 32. Serials grow with every add, so sorting
@@ -40,8 +41,9 @@ typedef struct lc_cells {
     uint8_t level, span, pad[2];
 } lc_cells;
 
-/* What the search reads of a candidate, 48 bytes: the packed sweep box
- * (lc_pack_qbox), the filter, the slot and the flags. The records are
+/* What the search reads of a candidate, 56 bytes: the packed sweep box
+ * (lc_pack_qbox), the filter, the id (a found pair's row needs no read of
+ * the per-slot ids, a cache miss each), the slot and the flags. The records are
  * indexed by a dense index that the entries carry instead of the slot:
  * a rebuild numbers the objects in the order of the sorted entry lists,
  * so the objects of one cell have neighbouring records and a search reads
@@ -49,6 +51,7 @@ typedef struct lc_cells {
 typedef struct lc_hot {
     uint64_t qlo, qhi;
     uint64_t cat, mask, group;
+    locd_id id;
     uint32_t slot;
     uint32_t flags; /* LC_SLOT_STATIC; LC_SLOT_DIRTY while an update runs */
 } lc_hot;
@@ -78,7 +81,14 @@ typedef struct lc_tree {
 typedef struct lc_plist {
     lc_buf rows; /* locd_id, two a row */
     size_t count;
+    size_t first; /* the list starts at this row of the buffer (the carry pass's output; 0 elsewhere) */
 } lc_plist;
+
+/* The first row of a sorted pair list. */
+LC_INLINE locd_id *lc_plist_rows(const lc_plist *p)
+{
+    return (locd_id *)p->rows.data + 2 * p->first;
+}
 
 struct locd_scene {
     uint32_t magic;
@@ -95,6 +105,9 @@ struct locd_scene {
     size_t slot_cap;
     locd_id *id;        /* per slot; the current object's id (kept after removal until freed) */
     double *box;        /* 6 per slot */
+    float *fbox;        /* 6 per slot: the box as floats, the engine's cheaper input when every live box is floats
+                           exactly (ninexact == 0: always so through the f32 entry points) */
+    size_t ninexact;    /* live objects flagged LC_SLOT_INEXACT */
     uint64_t *cat, *mask, *group, *user;
     uint8_t *flags;
     uint32_t *stamp;     /* duplicate check of a batch */
@@ -132,6 +145,8 @@ int64_t lc_scene_slot(const locd_scene *s, locd_id id);
 locd_status lc_scene_reserve(locd_scene *s, size_t more);
 /* Takes a free slot (after lc_scene_reserve) for a new object; returns it. */
 uint32_t lc_scene_take_slot(locd_scene *s);
+/* Sets slot's box (double and float copies, the INEXACT flag and count) from 6 floats or doubles. */
+void lc_scene_set_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, size_t i);
 /* Marks a slot dirty (in scene->dirty; room reserved beforehand). */
 void lc_scene_mark_dirty(locd_scene *s, uint32_t slot);
 /* Releases every slot removed since the last update to the free list. */
@@ -173,8 +188,10 @@ LC_INLINE uint64_t lc_pair_key(const locd_id *row)
 }
 /* Sorts rows[0, n) (scratch: 2 * n locd_id) by key. */
 locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n);
-/* out = a \ b (both sorted); out has room for na rows. Returns rows written. */
-size_t lc_plist_minus(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out);
+/* Both differences of sorted a and b in one merge: amb = a \ b (room for
+ * na rows), bma = b \ a (room for nb rows). */
+void lc_plist_diff(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *amb, size_t *namb, locd_id *bma,
+                   size_t *nbma);
 
 /* ---- broad phase (rebuild.c, tree.c, find.c) ---- */
 void lc_scene_tree_fini(locd_scene *s);

@@ -37,8 +37,8 @@ locd_status lc_scene_reserve(locd_scene *s, size_t more)
     size_t need, cap, old;
     void **arrays[11];
     size_t elems[11];
-    void *fresh[11];
-    int k, nk = 11;
+    void *fresh[12];
+    int k, nk = 12;
     if (more <= s->nfree)
         return LOCD_OK;
     need = s->nslots + (more - s->nfree);
@@ -60,11 +60,12 @@ locd_status lc_scene_reserve(locd_scene *s, size_t more)
     arrays[7] = (void **)&s->stamp, elems[7] = sizeof(uint32_t);
     arrays[8] = (void **)&s->cell, elems[8] = sizeof(lc_cells);
     arrays[9] = (void **)&s->dense, elems[9] = sizeof(uint32_t);
-    arrays[10] = NULL, elems[10] = sizeof(uint32_t); /* the free list's room */
+    arrays[10] = (void **)&s->fbox, elems[10] = 6 * sizeof(float);
+    arrays[11] = NULL, elems[11] = sizeof(uint32_t); /* the free list's room */
     /* All or nothing: allocate every new array first, then swap them in. */
     for (k = 0; k < nk; k++) {
         fresh[k] = NULL;
-        if (k == 10) {
+        if (k == 11) {
             if (lc_buf_reserve(s->alloc, &s->free_slots, sizeof(uint32_t), cap) != LOCD_OK)
                 break;
             continue;
@@ -74,11 +75,11 @@ locd_status lc_scene_reserve(locd_scene *s, size_t more)
     }
     if (k < nk) {
         int j;
-        for (j = 0; j < k && j < 10; j++)
+        for (j = 0; j < k && j < 11; j++)
             lc_free(s->alloc, fresh[j], elems[j] * cap);
         return lc_error(LOCD_ERR_NO_MEMORY, "could not grow the scene to %zu slots", cap);
     }
-    for (k = 0; k < 10; k++) {
+    for (k = 0; k < 11; k++) {
         if (*arrays[k]) {
             memcpy(fresh[k], *arrays[k], elems[k] * old);
             lc_free(s->alloc, *arrays[k], elems[k] * old);
@@ -102,6 +103,30 @@ locd_status lc_scene_reserve_lists(locd_scene *s, size_t more_dirty, size_t more
         lc_buf_reserve(s->alloc, &s->removed, sizeof(uint32_t), s->nremoved + more_removed) != LOCD_OK)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not grow the scene's change lists");
     return LOCD_OK;
+}
+
+void lc_scene_set_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, size_t i)
+{
+    double *b = s->box + 6 * (size_t)slot;
+    float *f = s->fbox + 6 * (size_t)slot;
+    int a, exact = 1;
+    if (f64) {
+        const double *in = (const double *)boxes + 6 * i;
+        for (a = 0; a < 6; a++) {
+            b[a] = in[a];
+            f[a] = (float)in[a];
+            exact &= (double)f[a] == in[a];
+        }
+    } else {
+        const float *in = (const float *)boxes + 6 * i;
+        for (a = 0; a < 6; a++)
+            b[a] = (double)in[a], f[a] = in[a];
+    }
+    if (s->flags[slot] & LC_SLOT_INEXACT)
+        s->ninexact--;
+    s->flags[slot] = (uint8_t)((s->flags[slot] & ~LC_SLOT_INEXACT) | (exact ? 0 : LC_SLOT_INEXACT));
+    if (!exact)
+        s->ninexact++;
 }
 
 void lc_scene_mark_dirty(locd_scene *s, uint32_t slot)
@@ -129,6 +154,7 @@ void lc_scene_slots_fini(locd_scene *s)
     size_t c = s->slot_cap;
     lc_free(s->alloc, s->id, c * sizeof(locd_id));
     lc_free(s->alloc, s->box, c * 6 * sizeof(double));
+    lc_free(s->alloc, s->fbox, c * 6 * sizeof(float));
     lc_free(s->alloc, s->cat, c * sizeof(uint64_t));
     lc_free(s->alloc, s->mask, c * sizeof(uint64_t));
     lc_free(s->alloc, s->group, c * sizeof(uint64_t));

@@ -19,6 +19,9 @@
  * update costs (docs/scene.md). */
 #define LC_REBUILD_FRACTION 0.10
 
+/* How far ahead the passes over the dirty slots prefetch. */
+#define LC_AHEAD 8
+
 typedef struct upd {
     locd_scene *s;
     uint32_t flags;
@@ -252,7 +255,8 @@ typedef struct carry_ctx {
     size_t pb[LC_MAX_THREADS + 1], nb[LC_MAX_THREADS + 1]; /* row ranges */
     size_t ndrop[LC_MAX_THREADS], out_off[LC_MAX_THREADS], drop_off[LC_MAX_THREADS];
     locd_id *out, *drop;
-    int pass;
+    size_t out_end[LC_MAX_THREADS], drop_end[LC_MAX_THREADS]; /* pass 2: where each thread's rows end */
+    int pass; /* 1: count the dropped rows; 2: write; 3: two threads, no count (task_carry2) */
 } carry_ctx;
 
 LC_INLINE int row_changed(const uint64_t *bits, const locd_id *r)
@@ -288,6 +292,45 @@ static void task_carry(void *arg, uint32_t t, uint32_t k)
     }
     for (; j < c->nb[t + 1]; j++)
         c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1], w++;
+    c->out_end[t] = w, c->drop_end[t] = dw;
+}
+
+/* The carry pass on two threads in one pass, with no count first: thread
+ * 1 writes its rows forward from the position where thread 0's range
+ * would end if nothing were dropped, thread 0 writes its rows backward
+ * from that same position. The output is then one run that starts after
+ * the rows thread 0 dropped (lc_plist.first); so are the dropped rows. */
+static void task_carry2(void *arg, uint32_t t, uint32_t k)
+{
+    carry_ctx *c = arg;
+    size_t i = c->pb[1], j = c->nb[1], w = c->pb[1] + c->nb[1], dw = c->pb[1];
+    (void)k;
+    if (t == 1) {
+        c->out_off[1] = w, c->drop_off[1] = dw;
+        task_carry(arg, 1, 2);
+        return;
+    }
+    while (i > c->pb[0]) {
+        const locd_id *r = c->p + 2 * --i;
+        uint64_t key;
+        if (row_changed(c->changed, r)) {
+            dw--;
+            c->drop[2 * dw] = r[0], c->drop[2 * dw + 1] = r[1];
+            continue;
+        }
+        key = lc_pair_key(r);
+        while (j > c->nb[0] && lc_pair_key(c->n + 2 * (j - 1)) > key) {
+            j--, w--;
+            c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1];
+        }
+        w--;
+        c->out[2 * w] = r[0], c->out[2 * w + 1] = r[1];
+    }
+    while (j > c->nb[0]) {
+        j--, w--;
+        c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1];
+    }
+    c->out_off[0] = w, c->drop_off[0] = dw;
 }
 
 /* The first row of sorted rows[0, n) whose key is >= key. */
@@ -319,8 +362,7 @@ static void task_diff(void *arg, uint32_t t, uint32_t k)
     const locd_id *p = c->p + 2 * c->pb[t], *n = c->n + 2 * c->nb[t];
     size_t np = c->pb[t + 1] - c->pb[t], nn = c->nb[t + 1] - c->nb[t];
     (void)k;
-    c->ncr[t] = lc_plist_minus(n, nn, p, np, c->cr + 2 * c->nb[t]);
-    c->nlo[t] = lc_plist_minus(p, np, n, nn, c->lo + 2 * c->pb[t]);
+    lc_plist_diff(n, nn, p, np, c->cr + 2 * c->nb[t], &c->ncr[t], c->lo + 2 * c->pb[t], &c->nlo[t]);
 }
 
 static locd_status events_full(upd *u)
@@ -335,7 +377,7 @@ static locd_status events_full(upd *u)
         return st;
     if (u->next.count + s->pairs.count < 65536)
         k = 1;
-    c.p = s->pairs.rows.data, c.n = u->next.rows.data, c.cr = u->cr.rows.data, c.lo = u->lo.rows.data;
+    c.p = lc_plist_rows(&s->pairs), c.n = u->next.rows.data, c.cr = u->cr.rows.data, c.lo = u->lo.rows.data;
     for (t = 0; t <= k; t++) {
         c.nb[t] = u->next.count * t / k;
         c.pb[t] = t == 0 ? 0 : t == k ? s->pairs.count
@@ -378,10 +420,24 @@ static locd_status carry(upd *u, const lc_plist *n, lc_plist *dropped)
         bits[r[k] >> 6] |= (uint64_t)1 << (r[k] & 63);
     if (np < 65536)
         kk = 1;
-    c->s = s, c->changed = bits, c->p = s->pairs.rows.data, c->n = n->rows.data;
+    c->s = s, c->changed = bits, c->p = lc_plist_rows(&s->pairs), c->n = n->rows.data;
     for (t = 0; t <= kk; t++) {
         c->pb[t] = np * t / kk;
         c->nb[t] = t == 0 ? 0 : t == kk ? n->count : rows_lower_bound(n->rows.data, n->count, lc_pair_key(c->p + 2 * c->pb[t]));
+    }
+    if (kk == 2) {
+        if ((st = lc_plist_reserve(a, &u->next, np + n->count + 1)) != LOCD_OK ||
+            (st = lc_plist_reserve(a, dropped, np + 1)) != LOCD_OK)
+            goto done;
+        c->out = u->next.rows.data;
+        c->drop = dropped->rows.data;
+        c->pass = 3;
+        lc_pool_run(s->pool, 2, task_carry2, c);
+        u->next.first = c->out_off[0];
+        u->next.count = c->out_end[1] - c->out_off[0];
+        dropped->first = c->drop_off[0];
+        dropped->count = c->drop_end[1] - c->drop_off[0];
+        goto done;
     }
     c->pass = 1;
     if (kk > 1)
@@ -419,7 +475,7 @@ static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, c
 {
     locd_scene *s = u->s;
     const locd_allocator *a = s->alloc;
-    lc_plist n = {{NULL, 0}, 0}, dropped = {{NULL, 0}, 0};
+    lc_plist n = {{NULL, 0}, 0, 0}, dropped = {{NULL, 0}, 0, 0};
     locd_status st;
     double t0 = lc_now_ms(), t1;
     st = lc_scene_find_moved(s, dyn, sta, q, nq, &n, &u->candidates);
@@ -432,8 +488,8 @@ static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, c
         /* previous = kept + dropped, now = kept + n, kept disjoint from both */
         if ((st = lc_plist_reserve(a, &u->cr, n.count + 1)) == LOCD_OK &&
             (st = lc_plist_reserve(a, &u->lo, dropped.count + 1)) == LOCD_OK) {
-            u->cr.count = lc_plist_minus(n.rows.data, n.count, dropped.rows.data, dropped.count, u->cr.rows.data);
-            u->lo.count = lc_plist_minus(dropped.rows.data, dropped.count, n.rows.data, n.count, u->lo.rows.data);
+            lc_plist_diff(n.rows.data, n.count, lc_plist_rows(&dropped), dropped.count, u->cr.rows.data, &u->cr.count,
+                          u->lo.rows.data, &u->lo.count);
         }
     }
     u->ms_events = lc_now_ms() - t0;
@@ -475,6 +531,14 @@ static locd_status incremental(upd *u)
         int t = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
         uint64_t *q = u->new_q + 2 * k;
+        if (k + LC_AHEAD < s->ndirty) { /* the dirty slots are scattered: a miss each, overlapped */
+            uint32_t ahead = d[k + LC_AHEAD];
+            __builtin_prefetch(s->flags + ahead);
+            __builtin_prefetch(s->box + 6 * (size_t)ahead);
+            __builtin_prefetch(s->box + 6 * (size_t)ahead + 5);
+            __builtin_prefetch(s->cell + ahead);
+            __builtin_prefetch(s->dense + ahead);
+        }
         if (!(f & LC_SLOT_LIVE))
             continue;
         u->moved++;
@@ -509,6 +573,15 @@ static locd_status incremental(upd *u)
         lc_cells c;
         const uint64_t *q = u->new_q + 2 * k;
         uint32_t di;
+        if (k + LC_AHEAD < s->ndirty) {
+            uint32_t ahead = d[k + LC_AHEAD];
+            if ((s->flags[ahead] & (LC_SLOT_LIVE | LC_SLOT_INTREE)) == (LC_SLOT_LIVE | LC_SLOT_INTREE)) {
+                const char *h = (const char *)&s->hot[s->dense[ahead]];
+                __builtin_prefetch(h, 1);
+                __builtin_prefetch(h + sizeof(lc_hot) - 1, 1);
+                __builtin_prefetch(s->hq + 2 * (size_t)s->dense[ahead], 1);
+            }
+        }
         if (!(f & LC_SLOT_LIVE))
             continue;
         c = u->new_cells[k];
@@ -707,7 +780,7 @@ static locd_status give_list(const locd_scene *s, const lc_plist *p, int shown, 
         return st;
     if (!pairs || !count)
         return lc_error(LOCD_ERR_NULL_POINTER, "pairs or count is NULL");
-    *pairs = shown ? p->rows.data : NULL;
+    *pairs = shown ? lc_plist_rows(p) : NULL;
     *count = shown ? p->count : 0;
     lc_clear_error();
     return LOCD_OK;
