@@ -212,13 +212,15 @@ int lc_srv_read_submit(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **out,
         return 0;
     }
     if (refused || !ok) {
-        lc_srv_send_result(c, j->id, refused ? st : LOCD_ERR_IO, fail, -1, NULL, NULL, 0);
+        uint64_t id = j->id;
+        /* Out of the count before the answer: see server_jobs.c, answer(). */
         if (refused) {
             lc_srv_log(c->s, LOCD_LOG_INFO, "refused a job of %s: %s", c->peer, fail);
             lc_srv_job_free(j);
         } else {
-            lc_srv_job_retire(j);
+            lc_srv_job_retire(j); /* this thread's reference keeps c */
         }
+        lc_srv_send_result(c, id, refused ? st : LOCD_ERR_IO, fail, -1, NULL, NULL, 0);
         return 1;
     }
     *out = j;

@@ -88,7 +88,8 @@ void lc_srv_job_retire(lc_srv_job *j)
         c->jobs = j->cnext;
     if (j->cnext)
         j->cnext->cprev = j->cprev;
-    c->njobs--;
+    if (!j->answered)
+        c->njobs--;
     c->boxes_in_flight -= j->f.n;
     __atomic_sub_fetch(&c->bytes_in_flight, (uint64_t)j->bytes, __ATOMIC_RELAXED);
     lc_srv_conn_unref_locked(c);
@@ -298,11 +299,25 @@ static locd_status runner_engine(runner *r, const lc_submit_fixed *f)
     return LOCD_OK;
 }
 
+/* Sends the job's RESULT. The job stops counting as in flight first: the
+ * client may submit its next one as soon as it has read this, before the
+ * runner retires this job, and it throttles on the RESULTs it has seen. */
+static void answer(lc_srv_job *j, locd_status st, const char *msg, int64_t index, const locd_stats *stats,
+                   const uint32_t *pairs, size_t count)
+{
+    lc_server *s = j->c->s;
+    pthread_mutex_lock(&s->mu);
+    j->c->njobs--;
+    j->answered = 1;
+    pthread_mutex_unlock(&s->mu);
+    lc_srv_send_result(j->c, j->id, st, msg, index, stats, pairs, count);
+}
+
 static int job_cancelled(lc_srv_job *j)
 {
     if (!cancelled(j))
         return 0;
-    lc_srv_send_result(j->c, j->id, LOCD_ERR_CANCELLED, "cancelled", -1, NULL, NULL, 0);
+    answer(j, LOCD_ERR_CANCELLED, "cancelled", -1, NULL, NULL, 0);
     return 1;
 }
 
@@ -321,18 +336,18 @@ static void run_job(runner *r, lc_srv_job *j)
     if (rc && r->stop) {
         char msg[200];
         rc = stop_status(r, msg, sizeof msg);
-        lc_srv_send_result(j->c, j->id, rc, msg, -1, NULL, NULL, 0);
+        answer(j, rc, msg, -1, NULL, NULL, 0);
         return;
     }
     if (rc) {
-        lc_srv_send_result(j->c, j->id, rc, lc_last_error_detail(), locd_last_error_index(), NULL, NULL, 0);
+        answer(j, rc, lc_last_error_detail(), locd_last_error_index(), NULL, NULL, 0);
         return;
     }
     if (job_cancelled(j)) /* cancelled while running: dropped */
         return;
     locd_stats_init(&st);
     locd_engine_stats(r->engine, &st);
-    lc_srv_send_result(j->c, j->id, LOCD_OK, NULL, -1, &st, locd_pairs_data(r->pairs), locd_pairs_count(r->pairs));
+    answer(j, LOCD_OK, NULL, -1, &st, locd_pairs_data(r->pairs), locd_pairs_count(r->pairs));
 }
 
 /* A huge job's buffers (engine and result) go once it is answered: the

@@ -221,6 +221,7 @@ typedef struct lc_srv_job {
     void *boxes;
     size_t bytes;
     uint64_t pairs_seen; /* runner only: pairs counted into c->pairs_running */
+    int answered;        /* under s->mu: its RESULT is on the way (no longer counts in c->njobs) */
 } lc_srv_job;
 
 struct lc_srv_conn {
