@@ -47,6 +47,11 @@ struct lc_queued_job; /* submit.c */
 typedef struct lc_stop {
     int (*check)(void *user, uint64_t pairs);
     void *user;
+    /* NULL, or a flag raised (by any thread) to stop the find at once: the
+       sweep polls it inside its cells too (lc_sweep_out.stop), so a
+       dense cell of seconds of work is cut short; the find then fails
+       with LOCD_ERR_CANCELLED. */
+    const int *flag;
 } lc_stop;
 
 /* Levels 1 and 2: the engine's queue of generic jobs (submit.c), drained

@@ -108,6 +108,8 @@ static int stop_requested(lc_job_ctx *c, uint64_t pairs)
 {
     const lc_stop *s = &c->e->stop;
     int st = __atomic_load_n(&c->stopped, __ATOMIC_RELAXED);
+    if (!st && s->flag && __atomic_load_n(s->flag, __ATOMIC_RELAXED))
+        st = LOCD_ERR_CANCELLED;
     if (!st && s->check && (st = s->check(s->user, pairs)) != 0)
         __atomic_store_n(&c->stopped, st, __ATOMIC_RELAXED);
     return st;
@@ -341,8 +343,10 @@ static locd_status sweep(lc_job_ctx *c, locd_stats *stats, size_t *npairs)
     locd_status st = LOCD_OK;
     uint32_t t;
     lend_dead_entries(c);
-    for (t = 0; t < c->plan.k; t++)
+    for (t = 0; t < c->plan.k; t++) {
         c->ip->sw[t].split = (uint32_t)c->split;
+        c->ip->sw[t].stop = c->e->stop.flag;
+    }
     lc_pool_run(c->ip->pool, c->plan.k, task_sweep, c);
     *npairs = 0;
     for (t = 0; t < c->plan.k; t++) {
@@ -450,9 +454,12 @@ static locd_status inproc_run(locd_engine *e, const void *boxes, size_t n, size_
     }
     if (st == LOCD_OK && c->stopped) /* *out is untouched: hand_over did not run */
         st = lc_error(c->stopped, "the find was stopped before it finished");
+    else if (st == LOCD_ERR_CANCELLED) /* the sweep saw the stop flag (on a pool thread) */
+        st = lc_error(st, "the find was stopped before it finished");
     for (t = 0; t < c->plan.k; t++) {
         lc_sweep_out_lend(&c->ip->sw[t], NULL, 0);
         c->ip->sw[t].split = 0;
+        c->ip->sw[t].stop = NULL;
     }
     lc_free(&e->alloc, c, sizeof *c);
     return st;

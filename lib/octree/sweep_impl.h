@@ -196,6 +196,8 @@ LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, lc_sweep_sta
     for (t = 0; t < m; t++) {
         const size_t r = own + t;
         size_t win;
+        if (cx->o->stop && t % LC_SWEEP_POLL == LC_SWEEP_POLL - 1 && __atomic_load_n(cx->o->stop, __ATOMIC_RELAXED))
+            return LOCD_ERR_CANCELLED; /* a dense cell may be seconds of work */
         entry_from_row(&ss->sc, r);
         win = slabbed ? ss->slab[slab_of(&ss->sl, (int64_t)ss->sc.lo[0] - ss->ext)] : own;
         if ((st = reserve_pairs(cx, (own - first) + (r - win))) != LOCD_OK)
@@ -266,7 +268,7 @@ static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T 
     const uint32_t ib = g->index_bits;
     lc_sweep_ctx cx;
     lc_sweep_state ss;
-    size_t p, pf;
+    size_t p, pf, cells = 0;
     locd_status st;
 
     begin = cell_start_from(entries, count, begin, ib);
@@ -279,8 +281,10 @@ static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T 
     if (begin > 0 && (st = LC_FN(rebuild_stack_)(&cx, &ss, boxes, begin)) != LOCD_OK)
         return st;
     /* One cell at a time: its entries are contiguous in the sorted array. */
-    for (p = pf = begin; p < end;) {
+    for (p = pf = begin; p < end; cells++) {
         const size_t q = cell_end(entries, p, end, ib);
+        if (o->stop && cells % LC_SWEEP_POLL == LC_SWEEP_POLL - 1 && __atomic_load_n(o->stop, __ATOMIC_RELAXED))
+            return LOCD_ERR_CANCELLED;
         /* Keep the loads of the next LC_PREFETCH entries past this cell in
            flight: a dense cell reads all its boxes at once. */
         for (; pf < q + LC_PREFETCH && pf < end; pf++)

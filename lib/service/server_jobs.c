@@ -238,6 +238,8 @@ static void runner_track(runner *r, lc_srv_job *j)
         __atomic_add_fetch(&j->c->bytes_in_flight, r->used, __ATOMIC_RELAXED);
         r->t_end = lc_now_ms() + (double)r->s->cfg.max_job_ms;
     }
+    if (r->engine) /* the sweep polls the job's own cancel flag */
+        r->engine->stop.flag = j ? &j->cancelled : NULL;
     pthread_mutex_unlock(&r->amu);
 }
 
@@ -296,6 +298,7 @@ static locd_status runner_engine(runner *r, const lc_submit_fixed *f)
         return st;
     r->engine->stop.check = runner_check;
     r->engine->stop.user = r;
+    r->engine->stop.flag = &r->job->cancelled;
     return LOCD_OK;
 }
 
@@ -333,6 +336,8 @@ static void run_job(runner *r, lc_srv_job *j)
     if (!rc)
         rc = j->f.f64 ? locd_engine_find_pairs_f64(r->engine, j->boxes, (size_t)j->f.n, j->f.flags, r->pairs)
                       : locd_engine_find_pairs_f32(r->engine, j->boxes, (size_t)j->f.n, j->f.flags, r->pairs);
+    if (rc && cancelled(j))
+        stop_for(r, STOP_CANCELLED);
     if (rc && r->stop) {
         char msg[200];
         rc = stop_status(r, msg, sizeof msg);
