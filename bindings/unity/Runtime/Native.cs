@@ -43,6 +43,8 @@ namespace Locd
         StaleId = -20,
         /// <summary>A scene id appears twice in one batch (LocdException.Index: its position).</summary>
         DuplicateId = -21,
+        /// <summary>The job exceeds a limit of the service (boxes, pairs, memory, time, jobs in flight); only it failed.</summary>
+        Limit = -22,
         Internal = -100,
     }
 
