@@ -680,12 +680,26 @@ static void stopping_reaches_a_running_job(void)
     float *busy = busy_boxes(BUSY_N);
     unix_listen(listen, sizeof listen, "cancel");
     TEST_ASSERT_TRUE(serve(&v, listen, 0, NULL));
-    /* How long the busy job runs when nobody stops it. */
+    /* How long the busy job runs when nobody stops it; its pairs, swept in
+       blocks that ask the stop hook, are level 1's in level 1's order. */
     TEST_ASSERT_EQUAL_INT(LOCD_OK, make_engine(v.addr, NULL, &e));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &p));
     t0 = lu_now_ms();
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_find_pairs_f32(e, busy, BUSY_N, 0, p));
     full = lu_now_ms() - t0;
+    {
+        locd_engine *e1 = NULL;
+        locd_pairs *want = NULL;
+        locd_engine_config cfg;
+        locd_engine_config_init(&cfg);
+        cfg.threads = 2;
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_create(&cfg, &e1));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &want));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_find_pairs_f32(e1, busy, BUSY_N, 0, want));
+        TEST_ASSERT_TRUE_MESSAGE(lu_same_pairs(want, p), "the service's pairs differ from level 1's");
+        locd_pairs_destroy(want);
+        locd_engine_destroy(e1);
+    }
     locd_pairs_destroy(p);
     locd_engine_destroy(e);
     cancel_ms = other_job_ms(&v, 0);
