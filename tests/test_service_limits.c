@@ -514,22 +514,23 @@ static void slow_reader_does_not_hold_a_runner(void)
     pthread_t th;
     locd_engine *e = NULL;
     locd_pairs *p = NULL;
-    float *same = same_boxes(3000), *b = ts_scene(0, 2000, 5);
+    uint64_t n = lu_heavy() ? 3000 : 1500;
+    float *same = same_boxes((size_t)n), *b = ts_scene(0, 2000, 5);
     uint8_t m[24 + 36];
-    uint64_t n = 3000;
     double t0, took;
     unix_listen(listen, sizeof listen, "slow");
     TEST_ASSERT_TRUE(serve(&v, listen, 0, "--send-timeout", "500", NULL));
-    /* 3,000 identical boxes: a 36 MB result the reader takes a byte at a time. */
+    /* 3,000 identical boxes: a 36 MB result the reader takes a byte at a time
+       (1,500 and 9 MB under the sanitizers: still far more than the socket holds). */
     rc.fd = raw_connect(v.addr);
     rc.stop = 0;
     rc.closed = 0;
     hello(rc.fd, NULL);
     memset(m, 0, sizeof m);
-    put_header(m, 3, 1, 36 + 3000 * 24);
+    put_header(m, 3, 1, 36 + n * 24);
     memcpy(m + 24 + 8, &n, 8);
     TEST_ASSERT_EQUAL_INT(24 + 36, send(rc.fd, m, 24 + 36, MSG_NOSIGNAL));
-    TEST_ASSERT_EQUAL_INT(3000 * 24, send(rc.fd, same, 3000 * 24, MSG_NOSIGNAL));
+    TEST_ASSERT_EQUAL_INT((int)(n * 24), send(rc.fd, same, (size_t)n * 24, MSG_NOSIGNAL));
     TEST_ASSERT_EQUAL_INT(0, pthread_create(&th, NULL, slow_reader, &rc));
     lu_sleep_ms(200);
     /* A normal job of another client on the service's one runner. */
@@ -540,7 +541,8 @@ static void slow_reader_does_not_hold_a_runner(void)
     took = lu_now_ms() - t0;
     TEST_ASSERT_TRUE(ts_same_as_brute_f32(b, 2000, p));
     LT_PRINT("slow reader: the other client's job took %.0f ms\n", took);
-    TEST_ASSERT_TRUE_MESSAGE(took < 5000, "the slow reader held the runner");
+    /* Without the send deadline it waited for the slow reader: 62 s. */
+    TEST_ASSERT_TRUE_MESSAGE(took < 10000, "the slow reader held the runner");
     rc.stop = 1;
     pthread_join(th, NULL);
     TEST_ASSERT_TRUE(rc.closed || closed_by_peer(rc.fd, 2000));
@@ -833,7 +835,8 @@ static void out_of_descriptors_backs_off(void)
     still_serving(&v, NULL);
     stop(&v);
     {
-        /* The failure was logged once, not once per try. */
+        /* The failure was logged once per episode (closing the clients
+           may start a second one), not once per try every 100 ms. */
         FILE *f = fopen(v.log, "r");
         char line[512];
         int count = 0;
@@ -841,7 +844,8 @@ static void out_of_descriptors_backs_off(void)
             count += strstr(line, "cannot accept connections") != NULL;
         if (f)
             fclose(f);
-        TEST_ASSERT_EQUAL_INT(1, count);
+        LT_PRINT("out of descriptors: logged %d times\n", count);
+        TEST_ASSERT_TRUE(count >= 1 && count <= 3);
     }
 }
 

@@ -161,7 +161,7 @@ static void stop_runners(lc_server *s)
 {
     uint32_t i;
     pthread_mutex_lock(&s->mu);
-    s->stopping = 1;
+    __atomic_store_n(&s->stopping, 1, __ATOMIC_RELAXED); /* runners' stop hooks read it unlocked */
     pthread_cond_broadcast(&s->cv);
     pthread_mutex_unlock(&s->mu);
     for (i = 0; i < s->nrunners; i++)
