@@ -222,7 +222,7 @@ static int evict_unauthenticated_locked(lc_server *s)
 {
     lc_srv_conn *c, *oldest = NULL;
     for (c = s->conns; c; c = c->next)
-        if (!c->authed && c->fd >= 0 && (!oldest || c->since < oldest->since))
+        if (!c->authed && (!oldest || c->since < oldest->since))
             oldest = c;
     if (!oldest)
         return 0;
