@@ -9,10 +9,14 @@
 /* Below this many objects one thread beats waking the others. */
 #define LC_PARALLEL_MIN_OBJECTS 4096
 /* With a stop hook (engine.h, lc_stop: the service's runners) the sweep
- * runs in blocks of this many entries and asks the hook between them. A
- * block boundary moves forward to the next cell start, as a thread's slice
- * does, so the pairs and their order are those of one sweep. */
+ * runs in blocks of at least this many entries, at most LC_STOP_BLOCKS a
+ * slice, and asks the hook between them. A block boundary moves forward to
+ * the next cell start, as a thread's slice does, so the pairs and their
+ * order are those of one sweep; each block rebuilds its ancestors' records,
+ * hence the cap on their number (cancelling needs no block: the sweep
+ * polls lc_stop.flag itself). */
 #define LC_STOP_BLOCK ((size_t)1 << 15)
+#define LC_STOP_BLOCKS 16
 
 typedef struct lc_inproc {
     lc_pool *pool;
@@ -118,11 +122,13 @@ static int stop_requested(lc_job_ctx *c, uint64_t pairs)
 /* The sweep of [b, e) in blocks, asking the stop hook between them. */
 static locd_status sweep_blocks(lc_job_ctx *c, size_t b, size_t e, lc_sweep_out *o)
 {
-    size_t p, q;
+    size_t p, q, step = (e - b) / LC_STOP_BLOCKS + 1;
+    if (step < LC_STOP_BLOCK)
+        step = LC_STOP_BLOCK;
     for (p = b; p < e; p = q) {
         size_t before = o->count;
         locd_status st;
-        q = e - p > LC_STOP_BLOCK ? p + LC_STOP_BLOCK : e;
+        q = e - p > step ? p + step : e;
         if ((st = sweep_part(c, p, q, o)) != LOCD_OK)
             return st;
         if (stop_requested(c, __atomic_add_fetch(&c->swept, (uint64_t)(o->count - before), __ATOMIC_RELAXED)))
