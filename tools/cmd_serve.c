@@ -40,6 +40,19 @@ static void serve_usage(void)
            "  --engine-threads T   threads of each runner's engine (default 1)\n"
            "  --max-mb M           largest message accepted, in MiB (default 1024)\n"
            "  --max-clients C      connections at once (default 256)\n"
+           "  --max-jobs J         jobs in flight per connection (default 1024)\n"
+           "Limits per job and per client (a job over one fails alone with LOCD_ERR_LIMIT):\n"
+           "  --max-job-boxes N    boxes in one job (default 67108864)\n"
+           "  --max-job-pairs N    pairs one job may find (default 134217728)\n"
+           "  --max-job-mb M       memory of one job, boxes included, MiB (default 4096)\n"
+           "  --max-job-ms T       wall time of one job (default 600000)\n"
+           "  --max-client-boxes N boxes of one connection's jobs in flight (default 134217728)\n"
+           "  --max-client-pairs N pairs of one connection's running jobs (default 268435456)\n"
+           "  --max-client-mb M    memory of one connection's jobs in flight, MiB (default 8192)\n"
+           "Deadlines, each for the whole step, in ms:\n"
+           "  --auth-timeout T     to authenticate after connecting (default 5000)\n"
+           "  --message-timeout T  for a message once its first byte came (default 30000)\n"
+           "  --send-timeout T     for a client to take one result (default 30000; then it is dropped)\n"
            "  --verbose            also log connects and disconnects\n"
            "Runs in the foreground until SIGINT or SIGTERM.\n");
 }
@@ -74,6 +87,30 @@ int cmd_serve(int argc, char **argv)
             cfg.max_message = (uint64_t)cli_size_option(argv[++a], 1, 1u << 20, "serve: bad --max-mb") << 20;
         } else if (!strcmp(o, "--max-clients") && more) {
             cfg.max_clients = (uint32_t)cli_size_option(argv[++a], 1, 100000, "serve: bad --max-clients");
+        } else if (!strcmp(o, "--max-jobs") && more) {
+            cfg.max_jobs = (uint32_t)cli_size_option(argv[++a], 1, 1u << 20, "serve: bad --max-jobs");
+        } else if (!strcmp(o, "--max-job-boxes") && more) {
+            cfg.max_job_boxes = cli_size_option(argv[++a], 1, (size_t)1 << 32, "serve: bad --max-job-boxes");
+        } else if (!strcmp(o, "--max-job-pairs") && more) {
+            cfg.max_job_pairs = cli_size_option(argv[++a], 1, (size_t)1 << 40, "serve: bad --max-job-pairs");
+        } else if (!strcmp(o, "--max-job-mb") && more) {
+            cfg.max_job_memory = (uint64_t)cli_size_option(argv[++a], 1, 1u << 24, "serve: bad --max-job-mb") << 20;
+        } else if (!strcmp(o, "--max-job-ms") && more) {
+            cfg.max_job_ms = (uint32_t)cli_size_option(argv[++a], 1, 2000000000u, "serve: bad --max-job-ms");
+        } else if (!strcmp(o, "--max-client-boxes") && more) {
+            cfg.max_client_boxes = cli_size_option(argv[++a], 1, (size_t)1 << 40, "serve: bad --max-client-boxes");
+        } else if (!strcmp(o, "--max-client-pairs") && more) {
+            cfg.max_client_pairs = cli_size_option(argv[++a], 1, (size_t)1 << 40, "serve: bad --max-client-pairs");
+        } else if (!strcmp(o, "--max-client-mb") && more) {
+            cfg.max_client_memory =
+                (uint64_t)cli_size_option(argv[++a], 1, 1u << 24, "serve: bad --max-client-mb") << 20;
+        } else if (!strcmp(o, "--auth-timeout") && more) {
+            cfg.auth_timeout_ms = (uint32_t)cli_size_option(argv[++a], 1, 3600000, "serve: bad --auth-timeout");
+        } else if (!strcmp(o, "--message-timeout") && more) {
+            cfg.message_timeout_ms =
+                (uint32_t)cli_size_option(argv[++a], 1, 3600000, "serve: bad --message-timeout");
+        } else if (!strcmp(o, "--send-timeout") && more) {
+            cfg.send_timeout_ms = (uint32_t)cli_size_option(argv[++a], 1, 3600000, "serve: bad --send-timeout");
         } else if (!strcmp(o, "--verbose")) {
             verbose = 1;
         } else {

@@ -83,6 +83,7 @@ typedef int32_t locd_status;
 #define LOCD_ERR_SHAPE (-19)            /* a shape description is invalid */
 #define LOCD_ERR_STALE_ID (-20)         /* a scene id was removed or never issued (index in locd_last_error_index) */
 #define LOCD_ERR_DUPLICATE_ID (-21)     /* a scene id appears twice in one batch (index in locd_last_error_index) */
+#define LOCD_ERR_LIMIT (-22)            /* the job exceeds a limit of the service (boxes, pairs, memory, time, jobs in flight) */
 #define LOCD_ERR_INTERNAL (-100)        /* a bug: please report it */
 
 /* Static English description of a status code; never NULL. */

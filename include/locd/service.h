@@ -21,6 +21,18 @@ typedef struct locd_service_config {
     uint32_t max_jobs;       /* jobs in flight per connection; 0 = 1024 */
     locd_log_fn log;         /* NULL = silent */
     void *log_user;
+    /* Limits and deadlines (docs/levels.md, "Limits and deadlines"). 0 = the
+     * default given. A job over a limit fails alone with LOCD_ERR_LIMIT. */
+    uint32_t auth_timeout_ms;    /* total time to authenticate (HELLO); 0 = 5000 */
+    uint32_t message_timeout_ms; /* total time for one message once it started; 0 = 30000 */
+    uint32_t send_timeout_ms;    /* total time to write one RESULT; 0 = 30000 (then the client is dropped) */
+    uint32_t max_job_ms;         /* wall time a job may run; 0 = 600000 (10 minutes) */
+    uint64_t max_job_boxes;      /* boxes in one job; 0 = 2^26 */
+    uint64_t max_job_pairs;      /* pairs one job may find; 0 = 2^27 (1 GiB of pairs) */
+    uint64_t max_job_memory;     /* bytes of one job: its boxes + what its find allocates; 0 = 4 GiB */
+    uint64_t max_client_boxes;   /* boxes of one connection's jobs in flight; 0 = 2^27 */
+    uint64_t max_client_pairs;   /* pairs of one connection's running jobs together; 0 = 2^28 */
+    uint64_t max_client_memory;  /* bytes held for one connection's jobs in flight; 0 = 8 GiB */
 } locd_service_config;
 
 /* Smallest config->size accepted: size alone (and the padding after it),

@@ -37,6 +37,7 @@ const char *locd_status_string(locd_status status)
     case LOCD_ERR_SHAPE: return "invalid shape";
     case LOCD_ERR_STALE_ID: return "stale or unknown scene id";
     case LOCD_ERR_DUPLICATE_ID: return "scene id repeated in one batch";
+    case LOCD_ERR_LIMIT: return "the job exceeds a limit of the service";
     case LOCD_ERR_INTERNAL: return "internal error";
     default: return "unknown status";
     }

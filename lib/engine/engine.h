@@ -38,6 +38,22 @@ extern const lc_backend lc_service_backend; /* service/client.c */
 
 struct lc_queued_job; /* submit.c */
 
+/* A cooperative stop for a running find, set by the service on its
+ * runners' engines (NULL check everywhere else: a normal find never looks).
+ * check is called from any thread of the find (it must be thread-safe)
+ * between stages and between blocks of the sweep, with the pairs found so
+ * far by this call; it returns 0 to go on or the status (< 0) the find
+ * then fails with. Only level 1 calls it. */
+typedef struct lc_stop {
+    int (*check)(void *user, uint64_t pairs);
+    void *user;
+    /* NULL, or a flag raised (by any thread) to stop the find at once: the
+       sweep polls it inside its cells too (lc_sweep_out.stop), so a
+       dense cell of seconds of work is cut short; the find then fails
+       with LOCD_ERR_CANCELLED. */
+    const int *flag;
+} lc_stop;
+
 /* Levels 1 and 2: the engine's queue of generic jobs (submit.c), drained
  * by one thread at a time. Guarded by the engine's mu. */
 typedef struct lc_job_queue {
@@ -63,6 +79,7 @@ struct locd_engine {
     locd_pairs last; /* results of *_into calls */
     const lc_backend *ops;
     void *backend; /* the level's own state */
+    lc_stop stop;  /* all NULL unless the service set it */
 };
 
 /* ---- helpers the engine shares with its jobs and levels (shared.c) ----

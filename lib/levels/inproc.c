@@ -8,6 +8,15 @@
 
 /* Below this many objects one thread beats waking the others. */
 #define LC_PARALLEL_MIN_OBJECTS 4096
+/* With a stop hook (engine.h, lc_stop: the service's runners) the sweep
+ * runs in blocks of at least this many entries, at most LC_STOP_BLOCKS a
+ * slice, and asks the hook between them. A block boundary moves forward to
+ * the next cell start, as a thread's slice does, so the pairs and their
+ * order are those of one sweep; each block rebuilds its ancestors' records,
+ * hence the cap on their number (cancelling needs no block: the sweep
+ * polls lc_stop.flag itself). */
+#define LC_STOP_BLOCK ((size_t)1 << 15)
+#define LC_STOP_BLOCKS 16
 
 typedef struct lc_inproc {
     lc_pool *pool;
@@ -36,6 +45,8 @@ typedef struct lc_job_ctx {
     size_t pair_off[LC_MAX_THREADS];
     double ms_enc[LC_MAX_THREADS], ms_sort[LC_MAX_THREADS];
     uint32_t *dst;
+    uint64_t swept; /* pairs found so far by all sweep threads (atomic; with a stop hook) */
+    int stopped;    /* the stop hook's status (atomic), 0 while going on */
 } lc_job_ctx;
 
 static void task_bounds(void *arg, uint32_t t, uint32_t k)
@@ -88,6 +99,44 @@ static void task_merge(void *arg, uint32_t t, uint32_t k)
     lc_merge_ranges(c->plan.runs, lo, hi, k, (uint64_t *)c->ip->scr.data + r0);
 }
 
+static locd_status sweep_part(lc_job_ctx *c, size_t b, size_t e, lc_sweep_out *o)
+{
+    if (c->f64)
+        return lc_sweep_range_f64(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, c->plan.total, b, e, o);
+    return lc_sweep_range_f32(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, c->plan.total, b, e, o);
+}
+
+/* Asks the engine's stop hook (if any) with the pairs found so far; the
+ * first thread told to stop records the status for the others. */
+static int stop_requested(lc_job_ctx *c, uint64_t pairs)
+{
+    const lc_stop *s = &c->e->stop;
+    int st = __atomic_load_n(&c->stopped, __ATOMIC_RELAXED);
+    if (!st && s->flag && __atomic_load_n(s->flag, __ATOMIC_RELAXED))
+        st = LOCD_ERR_CANCELLED;
+    if (!st && s->check && (st = s->check(s->user, pairs)) != 0)
+        __atomic_store_n(&c->stopped, st, __ATOMIC_RELAXED);
+    return st;
+}
+
+/* The sweep of [b, e) in blocks, asking the stop hook between them. */
+static locd_status sweep_blocks(lc_job_ctx *c, size_t b, size_t e, lc_sweep_out *o)
+{
+    size_t p, q, step = (e - b) / LC_STOP_BLOCKS + 1;
+    if (step < LC_STOP_BLOCK)
+        step = LC_STOP_BLOCK;
+    for (p = b; p < e; p = q) {
+        size_t before = o->count;
+        locd_status st;
+        q = e - p > step ? p + step : e;
+        if ((st = sweep_part(c, p, q, o)) != LOCD_OK)
+            return st;
+        if (stop_requested(c, __atomic_add_fetch(&c->swept, (uint64_t)(o->count - before), __ATOMIC_RELAXED)))
+            return LOCD_OK; /* inproc_run sees c->stopped */
+    }
+    return LOCD_OK;
+}
+
 static void task_sweep(void *arg, uint32_t t, uint32_t k)
 {
     lc_job_ctx *c = arg;
@@ -95,10 +144,7 @@ static void task_sweep(void *arg, uint32_t t, uint32_t k)
     lc_sweep_out *o = &c->ip->sw[t];
     o->count = 0;
     o->candidates = o->exact_tests = 0;
-    if (c->f64)
-        c->status[t] = lc_sweep_range_f64(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, c->plan.total, b, e, o);
-    else
-        c->status[t] = lc_sweep_range_f32(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, c->plan.total, b, e, o);
+    c->status[t] = c->e->stop.check ? sweep_blocks(c, b, e, o) : sweep_part(c, b, e, o);
 }
 
 static void task_gather(void *arg, uint32_t t, uint32_t k)
@@ -303,8 +349,10 @@ static locd_status sweep(lc_job_ctx *c, locd_stats *stats, size_t *npairs)
     locd_status st = LOCD_OK;
     uint32_t t;
     lend_dead_entries(c);
-    for (t = 0; t < c->plan.k; t++)
+    for (t = 0; t < c->plan.k; t++) {
         c->ip->sw[t].split = (uint32_t)c->split;
+        c->ip->sw[t].stop = c->e->stop.flag;
+    }
     lc_pool_run(c->ip->pool, c->plan.k, task_sweep, c);
     *npairs = 0;
     for (t = 0; t < c->plan.k; t++) {
@@ -404,14 +452,20 @@ static locd_status inproc_run(locd_engine *e, const void *boxes, size_t n, size_
     if (!(c = new_job(e, boxes, n, split, f64)))
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the call state");
     stats->threads = c->plan.k;
-    if ((st = fit_grid(c, stats)) == LOCD_OK && (st = encode_sort(e, c, stats)) == LOCD_OK) {
+    if ((st = fit_grid(c, stats)) == LOCD_OK && !stop_requested(c, 0) && (st = encode_sort(e, c, stats)) == LOCD_OK &&
+        !stop_requested(c, 0)) {
         merge_runs(c, stats);
-        if ((st = sweep(c, stats, &npairs)) == LOCD_OK)
+        if (!stop_requested(c, 0) && (st = sweep(c, stats, &npairs)) == LOCD_OK && !stop_requested(c, npairs))
             st = hand_over(e, c, flags, npairs, out, stats);
     }
+    if (st == LOCD_OK && c->stopped) /* *out is untouched: hand_over did not run */
+        st = lc_error(c->stopped, "the find was stopped before it finished");
+    else if (st == LOCD_ERR_CANCELLED) /* the sweep saw the stop flag (on a pool thread) */
+        st = lc_error(st, "the find was stopped before it finished");
     for (t = 0; t < c->plan.k; t++) {
         lc_sweep_out_lend(&c->ip->sw[t], NULL, 0);
         c->ip->sw[t].split = 0;
+        c->ip->sw[t].stop = NULL;
     }
     lc_free(&e->alloc, c, sizeof *c);
     return st;

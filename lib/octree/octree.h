@@ -144,7 +144,14 @@ typedef struct lc_sweep_out {
        with one object of each are reported (as (a's index, b's index +
        split)). Set between sweeps by the level that runs them. */
     uint32_t split;
+    /* NULL, or a flag another thread may raise to stop the sweep: it is
+       read every LC_SWEEP_POLL rows of a dense cell and every
+       LC_SWEEP_POLL cells, and a raised flag makes the sweep return
+       LOCD_ERR_CANCELLED (its pairs are then incomplete). Set between
+       sweeps by the level that runs them. */
+    const int *stop;
 } lc_sweep_out;
+#define LC_SWEEP_POLL 64u
 /* kernel: the LC_KERNEL_* every sweep into o uses (lc_kernel_choose). */
 void lc_sweep_out_init(lc_sweep_out *o, const locd_allocator *a, int kernel);
 void lc_sweep_out_fini(lc_sweep_out *o);

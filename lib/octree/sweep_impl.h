@@ -209,6 +209,8 @@ LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, lc_sweep_sta
         const size_t r = own + t;
         size_t win;
         uint32_t bx, bx0, sx, by0, by1;
+        if (cx->o->stop && t % LC_SWEEP_POLL == LC_SWEEP_POLL - 1 && __atomic_load_n(cx->o->stop, __ATOMIC_RELAXED))
+            return LOCD_ERR_CANCELLED; /* a dense cell may be seconds of work */
         entry_from_row(&ss->sc, r);
         if (!slabbed) { /* one contiguous run of candidates */
             if ((st = reserve_pairs(cx, r - first)) != LOCD_OK)
@@ -314,7 +316,7 @@ static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T 
     const uint32_t ib = g->index_bits;
     lc_sweep_ctx cx;
     lc_sweep_state ss;
-    size_t p, pf;
+    size_t p, pf, cells = 0;
     locd_status st;
 
     begin = cell_start_from(entries, count, begin, ib);
@@ -327,8 +329,10 @@ static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T 
     if (begin > 0 && (st = LC_FN(rebuild_stack_)(&cx, &ss, boxes, begin)) != LOCD_OK)
         return st;
     /* One cell at a time: its entries are contiguous in the sorted array. */
-    for (p = pf = begin; p < end;) {
+    for (p = pf = begin; p < end; cells++) {
         const size_t q = cell_end(entries, p, end, ib);
+        if (o->stop && cells % LC_SWEEP_POLL == LC_SWEEP_POLL - 1 && __atomic_load_n(o->stop, __ATOMIC_RELAXED))
+            return LOCD_ERR_CANCELLED;
         /* Keep the loads of the next LC_PREFETCH entries past this cell in
            flight: a dense cell reads all its boxes at once. */
         for (; pf < q + LC_PREFETCH && pf < end; pf++)

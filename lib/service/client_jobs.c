@@ -16,6 +16,7 @@
 #include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 
 /* Puts the boxes in a fresh shm segment; the name goes into j->shm_name. */
@@ -176,13 +177,35 @@ static void svc_job_free(locd_job *job)
 
 static const lc_job_ops svc_job_ops = {sizeof(lc_svc_job), svc_job_cancel, svc_job_released, svc_job_free};
 
+/* Jobs on the pending list (under c->mu). */
+static uint32_t pending_count(const lc_svc_conn *c)
+{
+    const lc_svc_job *p;
+    uint32_t n = 0;
+    for (p = c->pending; p; p = p->next)
+        n++;
+    return n;
+}
+
 /* Puts j on the connection's pending list under a fresh id, unless the
- * connection is already closed. */
+ * connection is already closed. With LC_CLIENT_MAX_IN_FLIGHT jobs pending
+ * it first waits for one to finish: the service refuses jobs past its own
+ * limit, and a job stays on this list until its RESULT came, so the
+ * service never has more of ours than this list. */
 static locd_status register_job(lc_svc_conn *c, lc_svc_job *j)
 {
     static const uint64_t one = 1;
     int wake;
     pthread_mutex_lock(&c->mu);
+    while (!c->dead && !c->closing && pending_count(c) >= LC_CLIENT_MAX_IN_FLIGHT) {
+        /* The reader takes jobs off the list without a signal: look again soon. */
+        pthread_mutex_unlock(&c->mu);
+        {
+            struct timespec ts = {0, 1000000};
+            nanosleep(&ts, NULL);
+        }
+        pthread_mutex_lock(&c->mu);
+    }
     if (c->dead) {
         pthread_mutex_unlock(&c->mu);
         return lc_error(LOCD_ERR_CONNECTION, "the service connection is closed");

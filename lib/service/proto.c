@@ -210,6 +210,92 @@ int lc_proto_read_all(int fd, void *buf, size_t len, int timeout_ms, char *why, 
     return 1;
 }
 
+/* Milliseconds left until deadline (an lc_now_ms() value; < 0 = none):
+ * -1 for no deadline, else at least 0. */
+static int ms_left(double deadline)
+{
+    double left;
+    if (deadline < 0)
+        return -1;
+    left = deadline - lc_now_ms();
+    if (left <= 0)
+        return 0;
+    return left > 2e9 ? 2000000000 : (int)left + 1;
+}
+
+int lc_proto_read_by(int fd, void *buf, size_t len, double deadline, char *why, size_t why_len)
+{
+    char *p = buf;
+    size_t got = 0;
+    while (got < len) {
+        ssize_t r;
+        int left = ms_left(deadline);
+        if (left >= 0) {
+            struct pollfd pfd;
+            int pr;
+            pfd.fd = fd;
+            pfd.events = POLLIN;
+            pfd.revents = 0;
+            pr = left ? poll(&pfd, 1, left) : 0;
+            if (pr < 0 && errno == EINTR)
+                continue;
+            if (pr == 0) {
+                snprintf(why, why_len, "deadline passed after %zu of %zu bytes", got, len);
+                return -1;
+            }
+        }
+        r = recv(fd, p + got, len - got, left >= 0 ? MSG_DONTWAIT : 0);
+        if (r < 0) {
+            if (errno == EINTR || errno == EAGAIN || errno == EWOULDBLOCK)
+                continue;
+            snprintf(why, why_len, "read failed: %s", strerror(errno));
+            return -1;
+        }
+        if (r == 0) {
+            if (got == 0) {
+                snprintf(why, why_len, "connection closed");
+                return 0;
+            }
+            snprintf(why, why_len, "truncated message: connection closed after %zu of %zu bytes", got, len);
+            return -1;
+        }
+        got += (size_t)r;
+    }
+    return 1;
+}
+
+int lc_proto_write_by(int fd, const void *buf, size_t len, double deadline)
+{
+    const char *p = buf;
+    while (len) {
+        ssize_t w;
+        int left = ms_left(deadline);
+        if (left >= 0) {
+            struct pollfd pfd;
+            int pr;
+            pfd.fd = fd;
+            pfd.events = POLLOUT;
+            pfd.revents = 0;
+            pr = left ? poll(&pfd, 1, left) : 0;
+            if (pr < 0 && errno == EINTR)
+                continue;
+            if (pr == 0) {
+                errno = ETIMEDOUT;
+                return 0;
+            }
+        }
+        w = send(fd, p, len, MSG_NOSIGNAL | (left >= 0 ? MSG_DONTWAIT : 0));
+        if (w < 0) {
+            if (errno == EINTR || errno == EAGAIN || errno == EWOULDBLOCK)
+                continue;
+            return 0;
+        }
+        p += w;
+        len -= (size_t)w;
+    }
+    return 1;
+}
+
 int lc_proto_skip(int fd, uint64_t len, int timeout_ms, char *why, size_t why_len)
 {
     char buf[4096];

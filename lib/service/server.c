@@ -68,6 +68,26 @@ static locd_status resolve_config(const locd_service_config *config, locd_servic
         cfg->max_clients = LC_SRV_DEFAULT_MAX_CLIENTS;
     if (!cfg->max_jobs)
         cfg->max_jobs = LC_SRV_DEFAULT_MAX_JOBS;
+    if (!cfg->auth_timeout_ms)
+        cfg->auth_timeout_ms = LC_HELLO_TIMEOUT_MS;
+    if (!cfg->message_timeout_ms)
+        cfg->message_timeout_ms = LC_SRV_DEFAULT_MESSAGE_MS;
+    if (!cfg->send_timeout_ms)
+        cfg->send_timeout_ms = LC_SRV_DEFAULT_SEND_MS;
+    if (!cfg->max_job_ms)
+        cfg->max_job_ms = LC_SRV_DEFAULT_JOB_MS;
+    if (!cfg->max_job_boxes)
+        cfg->max_job_boxes = LC_SRV_DEFAULT_JOB_BOXES;
+    if (!cfg->max_job_pairs)
+        cfg->max_job_pairs = LC_SRV_DEFAULT_JOB_PAIRS;
+    if (!cfg->max_job_memory)
+        cfg->max_job_memory = LC_SRV_DEFAULT_JOB_MEMORY;
+    if (!cfg->max_client_boxes)
+        cfg->max_client_boxes = LC_SRV_DEFAULT_CLIENT_BOXES;
+    if (!cfg->max_client_pairs)
+        cfg->max_client_pairs = LC_SRV_DEFAULT_CLIENT_PAIRS;
+    if (!cfg->max_client_memory)
+        cfg->max_client_memory = LC_SRV_DEFAULT_CLIENT_MEMORY;
     return LOCD_OK;
 }
 
@@ -141,7 +161,7 @@ static void stop_runners(lc_server *s)
 {
     uint32_t i;
     pthread_mutex_lock(&s->mu);
-    s->stopping = 1;
+    __atomic_store_n(&s->stopping, 1, __ATOMIC_RELAXED); /* runners' stop hooks read it unlocked */
     pthread_cond_broadcast(&s->cv);
     pthread_mutex_unlock(&s->mu);
     for (i = 0; i < s->nrunners; i++)
@@ -180,25 +200,30 @@ const char *locd_service_address(const locd_service *h)
 
 /* ---- run, stop ---- */
 
-/* Accepts connections until locd_service_stop writes to the wake pipe. */
+/* Accepts connections until locd_service_stop writes to the wake pipe.
+ * When accept runs out of descriptors the pending connection stays in the
+ * backlog and the listener stays readable: polling it again at once would
+ * spin, so the loop then waits on the wake pipe alone for a while. */
 static void accept_until_stopped(lc_server *s)
 {
+    int rest = 0;
     for (;;) {
         struct pollfd p[2];
-        p[0].fd = s->lfd;
+        p[0].fd = s->wake[0];
         p[0].events = POLLIN;
-        p[1].fd = s->wake[0];
+        p[1].fd = s->lfd;
         p[1].events = POLLIN;
         p[0].revents = p[1].revents = 0;
-        if (poll(p, 2, -1) < 0) {
+        if (poll(p, rest ? 1 : 2, rest ? LC_SRV_ACCEPT_BACKOFF_MS : -1) < 0) {
             if (errno == EINTR)
                 continue;
             break;
         }
-        if (p[1].revents)
+        if (p[0].revents)
             break;
-        if (p[0].revents & POLLIN)
-            lc_srv_accept(s);
+        rest = 0;
+        if (p[1].revents & POLLIN)
+            rest = !lc_srv_accept(s);
     }
 }
 

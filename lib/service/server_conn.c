@@ -3,6 +3,7 @@
  * the RESULT and ERROR messages, its reference count, and the log. */
 #include "service/service.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <sys/socket.h>
@@ -23,16 +24,50 @@ void lc_srv_conn_unref_locked(lc_srv_conn *c)
     }
 }
 
+void lc_srv_escape(const char *in, size_t len, char *out, size_t out_len)
+{
+    static const char hex[] = "0123456789abcdef";
+    size_t i, o = 0;
+    if (!out_len)
+        return;
+    for (i = 0; i < len; i++) {
+        unsigned char ch = (unsigned char)in[i];
+        if (ch >= 0x20 && ch < 0x7f && ch != '\\') {
+            if (o + 1 >= out_len)
+                break;
+            out[o++] = (char)ch;
+        } else {
+            if (o + 4 >= out_len)
+                break;
+            out[o++] = '\\';
+            out[o++] = 'x';
+            out[o++] = hex[ch >> 4];
+            out[o++] = hex[ch & 15];
+        }
+    }
+    out[o] = '\0';
+}
+
+/* One message must be written within the send deadline as a whole: a
+ * client that reads a byte now and then would otherwise hold the runner
+ * that answers it (and every client waiting for a runner). A client too
+ * slow for it is dropped. */
 int lc_srv_send(lc_srv_conn *c, const void *a, size_t alen, const void *b, size_t blen)
 {
     int ok = 0;
     pthread_mutex_lock(&c->wmu);
     if (!c->closed) {
-        ok = lc_proto_write_all(c->fd, a, alen);
+        double deadline = lc_now_ms() + (double)c->s->cfg.send_timeout_ms;
+        ok = lc_proto_write_by(c->fd, a, alen, deadline);
         if (ok && blen)
-            ok = lc_proto_write_all(c->fd, b, blen);
-        if (!ok)
+            ok = lc_proto_write_by(c->fd, b, blen, deadline);
+        if (!ok) {
+            if (errno == ETIMEDOUT)
+                lc_srv_log(c->s, LOCD_LOG_WARNING, "dropping connection from %s: it did not read a message of %zu bytes within %u ms",
+                           c->peer, alen + blen, c->s->cfg.send_timeout_ms);
             shutdown(c->fd, SHUT_RDWR); /* the reader thread notices and cleans up */
+            c->closed = 1; /* nothing more goes out on a stream cut mid-message */
+        }
     }
     pthread_mutex_unlock(&c->wmu);
     return ok;

@@ -1,12 +1,15 @@
 /* The service, one client connection: accepting it (within max_clients),
  * naming the peer, the HELLO/WELCOME handshake, then reading its messages
- * on its own thread until it goes away. Every header is checked before
- * anything is allocated for it; a message that starts must finish within
- * LC_MSG_TIMEOUT_MS; a bad one drops this connection with a logged reason.
- * A connection that goes away cancels its jobs. */
+ * on its own thread until it goes away. The handshake must be over within
+ * the auth deadline from accept, and a message that starts must finish
+ * within the message deadline, each in total (a byte now and then does not
+ * stretch them). Every header is checked before anything is allocated for
+ * it; a bad one drops this connection with a logged reason. A connection
+ * that goes away cancels its jobs, running ones included. */
 #define _GNU_SOURCE /* struct ucred, SO_PEERCRED */
 #include "service/service.h"
 
+#include <errno.h>
 #include <fcntl.h>
 #include <netdb.h>
 #include <netinet/in.h>
@@ -14,7 +17,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <sys/socket.h>
-#include <sys/time.h>
 #include <unistd.h>
 
 /* ---- the handshake ---- */
@@ -25,7 +27,7 @@ static int read_hello_secret(lc_srv_conn *c, uint8_t *pl, uint32_t *slen, char *
 {
     uint8_t hb[LC_PROTO_HEADER];
     lc_msg_header h;
-    if (lc_proto_read_all(c->fd, hb, sizeof hb, LC_HELLO_TIMEOUT_MS, why, wl) != 1)
+    if (lc_proto_read_by(c->fd, hb, sizeof hb, c->deadline, why, wl) != 1)
         return 0;
     if (!lc_proto_get_header(hb, 4 + LC_PROTO_MAX_SECRET, &h, why, wl))
         return 0;
@@ -33,7 +35,7 @@ static int read_hello_secret(lc_srv_conn *c, uint8_t *pl, uint32_t *slen, char *
         snprintf(why, wl, "expected HELLO, got message type %u", h.type);
         return 0;
     }
-    if (lc_proto_read_all(c->fd, pl, (size_t)h.length, LC_HELLO_TIMEOUT_MS, why, wl) != 1)
+    if (lc_proto_read_by(c->fd, pl, (size_t)h.length, c->deadline, why, wl) != 1)
         return 0;
     *slen = lc_get_u32(pl);
     if ((uint64_t)*slen + 4 != h.length) {
@@ -51,8 +53,12 @@ static int handshake(lc_srv_conn *c, char *why, size_t wl)
     uint8_t pl[4 + LC_PROTO_MAX_SECRET], reply[LC_PROTO_HEADER + 4];
     uint32_t slen;
     int auth;
-    if (!read_hello_secret(c, pl, &slen, why, wl))
+    c->deadline = c->since + (double)s->cfg.auth_timeout_ms;
+    if (!read_hello_secret(c, pl, &slen, why, wl)) {
+        if (strstr(why, "deadline"))
+            snprintf(why, wl, "no HELLO within %u ms", s->cfg.auth_timeout_ms);
         return 0;
+    }
     if ((auth = lc_srv_auth_check(s, pl + 4, (size_t)slen)) != LC_AUTH_OK) {
         snprintf(why, wl, "%s", auth == LC_AUTH_THROTTLED ? "too many wrong secrets (not checked)"
                                 : slen                    ? "wrong secret"
@@ -69,6 +75,9 @@ static int handshake(lc_srv_conn *c, char *why, size_t wl)
         snprintf(why, wl, "write failed");
         return 0;
     }
+    pthread_mutex_lock(&s->mu);
+    c->authed = 1;
+    pthread_mutex_unlock(&s->mu);
     return 1;
 }
 
@@ -80,9 +89,10 @@ static int handshake(lc_srv_conn *c, char *why, size_t wl)
 static int read_header(lc_srv_conn *c, lc_msg_header *h, char *why, size_t wl)
 {
     uint8_t hb[LC_PROTO_HEADER];
-    int r = lc_proto_read_all(c->fd, hb, 1, -1, why, wl); /* idle clients may wait forever */
+    int r = lc_proto_read_by(c->fd, hb, 1, -1, why, wl); /* idle clients may wait forever */
+    c->deadline = lc_now_ms() + (double)c->s->cfg.message_timeout_ms; /* for the whole message */
     if (r == 1)
-        r = lc_proto_read_all(c->fd, hb + 1, sizeof hb - 1, LC_MSG_TIMEOUT_MS, why, wl);
+        r = lc_proto_read_by(c->fd, hb + 1, sizeof hb - 1, c->deadline, why, wl);
     if (r == 1 && !lc_proto_get_header(hb, c->s->cfg.max_message, h, why, wl))
         r = -1;
     return r;
@@ -95,10 +105,8 @@ static int handle_message(lc_srv_conn *c, const lc_msg_header *h, char *why, siz
     if (h->type == LC_MSG_SUBMIT) {
         if (!lc_srv_read_submit(c, h, &j, why, wl))
             return 0;
-        if (j && !lc_srv_enqueue(c, j, why, wl)) {
-            lc_srv_job_free(j);
-            return 0;
-        }
+        if (j)
+            lc_srv_enqueue(c, j);
         return 1;
     }
     if (h->type == LC_MSG_CANCEL && h->length == 0) {
@@ -190,7 +198,6 @@ static void peer_name_tcp(lc_srv_conn *c, const struct sockaddr_storage *ss, soc
 /* A new connection on fd; NULL when out of memory (fd is then closed). */
 static lc_srv_conn *conn_new(lc_server *s, int fd, const struct sockaddr_storage *ss, socklen_t sl)
 {
-    struct timeval tv;
     int one = 1;
     lc_srv_conn *c = calloc(1, sizeof *c);
     if (!c) {
@@ -200,14 +207,11 @@ static lc_srv_conn *conn_new(lc_server *s, int fd, const struct sockaddr_storage
     c->s = s;
     c->fd = fd;
     c->refs = 1;
+    c->since = lc_now_ms();
     pthread_mutex_init(&c->wmu, NULL);
     if (ss->ss_family != AF_UNIX)
         setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    /* A client that stops reading must not hold a runner forever: a result
-     * that cannot be written in time drops the connection. */
-    tv.tv_sec = LC_MSG_TIMEOUT_MS / 1000;
-    tv.tv_usec = 0;
-    setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    /* A client that stops reading is dropped by lc_srv_send's deadline. */
     if (ss->ss_family == AF_UNIX)
         peer_name_unix(c);
     else
@@ -215,13 +219,39 @@ static lc_srv_conn *conn_new(lc_server *s, int fd, const struct sockaddr_storage
     return c;
 }
 
+/* Under s->mu, when the service is full: breaks the oldest connection
+ * still in its handshake, whose slot the new one then takes. Connections
+ * that never authenticate cannot keep clients out this way: each new
+ * arrival pushes the oldest of them out (and the auth deadline ends them
+ * anyway). 1 when one was broken. */
+static int evict_unauthenticated_locked(lc_server *s)
+{
+    lc_srv_conn *c, *oldest = NULL;
+    for (c = s->conns; c; c = c->next)
+        if (!c->authed && (!oldest || c->since < oldest->since))
+            oldest = c;
+    if (!oldest)
+        return 0;
+    pthread_mutex_lock(&oldest->wmu);
+    if (oldest->fd >= 0)
+        shutdown(oldest->fd, SHUT_RDWR);
+    pthread_mutex_unlock(&oldest->wmu);
+    oldest->authed = 1; /* not chosen twice */
+    return 1;
+}
+
 /* 1 when the service already serves max_clients (fd is then refused). */
 static int refuse_if_full(lc_server *s, int fd)
 {
-    int full;
+    int full, evicted = 0;
     pthread_mutex_lock(&s->mu);
     full = s->nconns >= s->cfg.max_clients;
+    if (full && s->nconns < s->cfg.max_clients + LC_SRV_MAX_EVICTING)
+        full = !(evicted = evict_unauthenticated_locked(s));
     pthread_mutex_unlock(&s->mu);
+    if (evicted)
+        lc_srv_log(s, LOCD_LOG_WARNING, "%u clients: broke the oldest connection that had not authenticated",
+                   s->cfg.max_clients);
     if (full) {
         lc_srv_log(s, LOCD_LOG_WARNING, "refusing a connection: %u clients already", s->cfg.max_clients);
         lc_srv_send_error(fd, LOCD_ERR_BUSY, "too many clients");
@@ -254,18 +284,31 @@ static void conn_start(lc_server *s, lc_srv_conn *c)
     pthread_attr_destroy(&attr);
 }
 
-void lc_srv_accept(lc_server *s)
+int lc_srv_accept(lc_server *s)
 {
     struct sockaddr_storage ss;
     socklen_t sl = sizeof ss;
     lc_srv_conn *c;
     int fd = accept(s->lfd, (struct sockaddr *)&ss, &sl);
-    if (fd < 0)
-        return;
+    if (fd < 0) {
+        int e = errno;
+        if (e != EMFILE && e != ENFILE && e != ENOBUFS && e != ENOMEM)
+            return 1; /* the peer left first, a signal: try again */
+        if (!s->accept_failing) /* once per episode, not once per try */
+            lc_srv_log(s, LOCD_LOG_ERROR, "cannot accept connections: %s (retrying every %d ms)", strerror(e),
+                       LC_SRV_ACCEPT_BACKOFF_MS);
+        s->accept_failing = 1;
+        return 0;
+    }
+    if (s->accept_failing) {
+        lc_srv_log(s, LOCD_LOG_WARNING, "accepting connections again");
+        s->accept_failing = 0;
+    }
     fcntl(fd, F_SETFD, FD_CLOEXEC);
     if (refuse_if_full(s, fd))
-        return;
+        return 1;
     c = conn_new(s, fd, &ss, sl);
     if (c)
         conn_start(s, c);
+    return 1;
 }

@@ -49,6 +49,9 @@
 /* Segment names the server accepts: "/locd-" + [A-Za-z0-9-] (the names
  * lc_shm_unique_name makes). */
 #define LC_PROTO_SHM_PREFIX LC_SHM_PREFIX
+/* Jobs one client connection keeps in flight at most: a submit past it
+ * waits for one to finish. Not above the service's default max_jobs. */
+#define LC_CLIENT_MAX_IN_FLIGHT 1024u
 /* A message that has started must arrive (or be written) within this. */
 #define LC_MSG_TIMEOUT_MS 30000
 
@@ -87,6 +90,13 @@ void lc_proto_get_stats(const uint8_t *in, locd_stats *s);
 /* Writes all bytes (MSG_NOSIGNAL: a closed peer is an error, not SIGPIPE).
  * 1 on success, 0 on error (errno). */
 int lc_proto_write_all(int fd, const void *buf, size_t len);
+/* lc_proto_read_all with one total deadline (an lc_now_ms() value; < 0 =
+ * none) for all len bytes, not one per wait: a peer that trickles a byte
+ * at a time cannot stretch it. Same return values. */
+int lc_proto_read_by(int fd, void *buf, size_t len, double deadline, char *why, size_t why_len);
+/* lc_proto_write_all with a total deadline (< 0 = none): 1, or 0 (errno
+ * ETIMEDOUT when the deadline passed). */
+int lc_proto_write_by(int fd, const void *buf, size_t len, double deadline);
 /* Reads exactly len bytes. timeout_ms < 0 waits forever; otherwise each
  * wait for more bytes is bounded. Returns 1 on success; on failure (why), 0
  * for a clean end of stream before the first byte and -1 for anything else
@@ -179,9 +189,28 @@ locd_status lc_svc_submit(locd_engine *e, const void *boxes, size_t n, int f64, 
  *   server_listen.c   the listening socket (unix or tcp)
  *   server.c          the locd_service handle: create/run/stop/destroy */
 
-/* The HELLO is short: a client that cannot send it in this time is not one. */
+/* locd_service_config defaults (for 0) and caps; docs/levels.md, "Limits
+ * and deadlines", lists them. The HELLO is short: a client that cannot send
+ * it within the auth deadline is not one. */
 #define LC_HELLO_TIMEOUT_MS 5000
-/* locd_service_config defaults (for 0) and caps. */
+#define LC_SRV_DEFAULT_MESSAGE_MS LC_MSG_TIMEOUT_MS
+#define LC_SRV_DEFAULT_SEND_MS 30000
+#define LC_SRV_DEFAULT_JOB_MS 600000
+#define LC_SRV_DEFAULT_JOB_BOXES (1ull << 26)
+#define LC_SRV_DEFAULT_JOB_PAIRS (1ull << 27)
+#define LC_SRV_DEFAULT_JOB_MEMORY (4ull << 30)
+#define LC_SRV_DEFAULT_CLIENT_BOXES (1ull << 27)
+#define LC_SRV_DEFAULT_CLIENT_PAIRS (1ull << 28)
+#define LC_SRV_DEFAULT_CLIENT_MEMORY (8ull << 30)
+/* A runner keeps at most this much of its engine's memory between jobs:
+ * a huge job's buffers are given back once its result is sent. */
+#define LC_SRV_KEEP_BYTES (64ull << 20)
+/* After accept fails for want of descriptors or memory, the listener
+ * rests this long before trying again (instead of spinning). */
+#define LC_SRV_ACCEPT_BACKOFF_MS 100
+/* A full service breaks its oldest unauthenticated connection to admit a
+ * new one, while at most this many broken ones are still leaving. */
+#define LC_SRV_MAX_EVICTING 16u
 #define LC_SRV_MAX_THREADS 256
 #define LC_SRV_DEFAULT_MAX_MESSAGE (1ull << 30)
 #define LC_SRV_DEFAULT_MAX_CLIENTS 256
@@ -198,11 +227,12 @@ typedef struct lc_srv_job {
     struct lc_srv_job *cnext, *cprev; /* the connection's jobs */
     lc_srv_conn *c;
     uint64_t id;
-    int cancelled;
+    int cancelled; /* atomic: the client cancelled it or went away */
     lc_submit_fixed f;
     void *boxes;
     size_t bytes;
-    int mapped; /* boxes is an mmap of the client's segment */
+    uint64_t pairs_seen; /* runner only: pairs counted into c->pairs_running */
+    int answered;        /* under s->mu: its RESULT is on the way (no longer counts in c->njobs) */
 } lc_srv_job;
 
 struct lc_srv_conn {
@@ -213,7 +243,13 @@ struct lc_srv_conn {
     pthread_mutex_t wmu;
     lc_srv_job *jobs; /* under s->mu */
     uint32_t njobs;
+    uint64_t boxes_in_flight; /* under s->mu: boxes of its queued and running jobs */
+    uint64_t bytes_in_flight; /* atomic: their box data + their engines' memory */
+    uint64_t pairs_running;   /* atomic: pairs found so far by its running jobs */
     int shm_ok;
+    int authed;       /* under s->mu: past the handshake */
+    double since;     /* lc_now_ms() at accept */
+    double deadline;  /* connection thread only: the current message's */
     char peer[96];
     lc_srv_conn *next; /* s->conns */
 };
@@ -235,6 +271,7 @@ struct lc_server {
     lc_srv_conn *conns;
     uint32_t nconns;
     int stopping;
+    int accept_failing; /* accept thread only: the last accept ran out of descriptors */
     pthread_t *runners;
     uint32_t nrunners;
     uint64_t served;
@@ -251,6 +288,10 @@ void lc_srv_log(const lc_server *s, int32_t sev, const char *fmt, ...) LC_PRINTF
 int lc_srv_send(lc_srv_conn *c, const void *a, size_t alen, const void *b, size_t blen);
 void lc_srv_send_result(lc_srv_conn *c, uint64_t id, locd_status st, const char *msg, int64_t index,
                         const locd_stats *stats, const uint32_t *pairs, size_t count);
+/* Escapes the first len bytes of client-supplied text for the log:
+ * printable ASCII is kept, every other byte (and backslash) becomes \xHH,
+ * so a client cannot forge log lines. out gets at most out_len - 1 chars. */
+void lc_srv_escape(const char *in, size_t len, char *out, size_t out_len);
 /* An ERROR on a socket that has no connection (yet); best effort. */
 void lc_srv_send_error(int fd, locd_status st, const char *msg);
 /* Under s->mu; frees the connection with its last reference. */
@@ -258,8 +299,14 @@ void lc_srv_conn_unref_locked(lc_srv_conn *c);
 
 /* server_jobs.c */
 void lc_srv_job_free(lc_srv_job *j);
-/* Queues j for the runners: 1, or 0 (why) when the connection has too many. */
-int lc_srv_enqueue(lc_srv_conn *c, lc_srv_job *j, char *why, size_t wl);
+/* Counts j against the connection's and the job's limits and links it to
+ * the connection: LOCD_OK, or LOCD_ERR_LIMIT (why) when it is over one (j
+ * is then the caller's to answer and free; the connection goes on). */
+locd_status lc_srv_admit(lc_srv_conn *c, lc_srv_job *j, char *why, size_t wl);
+/* Unlinks an admitted job from its connection and frees it. */
+void lc_srv_job_retire(lc_srv_job *j);
+/* Queues an admitted job for the runners. */
+void lc_srv_enqueue(lc_srv_conn *c, lc_srv_job *j);
 void lc_srv_cancel(lc_srv_conn *c, uint64_t id);
 /* Under s->mu: marks every job of the connection cancelled. */
 void lc_srv_cancel_all_locked(lc_srv_conn *c);
@@ -285,8 +332,10 @@ int lc_srv_auth_check(lc_server *s, const uint8_t *secret, size_t len);
 void lc_srv_warn_exposure(const lc_server *s, const lc_address *a);
 
 /* server_session.c */
-/* Accepts one connection on s->lfd and starts its thread. */
-void lc_srv_accept(lc_server *s);
+/* Accepts one connection on s->lfd and starts its thread. 1 when the
+ * listener may be polled again at once, 0 when accept ran out of
+ * descriptors or memory (the caller backs off). */
+int lc_srv_accept(lc_server *s);
 
 /* server_listen.c */
 /* Binds and listens on a, filling s->lfd, s->address (and s->unix_path). */

@@ -77,6 +77,16 @@ int main(void)
     OFF(locd_service_config, max_jobs);
     OFF(locd_service_config, log);
     OFF(locd_service_config, log_user);
+    OFF(locd_service_config, auth_timeout_ms);
+    OFF(locd_service_config, message_timeout_ms);
+    OFF(locd_service_config, send_timeout_ms);
+    OFF(locd_service_config, max_job_ms);
+    OFF(locd_service_config, max_job_boxes);
+    OFF(locd_service_config, max_job_pairs);
+    OFF(locd_service_config, max_job_memory);
+    OFF(locd_service_config, max_client_boxes);
+    OFF(locd_service_config, max_client_pairs);
+    OFF(locd_service_config, max_client_memory);
 
     SIZE(locd_pipeline_options);
     OFF(locd_pipeline_options, size);

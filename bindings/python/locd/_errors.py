@@ -99,6 +99,11 @@ class AuthError(Error, PermissionError):
     """The service refused the shared secret."""
 
 
+class LimitError(Error):
+    """The job exceeds a limit of the service (boxes, pairs, memory, time, jobs in flight);
+    only this job failed (docs/levels.md, "Limits and deadlines")."""
+
+
 class WaitTimeoutError(Error, concurrent.futures.TimeoutError):
     """A wait ran out of time (the work is still running), or a level-3 job
     passed its deadline (``service_timeout_ms``; the job is then finished)."""
@@ -135,6 +140,7 @@ ERRORS: Dict[str, Type[Error]] = {
     "ERR_AUTH": AuthError,
     "ERR_TIMEOUT": WaitTimeoutError,
     "ERR_CANCELLED": JobCancelledError,
+    "ERR_LIMIT": LimitError,
     "ERR_INTERNAL": InternalError,
 }
 _BY_STATUS = {STATUS[name]: cls for name, cls in ERRORS.items() if name in STATUS}

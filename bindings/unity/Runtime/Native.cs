@@ -43,6 +43,8 @@ namespace Locd
         StaleId = -20,
         /// <summary>A scene id appears twice in one batch (LocdException.Index: its position).</summary>
         DuplicateId = -21,
+        /// <summary>The job exceeds a limit of the service (boxes, pairs, memory, time, jobs in flight); only it failed.</summary>
+        Limit = -22,
         Internal = -100,
     }
 
@@ -171,6 +173,17 @@ namespace Locd
             public uint max_jobs;
             public IntPtr log;         // locd_log_fn
             public IntPtr log_user;
+            // Limits and deadlines (docs/levels.md, "Limits and deadlines"); 0 = the default.
+            public uint auth_timeout_ms;
+            public uint message_timeout_ms;
+            public uint send_timeout_ms;
+            public uint max_job_ms;
+            public ulong max_job_boxes;
+            public ulong max_job_pairs;
+            public ulong max_job_memory;
+            public ulong max_client_boxes;
+            public ulong max_client_pairs;
+            public ulong max_client_memory;
         }
 
         public const int LOCD_SHAPE_SPHERE = 1;
