@@ -23,9 +23,12 @@ export LOCD_TEST_HEAVY=0
 export LOCD_HARD_BUDGET_MS=${LOCD_HARD_BUDGET_MS:-500}
 # halt_on_error: the first report fails the test. detect_leaks: LeakSanitizer
 # is ASan's default on Linux; said here so nobody turns it off by accident.
-export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:detect_stack_use_after_return=1:check_initialization_order=1:strict_init_order=1"
+# allocator_may_return_null: an impossible allocation (`locd gen uniform 1e12`)
+# must return NULL as malloc does, so the out-of-memory paths are what is
+# tested, not ASan's own abort on a huge request.
+export ASAN_OPTIONS="allocator_may_return_null=1:halt_on_error=1:abort_on_error=0:detect_leaks=1:detect_stack_use_after_return=1:check_initialization_order=1:strict_init_order=1"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
-export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:history_size=4"
+export TSAN_OPTIONS="allocator_may_return_null=1:halt_on_error=1:second_deadlock_stack=1:history_size=4"
 
 # Options that do not change what the tests cover but keep the builds short:
 # the benchmark peers (FCL, Bullet, CGAL comparisons) have no tests.
