@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds and runs locd's libFuzzer harnesses (tests/fuzz/, docs/ci.md "Fuzzing").
 #   scripts/fuzz.sh build                  build them (clang, ASan + UBSan) in $LOCD_FUZZ_BUILD
-#   scripts/fuzz.sh HARNESS [RUNS] [ARGS]  build, then run HARNESS (service, scene or all)
+#   scripts/fuzz.sh HARNESS [RUNS] [ARGS]  build, then run HARNESS (service, session, scene or all)
 #                                          for RUNS inputs (default 100000; 0 = until stopped)
 #                                          from its committed corpus; ARGS go to libFuzzer
 #   scripts/fuzz.sh replay HARNESS FILE... run the harness once on each file (a crash to check)
@@ -30,7 +30,7 @@ build() {
       -Dc_args=-fno-sanitize-recover=all -Dcpp_args=-fno-sanitize-recover=all \
       -Dtests=disabled -Dexamples=false -Dtools=false -Dmpi=disabled -Dbench_peers=disabled >/dev/null
   fi
-  ninja -C "$BUILD" -j "${JOBS:-2}" tests/fuzz/fuzz_service tests/fuzz/fuzz_scene > "$BUILD/ninja.log" 2>&1 || { tail -n 40 "$BUILD/ninja.log"; exit 1; }
+  ninja -C "$BUILD" -j "${JOBS:-2}" tests/fuzz/fuzz_service tests/fuzz/fuzz_session tests/fuzz/fuzz_scene > "$BUILD/ninja.log" 2>&1 || { tail -n 40 "$BUILD/ninja.log"; exit 1; }
 }
 
 # Per-harness libFuzzer settings: input size cap and dictionary.
@@ -40,9 +40,15 @@ harness_args() {
     # per-input leak check would only see that (and costs most of the
     # time); LeakSanitizer still checks the whole run at exit.
     service) echo "-max_len=4096 -detect_leaks=0 -dict=$ROOT/tests/fuzz/service.dict" ;;
+    session) echo "-max_len=4096 -dict=$ROOT/tests/fuzz/service.dict" ;;
     scene) echo "-max_len=8192 -dict=$ROOT/tests/fuzz/scene.dict" ;;
-    *) echo "unknown harness '$1' (service, scene)" >&2; exit 2 ;;
+    *) echo "unknown harness '$1' (service, session, scene)" >&2; exit 2 ;;
   esac
+}
+
+# The session harness takes the same inputs as the service harness.
+corpus_of() {
+  if [ "$1" = session ]; then echo service; else echo "$1"; fi
 }
 
 run() {
@@ -53,7 +59,7 @@ run() {
   # The committed corpus is read only: new inputs land in $work/corpus.
   # shellcheck disable=SC2046
   "$BUILD/tests/fuzz/fuzz_$h" $(harness_args "$h") -runs="$runs" -timeout=60 -rss_limit_mb=3072 \
-    -artifact_prefix="$work/" -print_final_stats=1 "$@" "$work/corpus" "$ROOT/tests/fuzz/corpus/$h"
+    -artifact_prefix="$work/" -print_final_stats=1 "$@" "$work/corpus" "$ROOT/tests/fuzz/corpus/$(corpus_of "$h")"
 }
 
 cmd=${1:-}
@@ -67,7 +73,7 @@ case $cmd in
     # shellcheck disable=SC2046
     "$BUILD/tests/fuzz/fuzz_$h" $(harness_args "$h") "$@"
     ;;
-  service | scene)
+  service | session | scene)
     build
     shift
     runs=${1:-100000}
@@ -80,6 +86,7 @@ case $cmd in
     runs=${1:-100000}
     [ $# -gt 0 ] && shift
     run service "$runs" "$@"
+    run session "$runs" "$@"
     run scene "$runs" "$@"
     ;;
   *)

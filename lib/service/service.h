@@ -261,6 +261,8 @@ int lc_srv_read_submit(lc_srv_conn *c, const lc_msg_header *h, lc_srv_job **out,
 /* server_session.c */
 /* Accepts one connection on s->lfd and starts its thread. */
 void lc_srv_accept(lc_server *s);
+/* One connection's session loop on the caller's thread (no clean-up). */
+void lc_srv_serve(lc_srv_conn *c);
 
 /* server_listen.c */
 /* Binds and listens on a, filling s->lfd, s->address (and s->unix_path). */
