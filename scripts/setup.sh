@@ -12,6 +12,10 @@ libbullet-dev libcgal-dev libgmp-dev libmpfr-dev python3-venv time cmake"
 # winpthreads) and wine to run its C tests (CI step 35-windows).
 APT_PKGS="$APT_PKGS gcc-mingw-w64-x86-64-posix wine64"
 
+# libFuzzer harnesses (tests/fuzz, CI step 42-fuzz): clang 14 and its
+# runtime libraries (libFuzzer, ASan, UBSan), a separate package on Debian 12.
+APT_PKGS="$APT_PKGS clang libclang-rt-14-dev"
+
 missing=""
 for p in $APT_PKGS; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"

@@ -20,11 +20,13 @@
 
 static int g_fd = -1;
 static char g_path[64];
+static int g_verbose; /* LOCD_FUZZ_VERBOSE=1: what the reader made of each input */
 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
     (void)argc;
     (void)argv;
+    g_verbose = getenv("LOCD_FUZZ_VERBOSE") != NULL;
     g_fd = memfd_create("locd-fuzz-scene", MFD_CLOEXEC);
     if (g_fd < 0) {
         fprintf(stderr, "fuzz_scene: memfd_create: %s\n", strerror(errno));
@@ -67,11 +69,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     char err[512];
     if (ftruncate(g_fd, 0) != 0 || pwrite(g_fd, data, size, 0) != (ssize_t)size)
         abort();
-    if (sim_scene_load(g_path, &s, err, sizeof err) == 0)
+    if (sim_scene_load(g_path, &s, err, sizeof err) == 0) {
+        if (g_verbose)
+            fprintf(stderr, "  scene: %zu objects, %zu shapes\n", s.n, s.nshapes);
         sim_scene_free(&s);
-    else {
+    } else {
         volatile size_t n = strlen(err);
         (void)n;
+        if (g_verbose)
+            fprintf(stderr, "  refused: %s\n", err);
     }
     parse_text(data, size);
     return 0;
