@@ -32,7 +32,7 @@ fuzz() {
   start=$(date +%s)
   bash scripts/fuzz.sh "$h" "$runs" > "$log" 2>&1 || st=$?
   secs=$(( $(date +%s) - start ))
-  grep -E '^#[0-9]+ +(INITED|DONE)|stat::number_of_executed_units|stat::average_exec_per_sec' "$log"
+  grep -E '^#[0-9]+[[:space:]]+(INITED|DONE)|stat::number_of_executed_units|stat::average_exec_per_sec' "$log"
   if [ "$st" -eq 0 ] && grep -q 'DONE' "$log"; then
     echo "   passed in ${secs}s"
     python3 scripts/ci/junit.py case fuzz "$h" passed > "$LOCD_RESULTS/fuzz-$h.junit.xml"
@@ -45,7 +45,7 @@ fuzz() {
   fi
 }
 
-fuzz session "${LOCD_FUZZ_RUNS_SESSION:-200000}"
+fuzz session "${LOCD_FUZZ_RUNS_SESSION:-100000}"
 fuzz service "${LOCD_FUZZ_RUNS_SERVICE:-3000}"
 fuzz scene "${LOCD_FUZZ_RUNS_SCENE:-40000}"
 
