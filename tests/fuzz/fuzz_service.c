@@ -21,8 +21,10 @@
  * /dev/shm: when it can (root, CI), the harness runs in its own mount
  * namespace with a private tmpfs on /dev/shm, so nothing it or the service
  * creates there is seen by, or left for, anyone else; it then offers one
- * segment, FUZZ_SEGMENT, for shared-memory SUBMITs to name. Otherwise it
- * creates no segment (such SUBMITs are refused by the service). */
+ * segment, FUZZ_SEGMENT, for shared-memory SUBMITs to name, and puts the
+ * service's sockets there too. Otherwise it creates no segment (such
+ * SUBMITs are refused by the service) and the sockets go to a temporary
+ * directory in /tmp, removed at exit. */
 #define _GNU_SOURCE
 #include <locd/locd.h>
 
@@ -160,7 +162,9 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     (void)argv;
     g_verbose = getenv("LOCD_FUZZ_VERBOSE") != NULL;
     g_private_shm = private_dev_shm();
-    snprintf(g_dir, sizeof g_dir, "/tmp/locd-fuzz-XXXXXX");
+    /* The sockets too live in the private tmpfs when there is one: a crash
+     * (no atexit) then leaves nothing behind. */
+    snprintf(g_dir, sizeof g_dir, "%s/locd-fuzz-XXXXXX", g_private_shm ? "/dev/shm" : "/tmp");
     if (!mkdtemp(g_dir))
         die("mkdtemp");
     start_service(&g_svc[0], "open.sock", NULL);
