@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds and runs locd's libFuzzer harnesses (tests/fuzz/, docs/ci.md "Fuzzing").
+# Builds and runs locd's libFuzzer harnesses (tests/fuzz/, docs/ci.md, "42-fuzz").
 #   scripts/fuzz.sh build                  build them (clang, ASan + UBSan) in $LOCD_FUZZ_BUILD
 #   scripts/fuzz.sh HARNESS [RUNS] [ARGS]  build, then run HARNESS (service, session, scene or all)
 #                                          for RUNS inputs (default 100000; 0 = until stopped)
@@ -56,6 +56,7 @@ run() {
   shift 2
   local work="$OUT/$h"
   mkdir -p "$work/corpus"
+  [ "$runs" = 0 ] && runs=-1 # libFuzzer's "no limit"
   # The committed corpus is read only: new inputs land in $work/corpus.
   # shellcheck disable=SC2046
   "$BUILD/tests/fuzz/fuzz_$h" $(harness_args "$h") -runs="$runs" -timeout=60 -rss_limit_mb=3072 \
