@@ -329,23 +329,27 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     /* 1: write the stream while reading answers, until every answer owed
      * came or the service closed. */
     since = now_ms();
-    while (!r.eof && (writing || r.results < owed)) {
-        short ev = wait_fd(fd, writing && sent < n, since);
+    for (;;) {
+        short ev;
+        if (sent == n)
+            writing = 0;
+        if (r.eof || (!writing && r.results >= owed))
+            break;
+        ev = wait_fd(fd, writing, since);
         if (ev & (POLLIN | POLLHUP | POLLERR)) {
             read_some(fd, &r);
             since = now_ms();
         }
-        if (writing && sent < n && (ev & POLLOUT)) {
+        if (writing && (ev & POLLOUT)) {
             ssize_t w = send(fd, stream + sent, n - sent, MSG_NOSIGNAL | MSG_DONTWAIT);
             if (w > 0) {
                 sent += (size_t)w;
                 since = now_ms();
             } else if (w < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) {
                 writing = 0; /* the service dropped us */
+                n = sent;
             }
         }
-        if (sent == n)
-            writing = 0;
     }
     /* 2: end of stream from this side; the service must close too. */
     shutdown(fd, SHUT_WR);
