@@ -47,7 +47,7 @@ fuzz() {
 
 fuzz session "${LOCD_FUZZ_RUNS_SESSION:-100000}"
 fuzz service "${LOCD_FUZZ_RUNS_SERVICE:-20000}"
-fuzz scene "${LOCD_FUZZ_RUNS_SCENE:-40000}"
+fuzz scene "${LOCD_FUZZ_RUNS_SCENE:-30000}"
 
 # The harnesses' segments live in a private /dev/shm when the system allows
 # it, and are removed otherwise: none may be left.
