@@ -16,6 +16,10 @@ APT_PKGS="$APT_PKGS gcc-mingw-w64-x86-64-posix wine64"
 # qemu-user to run the NEON kernel's tests (CI step 38-arm).
 APT_PKGS="$APT_PKGS gcc-aarch64-linux-gnu libc6-dev-arm64-cross qemu-user"
 
+# libFuzzer harnesses (tests/fuzz, CI step 42-fuzz): clang 14 and its
+# runtime libraries (libFuzzer, ASan, UBSan), a separate package on Debian 12.
+APT_PKGS="$APT_PKGS clang libclang-rt-14-dev"
+
 missing=""
 for p in $APT_PKGS; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"

@@ -151,11 +151,13 @@ static void task_gather(void *arg, uint32_t t, uint32_t k)
 {
     lc_job_ctx *c = arg;
     const lc_sweep_out *o = &c->ip->sw[t];
-    uint32_t *dst = c->dst + 2 * c->pair_off[t];
+    uint32_t *dst;
     size_t p;
     (void)k;
-    if (o->count)
-        memcpy(dst, o->pairs.data, o->count * 2 * sizeof(uint32_t));
+    if (!o->count)
+        return; /* c->dst is NULL when no task found a pair: no pointer arithmetic on it */
+    dst = c->dst + 2 * c->pair_off[t];
+    memcpy(dst, o->pairs.data, o->count * 2 * sizeof(uint32_t));
     if (c->split) /* two sets: the sweep wrote (i, split + j) */
         for (p = 0; p < o->count; p++)
             dst[2 * p + 1] -= (uint32_t)c->split;

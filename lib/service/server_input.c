@@ -152,6 +152,11 @@ static int read_shm_name(lc_srv_conn *c, const lc_msg_header *h, char *name, cha
 {
     uint8_t nl[4];
     uint32_t len;
+    /* The name's length is part of this message: never read past it. */
+    if (h->length < LC_PROTO_SUBMIT_FIXED + sizeof nl) {
+        snprintf(why, wl, "bad segment name in SUBMIT");
+        return 0;
+    }
     if (lc_proto_read_by(c->fd, nl, sizeof nl, c->deadline, why, wl) != 1)
         return 0;
     len = lc_get_u32(nl);

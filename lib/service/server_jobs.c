@@ -371,12 +371,13 @@ static void runner_shrink(runner *r)
     r->engine = NULL;
 }
 
-/* The next queued job; NULL when the service stops. */
-static lc_srv_job *next_job(lc_server *s)
+/* The next queued job; NULL when the service stops (or, with drain, when
+ * the queue is empty). */
+static lc_srv_job *next_job(lc_server *s, int drain)
 {
     lc_srv_job *j;
     pthread_mutex_lock(&s->mu);
-    while (!s->qhead && !s->stopping)
+    while (!s->qhead && !s->stopping && !drain)
         pthread_cond_wait(&s->cv, &s->mu);
     j = s->qhead;
     if (j) {
@@ -388,10 +389,11 @@ static lc_srv_job *next_job(lc_server *s)
     return j;
 }
 
-void *lc_srv_runner_main(void *service)
+/* One runner: runs queued jobs until the service stops (drain: until the
+ * queue is empty). */
+static void run_queue(lc_server *s, int drain)
 {
     runner r;
-    lc_server *s = service;
     lc_srv_job *j;
     memset(&r, 0, sizeof r);
     r.s = s;
@@ -399,7 +401,7 @@ void *lc_srv_runner_main(void *service)
     r.alloc.free = runner_free;
     r.alloc.user = &r;
     pthread_mutex_init(&r.amu, NULL);
-    while ((j = next_job(s)) != NULL) {
+    while ((j = next_job(s, drain)) != NULL) {
         runner_track(&r, j);
         run_job(&r, j);
         runner_track(&r, NULL);
@@ -412,5 +414,15 @@ void *lc_srv_runner_main(void *service)
     locd_engine_destroy(r.engine);
     locd_pairs_destroy(r.pairs);
     pthread_mutex_destroy(&r.amu);
+}
+
+void *lc_srv_runner_main(void *service)
+{
+    run_queue(service, 0);
     return NULL;
+}
+
+void lc_srv_run_queued(lc_server *s)
+{
+    run_queue(s, 1);
 }

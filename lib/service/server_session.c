@@ -312,3 +312,11 @@ int lc_srv_accept(lc_server *s)
         conn_start(s, c);
     return 1;
 }
+
+/* The session loop (handshake, then messages until the client leaves or
+ * breaks) on a connection the caller set up, on the caller's thread: what
+ * conn_main runs, for tests/fuzz/fuzz_session.c. */
+void lc_srv_serve(lc_srv_conn *c)
+{
+    serve_connection(c);
+}

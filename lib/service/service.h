@@ -312,6 +312,9 @@ void lc_srv_cancel(lc_srv_conn *c, uint64_t id);
 void lc_srv_cancel_all_locked(lc_srv_conn *c);
 /* A runner thread: runs queued jobs until the service stops. */
 void *lc_srv_runner_main(void *service);
+/* Runs the queued jobs on the caller's thread until the queue is empty
+ * (tests/fuzz/fuzz_session.c: a running service stops its jobs). */
+void lc_srv_run_queued(lc_server *s);
 
 /* server_input.c */
 /* Reads a SUBMIT payload. 1 when the connection is fine, with the job in
@@ -336,6 +339,8 @@ void lc_srv_warn_exposure(const lc_server *s, const lc_address *a);
  * listener may be polled again at once, 0 when accept ran out of
  * descriptors or memory (the caller backs off). */
 int lc_srv_accept(lc_server *s);
+/* One connection's session loop on the caller's thread (no clean-up). */
+void lc_srv_serve(lc_srv_conn *c);
 
 /* server_listen.c */
 /* Binds and listens on a, filling s->lfd, s->address (and s->unix_path). */
