@@ -125,6 +125,7 @@ static locd_status service_new(const locd_service_config *cfg, locd_service **ou
     pthread_mutex_init(&s->mu, NULL);
     pthread_cond_init(&s->cv, NULL);
     pthread_cond_init(&s->conns_cv, NULL);
+    s->auth_fail_delay_ms = LC_AUTH_FAIL_DELAY_MS;
     s->magic = LC_MAGIC_SERVICE;
     *out = h;
     return LOCD_OK;

@@ -49,7 +49,7 @@ int lc_srv_auth_check(lc_server *s, const uint8_t *secret, size_t len)
     pthread_mutex_lock(&s->mu);
     s->auth_fails++;
     pthread_mutex_unlock(&s->mu);
-    sleep_ms(LC_AUTH_FAIL_DELAY_MS);
+    sleep_ms(s->auth_fail_delay_ms);
     return LC_AUTH_WRONG;
 }
 

@@ -277,6 +277,7 @@ struct lc_server {
     uint64_t served;
     double auth_window;   /* under mu: start of the current second of secret checks (server_auth.c) */
     uint32_t auth_fails;  /* under mu: wrong secrets in it */
+    uint32_t auth_fail_delay_ms; /* LC_AUTH_FAIL_DELAY_MS (0 in the fuzz harness, which checks many secrets) */
     int auth_logged;      /* under mu: the throttle was logged in it */
 };
 

@@ -5,16 +5,16 @@
  *   - the connection's session loop (lc_srv_serve: HELLO/WELCOME with or
  *     without a secret, every header check, SUBMIT parsing with inline
  *     boxes or a shared-memory segment, CANCEL, the in-flight limit);
- *   - a runner draining the queue (lc_srv_runner_main with the service
- *     stopping: each job is run by a level-1 engine and its RESULT
- *     written, or answered as cancelled);
+ *   - a runner draining the queue (lc_srv_run_queued: each job is run by
+ *     a level-1 engine and its RESULT written, or answered as cancelled);
  *   - the connection's end (closed, its jobs cancelled, its reference
  *     dropped, as conn_main does).
  * No thread, socket listener or timer is involved, so an input takes tens
  * of microseconds and replays identically; fuzz_service.c drives the whole
  * service through a real socket instead (slower, threads and all). Input
  * layout as fuzz_service.c's (byte 0 bit 0: the service with a secret) so
- * the two share seeds. /dev/shm: as fuzz_service.c (a private tmpfs when
+ * the two share seeds. A wrong secret is answered at once here
+ * (auth_fail_delay_ms left 0; the service waits 1 s). /dev/shm: as fuzz_service.c (a private tmpfs when
  * the system allows, with one segment offered for shared-memory SUBMITs). */
 #define _GNU_SOURCE
 #include "service/service.h"
@@ -162,6 +162,8 @@ static void check_answers(int fd)
                 }
                 skip = h.length;
                 have = 0;
+                if (getenv("LOCD_FUZZ_VERBOSE") && i + 4 <= (size_t)got && h.type == LC_MSG_RESULT)
+                    fprintf(stderr, "  RESULT status %d\n", (int)lc_get_u32(buf + i));
             }
         }
     }
