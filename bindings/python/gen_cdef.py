@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Turns the public headers include/locd/*.h into cffi declarations: locd.h
 (and the locd/*.h headers it includes), then every other public header
-(scene.h, which includes locd.h itself), each header's declarations once.
+(scene.h, which includes locd.h itself), each header's declarations once;
+not mpi.h (liblocd_mpi's, which needs <mpi.h>).
 
 Run at build time (bindings/python/meson.build), so locd.abi always declares
 exactly what the header it was built with declares: cffi's cdef() cannot read
@@ -81,10 +82,16 @@ def _numbers_for_macros(cdef, constants):
     return cdef
 
 
+# Public headers of other libraries that the ABI module does not load:
+# mpi.h is liblocd_mpi's and needs <mpi.h>'s MPI_Comm.
+SKIP = ("mpi.h",)
+
+
 def convert_all(include_dir, first="locd.h"):
-    """(cdef source, constants) of every public header in include_dir: `first`
-    with what it includes, then the other headers in name order, each once."""
-    seen = {first}
+    """(cdef source, constants) of every public header in include_dir but
+    SKIP: `first` with what it includes, then the other headers in name
+    order, each once."""
+    seen = {first, *SKIP}
     with open(os.path.join(include_dir, first), encoding="utf-8") as f:
         cdef, constants = convert(f.read(), include_dir, seen)
     for name in sorted(os.listdir(include_dir)):
