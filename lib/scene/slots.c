@@ -35,7 +35,7 @@ static int grow(const locd_allocator *a, void **p, size_t elem, size_t old_cap, 
 locd_status lc_scene_reserve(locd_scene *s, size_t more)
 {
     size_t need, cap, old;
-    /* 11 slot arrays and, last, the free list's room: LC_SCENE_ARRAYS + 1 */
+    /* 11 slot arrays and, last, the free list's room */
     void **arrays[12];
     size_t elems[12];
     void *fresh[12];
