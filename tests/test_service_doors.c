@@ -169,7 +169,7 @@ static void stopped_service_big_send_times_out(void)
  * stopped in the middle of a message. */
 typedef struct stalling_service {
     int lfd;
-    volatile int done;
+    int done; /* atomic */
 } stalling_service;
 
 static int read_n(int fd, void *buf, size_t n)
@@ -210,12 +210,12 @@ static void *stalling_main(void *arg)
                 type = 5; /* RESULT for that id, cut short */
                 memcpy(h + 6, &type, 2);
                 if (write(fd, h, 10) != 10)
-                    f->done = -1;
+                    __atomic_store_n(&f->done, -1, __ATOMIC_RELEASE);
             }
             free(skip);
         }
     }
-    while (!f->done)
+    while (!__atomic_load_n(&f->done, __ATOMIC_ACQUIRE)) /* atomic: the test thread sets it (TSan) */
         lu_sleep_ms(10);
     close(fd);
     return NULL;
@@ -250,7 +250,7 @@ static void stall_inside_a_result_times_out(void)
     took = lu_now_ms() - t0;
     LT_PRINT("# a RESULT cut short by a stalled service: LOCD_ERR_TIMEOUT after %.0f ms\n", took);
     TEST_ASSERT_TRUE_MESSAGE(took < 2000, "a stall inside a RESULT outlived the deadline");
-    f.done = 1;
+    __atomic_store_n(&f.done, 1, __ATOMIC_RELEASE);
     pthread_join(t, NULL);
     locd_pairs_destroy(p);
     locd_engine_destroy(e);
