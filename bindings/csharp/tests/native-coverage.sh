@@ -7,7 +7,9 @@
 # `nm -D --defined-only` lists them) or by a Windows DLL (its PE export
 # table, `objdump -p`). A library file's DllImport name is its file name
 # without "lib", the version and the extension (liblocd.so.0 -> locd,
-# liblocd-0.dll -> locd, liblocd_narrow.so -> locd_narrow).
+# liblocd-0.dll -> locd, liblocd_narrow.so -> locd_narrow). liblocd_mpi is
+# left out: its functions take an MPI_Comm, which has no meaning in Unity
+# (the MPI library is for C and C++ programs run under mpirun).
 #   bash bindings/csharp/tests/native-coverage.sh Locd.dll OUTDIR LIBDIR|DLL...
 # Exit 1 when an export has no declaration (a Unity user could not call it)
 # or a declaration has no export (calling it throws EntryPointNotFoundException).
@@ -24,7 +26,7 @@ for where in "$@"; do
   if [ -d "$where" ]; then
     # Every locd library in the directory, each real file once.
     while IFS= read -r f; do libs+=("$f"); done < <(
-      find "$where" -maxdepth 1 \( -name 'liblocd*.so*' -o -name '*locd*.dll' \) ! -name '*.meta' \( -type f -o -type l \) \
+      find "$where" -maxdepth 1 \( -name 'liblocd*.so*' -o -name '*locd*.dll' \) ! -name '*.meta' ! -name 'liblocd_mpi*' \( -type f -o -type l \) \
         -exec readlink -f {} \; | sort -u)
   else
     libs+=("$where")
