@@ -170,46 +170,6 @@ int lc_proto_write_all(int fd, const void *buf, size_t len)
     return 1;
 }
 
-int lc_proto_read_all(int fd, void *buf, size_t len, int timeout_ms, char *why, size_t why_len)
-{
-    char *p = buf;
-    size_t got = 0;
-    while (got < len) {
-        ssize_t r;
-        if (timeout_ms >= 0) {
-            struct pollfd pfd;
-            int pr;
-            pfd.fd = fd;
-            pfd.events = POLLIN;
-            pfd.revents = 0;
-            pr = poll(&pfd, 1, timeout_ms);
-            if (pr < 0 && errno == EINTR)
-                continue;
-            if (pr == 0) {
-                snprintf(why, why_len, "timed out after %zu of %zu bytes", got, len);
-                return -1;
-            }
-        }
-        r = recv(fd, p + got, len - got, 0);
-        if (r < 0) {
-            if (errno == EINTR)
-                continue;
-            snprintf(why, why_len, "read failed: %s", strerror(errno));
-            return -1;
-        }
-        if (r == 0) {
-            if (got == 0) {
-                snprintf(why, why_len, "connection closed");
-                return 0;
-            }
-            snprintf(why, why_len, "truncated message: connection closed after %zu of %zu bytes", got, len);
-            return -1;
-        }
-        got += (size_t)r;
-    }
-    return 1;
-}
-
 /* Milliseconds left until deadline (an lc_now_ms() value; < 0 = none):
  * -1 for no deadline, else at least 0. */
 static int ms_left(double deadline)
@@ -223,28 +183,35 @@ static int ms_left(double deadline)
     return left > 2e9 ? 2000000000 : (int)left + 1;
 }
 
-int lc_proto_read_by(int fd, void *buf, size_t len, double deadline, char *why, size_t why_len)
+/* The one reading loop: each wait for bytes is bounded by stall_ms (< 0 =
+ * unbounded) and by the total deadline (< 0 = none), whichever is sooner. */
+static int read_until(int fd, void *buf, size_t len, int stall_ms, double deadline, char *why, size_t why_len)
 {
     char *p = buf;
     size_t got = 0;
     while (got < len) {
         ssize_t r;
-        int left = ms_left(deadline);
-        if (left >= 0) {
+        int left = ms_left(deadline), wait = left;
+        if (stall_ms >= 0 && (wait < 0 || stall_ms < wait))
+            wait = stall_ms;
+        if (wait >= 0) {
             struct pollfd pfd;
             int pr;
             pfd.fd = fd;
             pfd.events = POLLIN;
             pfd.revents = 0;
-            pr = left ? poll(&pfd, 1, left) : 0;
+            pr = wait ? poll(&pfd, 1, wait) : 0;
             if (pr < 0 && errno == EINTR)
                 continue;
             if (pr == 0) {
-                snprintf(why, why_len, "deadline passed after %zu of %zu bytes", got, len);
+                if (wait == left) /* the server's session tells the deadline by this text */
+                    snprintf(why, why_len, "deadline passed after %zu of %zu bytes", got, len);
+                else
+                    snprintf(why, why_len, "timed out after %zu of %zu bytes", got, len);
                 return -1;
             }
         }
-        r = recv(fd, p + got, len - got, left >= 0 ? MSG_DONTWAIT : 0);
+        r = recv(fd, p + got, len - got, wait >= 0 ? MSG_DONTWAIT : 0);
         if (r < 0) {
             if (errno == EINTR || errno == EAGAIN || errno == EWOULDBLOCK)
                 continue;
@@ -262,6 +229,16 @@ int lc_proto_read_by(int fd, void *buf, size_t len, double deadline, char *why, 
         got += (size_t)r;
     }
     return 1;
+}
+
+int lc_proto_read_all(int fd, void *buf, size_t len, int timeout_ms, char *why, size_t why_len)
+{
+    return read_until(fd, buf, len, timeout_ms, -1.0, why, why_len);
+}
+
+int lc_proto_read_by(int fd, void *buf, size_t len, double deadline, char *why, size_t why_len)
+{
+    return read_until(fd, buf, len, -1, deadline, why, why_len);
 }
 
 int lc_proto_write_by(int fd, const void *buf, size_t len, double deadline)
