@@ -317,6 +317,11 @@ static int grow_u64(uint64_t **p, size_t n)
 static int grow_objects(sim_scene *s, size_t extra)
 {
     size_t n = s->n + extra;
+    /* Nothing to grow. realloc(p, 0) frees p and returns NULL on glibc, so
+     * a generator of 0 objects after another one freed the arrays that
+     * s still held: a double free at sim_scene_free (found by 42-fuzz). */
+    if (extra == 0)
+        return 0;
     double *poses = realloc(s->poses, 7 * n * sizeof(double));
     double *vel = poses ? realloc(s->vel, 6 * n * sizeof(double)) : NULL;
     uint8_t *dyn;

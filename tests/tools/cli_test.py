@@ -273,6 +273,17 @@ def bad_scene_numbers_are_refused_not_crashed_on():
 
 
 @test
+def generators_of_no_objects_are_empty_not_freed_twice():
+    """42-fuzz: a second generator of 0 objects called realloc(p, 0), which freed the object arrays the scene
+    still held (a double free when the scene was freed). Zero-object generators are valid and add nothing."""
+    empty = '{"shape": "sphere", "radius": 0.1}'
+    one = '{"shape": "sphere", "radius": 0.1, "count": 1}'
+    for gens in ([empty, empty], [one, empty, empty], [empty, one, empty]):
+        r = simulate_json('{"generate": [%s]}' % ", ".join(gens))
+        assert r.returncode == 0, (gens, r.returncode, r.stderr.decode())
+
+
+@test
 def a_directory_as_scene_says_so():  # issue 18: "size 9223372036854775807 is not a multiple of 24"
     with Tmp() as t:
         for cmd in (["pairs", t.dir], ["simulate", t.dir], ["frames", t.dir, "--moving", "0.1", "--frames", "1"]):
