@@ -68,22 +68,35 @@ static double *rock_points(double radius, size_t count, uint64_t seed)
     return p;
 }
 
+/* o's "seed" (default 1) into *seed: 0 when absent or valid, -1 when it is
+ * not a whole number in 0..2^53 (a negative or NaN seed cast to uint64_t
+ * was undefined behaviour, found by 42-fuzz). */
+static int get_seed(const json_value *o, uint64_t *seed)
+{
+    double d = 1.0;
+    if (json_get_number(o, "seed", &d) < 0 || !(d >= 0 && d <= 9007199254740992.0 && d == floor(d)))
+        return -1;
+    *seed = (uint64_t)d;
+    return 0;
+}
+
 /* Height field: size[0] x size[1] centred on the origin, cells[0] x cells[1]
  * quads, heights a sum of three random waves of the given amplitude. */
 static int terrain_mesh(const json_value *o, sim_shape *sh, char *err, size_t errlen)
 {
-    double size[2] = {20.0, 20.0}, cells[2] = {32, 32}, amp = 1.0, seedd = 1.0, ph[6], fr[6];
+    double size[2] = {20.0, 20.0}, cells[2] = {32, 32}, amp = 1.0, ph[6], fr[6];
+    uint64_t seed;
     size_t nx, ny, i, j, t = 0;
     cli_rng r;
     int k;
     if (json_get_vec(o, "size", size, 2) < 0 || json_get_vec(o, "cells", cells, 2) < 0 ||
-        json_get_number(o, "amplitude", &amp) < 0 || json_get_number(o, "seed", &seedd) < 0)
-        return bad(err, errlen, "terrain: size [x, y], cells [nx, ny], amplitude, seed are numbers");
+        json_get_number(o, "amplitude", &amp) < 0 || get_seed(o, &seed) < 0)
+        return bad(err, errlen, "terrain: size [x, y], cells [nx, ny] and amplitude are numbers, seed a whole number 0..2^53");
     if (!(cells[0] >= 1 && cells[1] >= 1 && cells[0] <= 2048 && cells[1] <= 2048))
         return bad(err, errlen, "terrain: cells must be 1..2048");
     nx = (size_t)cells[0];
     ny = (size_t)cells[1];
-    cli_rng_seed(&r, (uint64_t)seedd);
+    cli_rng_seed(&r, seed);
     for (k = 0; k < 6; k++) {
         ph[k] = 2.0 * SIM_PI * cli_rng_uniform(&r);
         fr[k] = (0.5 + 1.5 * cli_rng_uniform(&r)) * 2.0 * SIM_PI / fmax(size[0], size[1]) * (1 + k / 2);
@@ -213,13 +226,14 @@ static int build_convex(const shape_req *q, locd_status *st)
 static int build_rock(const shape_req *q, locd_status *st)
 {
     sim_shape *sh = q->sh;
-    double count = 14, seed = 1;
-    if (json_get_number(q->o, "points", &count) < 0 || json_get_number(q->o, "seed", &seed) < 0 ||
+    double count = 14;
+    uint64_t seed;
+    if (json_get_number(q->o, "points", &count) < 0 || get_seed(q->o, &seed) < 0 ||
         !(count >= 4 && count <= 1000)) /* written so that a NaN fails too */
-        return bad(q->err, q->errlen, "rock: points is 4..1000, seed a number");
+        return bad(q->err, q->errlen, "rock: points is 4..1000, seed a whole number 0..2^53");
     sh->kind = LOCD_SHAPE_CONVEX;
     sh->npoints = (size_t)count;
-    sh->points = rock_points(sh->radius, sh->npoints, (uint64_t)seed * 7919u + (uint64_t)q->variant);
+    sh->points = rock_points(sh->radius, sh->npoints, seed * 7919u + (uint64_t)q->variant);
     if (!sh->points)
         return bad(q->err, q->errlen, "out of memory");
     *st = locd_shape_convex(sh->points, sh->npoints, &sh->handle);
@@ -443,20 +457,21 @@ static int load_objects(const json_value *list, sim_scene *s, char *err, size_t 
 
 /* A "generate" entry: how many objects, where, and how many shape variants. */
 typedef struct generator {
-    double count, lo[3], hi[3], grid[3], seed, jitter, variants;
+    double count, lo[3], hi[3], grid[3], jitter, variants;
+    uint64_t seed;
     const char *layout; /* "random" or "grid" */
 } generator;
 
 /* -1 (err set) when a member has the wrong type or is out of range. */
 static int read_generator(const json_value *g, generator *gen, char *err, size_t errlen)
 {
-    static const generator defaults = {0, {0, 0, 0}, {1, 1, 1}, {0, 0, 0}, 1, 0, 1, "random"};
+    static const generator defaults = {0, {0, 0, 0}, {1, 1, 1}, {0, 0, 0}, 0, 1, 1, "random"};
     *gen = defaults;
     if (json_get_number(g, "count", &gen->count) < 0 || json_get_vec(g, "min", gen->lo, 3) < 0 ||
         json_get_vec(g, "max", gen->hi, 3) < 0 || json_get_vec(g, "grid", gen->grid, 3) < 0 ||
-        json_get_number(g, "seed", &gen->seed) < 0 || json_get_number(g, "velocity_jitter", &gen->jitter) < 0 ||
+        get_seed(g, &gen->seed) < 0 || json_get_number(g, "velocity_jitter", &gen->jitter) < 0 ||
         json_get_number(g, "variants", &gen->variants) < 0 || json_get_string(g, "layout", &gen->layout) < 0)
-        return bad(err, errlen, "count, min, max, grid, seed, velocity_jitter, variants, layout");
+        return bad(err, errlen, "count, min, max, grid, seed (a whole number 0..2^53), velocity_jitter, variants, layout");
     if (!strcmp(gen->layout, "grid")) {
         int a;
         /* Whole cell counts of at least 1: a zero (or 0.5, read as 0) was
@@ -511,7 +526,7 @@ static void put_generated(sim_scene *s, const generator *gen, const placement *p
 {
     cli_rng r;
     size_t i;
-    cli_rng_seed(&r, (uint64_t)gen->seed);
+    cli_rng_seed(&r, gen->seed);
     for (i = 0; i < (size_t)gen->count; i++) {
         double pos[3], vel[3];
         int a;

@@ -264,6 +264,11 @@ def bad_scene_numbers_are_refused_not_crashed_on():
     refused(simulate_json(rock % "-nan"), "bad number")
     refused(simulate_json(rock % "1e999"), "bad number")
     refused(simulate_json('{"steps": 1e300}'), "steps")
+    # 42-fuzz: a negative seed was cast to uint64_t (undefined behaviour); a seed is a whole number 0..2^53.
+    for seed in ("-6", "0.5", "1e300"):
+        refused(simulate_json('{"generate": [{"shape": "sphere", "radius": 0.1, "count": 2, "seed": %s}]}' % seed), "seed")
+        refused(simulate_json(rock % ("14, \"seed\": %s" % seed)), "seed")
+        refused(simulate_json('{"objects": [{"shape": "terrain", "seed": %s, "position": [0, 0, 0]}]}' % seed), "seed")
     refused(run(["simulate", "-", "--steps", "junk"], input=b"{}"), "--steps")
     refused(run(["simulate", "-", "--threads", "-1"], input=b"{}"), "--threads")
     assert simulate_json(gen % "[2, 2, 1]").returncode == 0
