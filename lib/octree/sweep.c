@@ -334,7 +334,14 @@ LC_INLINE int lc_descends(uint64_t next, uint64_t pm, uint32_t level, uint32_t d
            ((next >> LC_LEVEL_BITS) >> shift) == (pm >> shift);
 }
 
-static int exact_overlap(const void *boxes, int f64, uint32_t i, uint32_t j)
+/* The closed box test on the original coordinates. Inlined into every
+ * kernel's scan, so it is compiled for the caller's target: called from an
+ * AVX2 or AVX-512 loop as a separate SSE-encoded function, it ran with the
+ * vector registers' upper halves dirty (no vzeroupper there), and the
+ * kernels spent more time in it than in their scans. On a lattice of
+ * touching cubes, where nearly every pair needs it, LOCD_KERNEL=avx2 took
+ * 4.4 times as long as the scalar kernel (docs/benchmarks.md, "Kernels"). */
+LC_INLINE int exact_overlap(const void *boxes, int f64, uint32_t i, uint32_t j)
 {
     if (f64) {
         const double *a = (const double *)boxes + 6 * (size_t)i, *b = (const double *)boxes + 6 * (size_t)j;
