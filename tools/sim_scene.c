@@ -68,13 +68,20 @@ static double *rock_points(double radius, size_t count, uint64_t seed)
     return p;
 }
 
+/* Whether a JSON number is a whole number in [0, 2^53): exact in a double,
+ * so it converts to uint64_t without loss (a NaN fails too). */
+static int is_whole_u53(double d)
+{
+    return d >= 0 && d < 9007199254740992.0 && d == floor(d);
+}
+
 /* o's "seed" (default 1) into *seed: 0 when absent or valid, -1 when it is
- * not a whole number in 0..2^53 (a negative or NaN seed cast to uint64_t
+ * not a whole number in [0, 2^53) (a negative or NaN seed cast to uint64_t
  * was undefined behaviour, found by 42-fuzz). */
 static int get_seed(const json_value *o, uint64_t *seed)
 {
     double d = 1.0;
-    if (json_get_number(o, "seed", &d) < 0 || !(d >= 0 && d <= 9007199254740992.0 && d == floor(d)))
+    if (json_get_number(o, "seed", &d) < 0 || !is_whole_u53(d))
         return -1;
     *seed = (uint64_t)d;
     return 0;
@@ -388,9 +395,7 @@ static int read_placement(const json_value *o, placement *p, char *err, size_t e
         json_get_number(o, "group", &p->group) < 0 || json_get_number(o, "remove_at", &p->remove_at) < 0)
         return bad(err, errlen, "category, mask, group, remove_at are numbers");
     /* Filter bits as JSON numbers: integers below 2^53 (mask -1: all bits). */
-    if (!(p->category >= 0 && p->category < 9007199254740992.0 && p->category == (double)(uint64_t)p->category) ||
-        !(p->mask == -1 || (p->mask >= 0 && p->mask < 9007199254740992.0 && p->mask == (double)(uint64_t)p->mask)) ||
-        !(p->group >= 0 && p->group < 9007199254740992.0 && p->group == (double)(uint64_t)p->group) ||
+    if (!is_whole_u53(p->category) || !(p->mask == -1 || is_whole_u53(p->mask)) || !is_whole_u53(p->group) ||
         !(p->remove_at >= 0 && p->remove_at <= 1e9 && p->remove_at == (double)(int32_t)p->remove_at))
         return bad(err, errlen, "category, group: integers 0..2^53; mask: -1 (all bits) or 0..2^53; "
                                 "remove_at: a step number (0 = never)");
