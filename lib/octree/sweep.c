@@ -340,7 +340,8 @@ LC_INLINE int lc_descends(uint64_t next, uint64_t pm, uint32_t level, uint32_t d
  * vector registers' upper halves dirty (no vzeroupper there), and the
  * kernels spent more time in it than in their scans. On a lattice of
  * touching cubes, where nearly every pair needs it, LOCD_KERNEL=avx2 took
- * 4.4 times as long as the scalar kernel (docs/benchmarks.md, "Kernels"). */
+ * 5.5 times as long as the scalar kernel (docs/benchmarks.md, "The exact
+ * test inside the kernels"). */
 LC_INLINE int exact_overlap(const void *boxes, int f64, uint32_t i, uint32_t j)
 {
     if (f64) {
