@@ -965,6 +965,201 @@ static void large_scene_threads_and_fresh(void)
     free(b), free(ids1), free(ids2), free(mv), free(m.o), free(m.pairs);
 }
 
+/* Object k's box on a 200 x 200 x 4 lattice of unit cubes along x (so
+ * x-neighbours touch), y and z 3 apart; odd ones shrunk by `gap` (1e-9:
+ * apart as doubles, touching once rounded to floats). */
+static void lattice_box(size_t k, double gap, double *b)
+{
+    double x = (double)(k % 200), y = 3.0 * (double)((k / 200) % 200), z = 3.0 * (double)(k / 40000);
+    double g = (k & 1) ? gap : 0.0;
+    b[0] = x + g, b[1] = y, b[2] = z, b[3] = x + 1.0 - g, b[4] = y + 1.0, b[5] = z + 1.0;
+}
+
+/* Moves ids[pos[0..cnt)] to the boxes lattice_box gives them, in scene s1
+ * (one thread: the serial loop) and s2 (two threads: move.c), f64 or f32. */
+static void move_both(locd_scene *s1, locd_scene *s2, model *m, const locd_id *ids, const size_t *pos, size_t cnt,
+                      double gap, int f32)
+{
+    locd_id *mv = malloc(cnt * sizeof *mv);
+    double *b = malloc(cnt * 6 * sizeof *b);
+    float *f = malloc(cnt * 6 * sizeof *f);
+    size_t i;
+    int a;
+    for (i = 0; i < cnt; i++) {
+        mv[i] = ids[pos[i]];
+        lattice_box(pos[i], gap, b + 6 * i);
+        for (a = 0; a < 6; a++) {
+            f[6 * i + a] = (float)b[6 * i + a];
+            if (f32)
+                b[6 * i + a] = f[6 * i + a];
+        }
+        memcpy(m->o[pos[i]].box, b + 6 * i, 6 * sizeof *b);
+    }
+    if (f32) {
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s1, mv, f, cnt));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s2, mv, f, cnt));
+    } else {
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s1, mv, b, cnt));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s2, mv, b, cnt));
+    }
+    free(mv), free(b), free(f);
+}
+
+/* Updates both scenes and checks both against a fresh scene of the model. */
+static void update_both(locd_engine *e, locd_scene *s1, locd_scene *s2, model *m)
+{
+    const locd_id *p1, *p2;
+    size_t n1, n2, nf;
+    locd_id *want;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s1, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s2, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s1, &p1, &n1));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s2, &p2, &n2));
+    want = fresh_pairs(e, m, &nf);
+    same_rows("one thread's moves against a fresh scene", want, nf, p1, n1);
+    same_rows("two threads' moves against a fresh scene", want, nf, p2, n2);
+    free(want);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_created(s1, &p1, &n1));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_created(s2, &p2, &n2));
+    same_rows("created: 1 thread against 2", p1, n1, p2, n2);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_lost(s1, &p1, &n1));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_lost(s2, &p2, &n2));
+    same_rows("lost: 1 thread against 2", p1, n1, p2, n2);
+}
+
+/* The pairs after an update (pending changes taken in), hashed with the
+ * count of objects: fingerprint() for scenes too big for its query. */
+static uint64_t pairs_hash(locd_scene *s)
+{
+    const locd_id *p;
+    size_t np, i;
+    uint64_t h = 1469598103934665603ull;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s, &p, &np));
+    for (i = 0; i < 2 * np; i++)
+        h = (h ^ p[i]) * 1099511628211ull;
+    return h ^ locd_scene_count(s);
+}
+
+/* One bad batch given to both scenes: the same error at the same position,
+ * and neither scene changed. */
+static void bad_move_both(locd_scene *s1, locd_scene *s2, const locd_id *mv, const double *b, size_t cnt,
+                          locd_status want, int64_t at)
+{
+    uint64_t h1 = pairs_hash(s1), h2 = pairs_hash(s2);
+    TEST_ASSERT_EQUAL_INT(want, locd_scene_move_f64(s1, mv, b, cnt));
+    TEST_ASSERT_EQUAL_INT64(at, locd_last_error_index());
+    TEST_ASSERT_EQUAL_INT(want, locd_scene_move_f64(s2, mv, b, cnt));
+    TEST_ASSERT_EQUAL_INT64(at, locd_last_error_index());
+    TEST_ASSERT_TRUE(h1 == pairs_hash(s1));
+    TEST_ASSERT_TRUE(h2 == pairs_hash(s2));
+}
+
+/* A move of 65,536 objects or more runs on the pool (lib/scene/move.c):
+ * the same lists as the serial loop's, in shuffled and overlapping
+ * batches, with boxes that are floats exactly and boxes that are not (the
+ * count of those decides whether the from-scratch path may use floats); a
+ * later small move finds every moved object clean (the dirty list was
+ * written right); and a bad batch names the position the serial checks
+ * name (stale before repeated before bad box) and changes nothing. */
+static void large_moves_on_the_pool(void)
+{
+    const size_t n = 140000, half = 70000;
+    locd_engine *e1 = new_engine(1, NULL), *e2 = new_engine(2, NULL);
+    locd_scene *s1 = NULL, *s2 = NULL;
+    locd_id *ids1 = malloc(n * sizeof *ids1), *ids2 = malloc(n * sizeof *ids2), *mv = malloc(n * sizeof *mv);
+    size_t *pos = malloc(n * sizeof *pos), k;
+    double *b = malloc(n * 6 * sizeof *b);
+    model m;
+    ts_rng r;
+    memset(&m, 0, sizeof m);
+    ts_seed(&r, 515);
+    for (k = 0; k < n; k++)
+        lattice_box(k, 0.0, b + 6 * k);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e1, NULL, &s1));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e2, NULL, &s2));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s1, b, n, NULL, ids1));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s2, b, n, NULL, ids2));
+    TEST_ASSERT_EQUAL_MEMORY(ids1, ids2, n * sizeof *ids1);
+    for (k = 0; k < n; k++)
+        m_add(&m, ids1[k], b + 6 * k, 1, ~(uint64_t)0, 0, 0, 0);
+    update_both(e1, s1, s2, &m);
+    /* the second half, shuffled, shrunk (not floats: no pair); then a few,
+       incrementally: a slot left out of the dirty list would stay flagged
+       dirty and its next move would be missed */
+    for (k = 0; k < half; k++)
+        pos[k] = half + k;
+    for (k = half - 1; k > 0; k--) {
+        size_t j = (size_t)(ts_next(&r) % (k + 1)), t = pos[k];
+        pos[k] = pos[j], pos[j] = t;
+    }
+    move_both(s1, s2, &m, ids1, pos, half, 1e-9, 0);
+    update_both(e1, s1, s2, &m);
+    for (k = 0; k < 500; k++)
+        pos[k] = (size_t)(ts_next(&r) % (n / 500)) + k * (n / 500);
+    move_both(s1, s2, &m, ids1, pos, 500, 0.0, 0);
+    update_both(e1, s1, s2, &m);
+    /* the first half shrunk, then an overlapping range back to the lattice */
+    for (k = 0; k < half; k++)
+        pos[k] = k;
+    move_both(s1, s2, &m, ids1, pos, half, 1e-9, 0);
+    for (k = 0; k < half; k++)
+        pos[k] = half / 2 + k;
+    move_both(s1, s2, &m, ids1, pos, half, 0.0, 0);
+    update_both(e1, s1, s2, &m);
+    /* everything as floats, then shrunk again as doubles */
+    for (k = 0; k < n; k++)
+        pos[k] = n - 1 - k;
+    move_both(s1, s2, &m, ids1, pos, n, 0.0, 1);
+    update_both(e1, s1, s2, &m);
+    move_both(s1, s2, &m, ids1, pos, n, 1e-9, 0);
+    update_both(e1, s1, s2, &m);
+    /* a few, incrementally: every slot must have left the dirty list */
+    for (k = 0; k < 500; k++)
+        pos[k] = (size_t)(ts_next(&r) % (n / 500)) + k * (n / 500);
+    move_both(s1, s2, &m, ids1, pos, 500, 0.0, 0);
+    update_both(e1, s1, s2, &m);
+    {
+        locd_scene_stats st;
+        locd_scene_stats_init(&st);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s2, &st));
+        TEST_ASSERT_EQUAL_UINT32(0, st.rebuilt);
+        TEST_ASSERT_EQUAL_UINT64(500, st.moved);
+    }
+    /* bad batches of the whole scene */
+    for (k = 0; k < n; k++) { /* odd ones 2 up in y: applied, the batch would change the pairs */
+        mv[k] = ids1[k];
+        memcpy(b + 6 * k, m.o[k].box, 6 * sizeof *b);
+        b[6 * k + 1] += (k & 1) ? 2.0 : 0.0, b[6 * k + 4] += (k & 1) ? 2.0 : 0.0;
+    }
+    mv[30000] = ids1[10];                       /* repeated */
+    mv[50000] = ids1[50000] + ((uint64_t)7 << 32); /* stale: wrong serial */
+    b[6 * 20000 + 1] = NAN;
+    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_STALE_ID, 50000);
+    mv[50000] = ids1[50000];
+    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_DUPLICATE_ID, 30000);
+    b[6 * 20000 + 1] = m.o[20000].box[1];
+    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_DUPLICATE_ID, 30000); /* the only fault */
+    mv[30000] = ids1[30000];
+    b[6 * 40000 + 4] = NAN;
+    b[6 * 45000 + 0] = b[6 * 45000 + 3] + 1.0;
+    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_NONFINITE, 40000);
+    b[6 * 40000 + 4] = m.o[40000].box[4];
+    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_INVERTED_BOX, 45000);
+    /* put right, the same batch moves (and changes the pairs) */
+    b[6 * 45000 + 0] = m.o[45000].box[0];
+    for (k = 0; k < n; k++)
+        memcpy(m.o[k].box, b + 6 * k, 6 * sizeof *b);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s1, mv, b, n));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s2, mv, b, n));
+    update_both(e1, s1, s2, &m);
+    locd_scene_destroy(s1);
+    locd_scene_destroy(s2);
+    locd_engine_destroy(e1);
+    locd_engine_destroy(e2);
+    free(b), free(ids1), free(ids2), free(mv), free(pos), free(m.o), free(m.pairs);
+}
+
 /* Adds n boxes (dynamic, or static) to scene and model. */
 static void add_boxes(locd_scene *s, model *m, const double *b, size_t n, int stat, locd_id *ids)
 {
@@ -1326,6 +1521,7 @@ static const lt_test tests[] = {
     LT_TEST(hard_cases),
     LT_TEST(float_copies_follow_the_boxes),
     LT_TEST(large_scene_threads_and_fresh),
+    LT_TEST(large_moves_on_the_pool),
     LT_TEST(bad_batches_change_nothing),
     LT_TEST(levels_2_and_3_are_unsupported),
     LT_TEST(allocation_failures_change_nothing),

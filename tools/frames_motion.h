@@ -15,6 +15,7 @@ typedef struct frames_motion {
     size_t n;
     uint8_t *is_static; /* n flags */
     uint32_t *dynamic;  /* the non-static indices; each frame's movers are its first `moved` */
+    uint8_t *mark;      /* n scratch flags (sorting the movers) */
     size_t ndynamic;
     size_t moved;       /* objects moved per frame: round(moving * ndynamic) */
     double step;        /* largest displacement per axis per frame */
@@ -25,8 +26,9 @@ typedef struct frames_motion {
  * 0, or -1 when out of memory. */
 int frames_motion_init(frames_motion *m, const float *boxes, size_t n, double static_frac, double moving,
                        uint64_t seed);
-/* Picks this frame's movers (m->dynamic[0 .. m->moved - 1]) and shifts their
- * boxes in place by a random vector in [-step, step]^3. */
+/* Picks this frame's movers (m->dynamic[0 .. m->moved - 1], a uniform random
+ * subset, in ascending index order: the order an engine walks its bodies in)
+ * and shifts their boxes in place by a random vector in [-step, step]^3. */
 void frames_motion_step(frames_motion *m, float *boxes);
 void frames_motion_free(frames_motion *m);
 

@@ -150,7 +150,14 @@ static locd_status move_common(locd_scene *s, const locd_id *ids, const void *bo
 {
     locd_status st;
     size_t i;
-    if ((st = lc_scene_check_handle(s)) != LOCD_OK || (st = lc_scene_check_ids(s, ids, n)) != LOCD_OK)
+    if ((st = lc_scene_check_handle(s)) != LOCD_OK)
+        return st;
+    if (lc_scene_move_parallel(s, ids, boxes, f64, n, &st)) {
+        if (st == LOCD_OK)
+            lc_clear_error();
+        return st;
+    }
+    if ((st = lc_scene_check_ids(s, ids, n)) != LOCD_OK)
         return st;
     st = f64 ? lc_scene_check_boxes_f64(boxes, n) : lc_scene_check_boxes_f32(boxes, n);
     if (st || (st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK)

@@ -4,7 +4,7 @@
  * coordinates. Private; not installed.
  *
  * Files: slots.c (ids, slots), validate.c (batch checks), scene.c (create,
- * the changes), tree.c (cells, the two entry lists: tombstones, overflow,
+ * the changes), move.c (large moves on the pool), tree.c (cells, the two entry lists: tombstones, overflow,
  * compaction, directory), find.c (pairs of the moved objects), rebuild.c
  * (everything from scratch, the numbering), pairset.c (sorted pair lists),
  * update.c (the update: both paths, undo, the carry pass), query.c,
@@ -147,6 +147,8 @@ locd_status lc_scene_reserve(locd_scene *s, size_t more);
 uint32_t lc_scene_take_slot(locd_scene *s);
 /* Sets slot's box (double and float copies, the INEXACT flag and count) from 6 floats or doubles. */
 void lc_scene_set_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, size_t i);
+/* The same without the count: returns its change (-1, 0 or 1). */
+int lc_scene_put_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, size_t i);
 /* Marks a slot dirty (in scene->dirty; room reserved beforehand). */
 void lc_scene_mark_dirty(locd_scene *s, uint32_t slot);
 /* Releases every slot removed since the last update to the free list. */
@@ -154,6 +156,12 @@ void lc_scene_free_removed(locd_scene *s);
 void lc_scene_slots_fini(locd_scene *s);
 /* Room for `more` entries in the dirty and removed lists. */
 locd_status lc_scene_reserve_lists(locd_scene *s, size_t more_dirty, size_t more_removed);
+
+/* A move of n objects split over the pool (move.c), when the scene has
+ * threads and n is large: returns 1 and the status in *st, else 0 (the
+ * caller moves them). */
+int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t n,
+                           locd_status *st);
 
 /* ---- batch checks (validate.c): nothing is changed; errors name the index ---- */
 locd_status lc_scene_check_boxes_f32(const float *boxes, size_t n);

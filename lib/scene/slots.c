@@ -106,11 +106,11 @@ locd_status lc_scene_reserve_lists(locd_scene *s, size_t more_dirty, size_t more
     return LOCD_OK;
 }
 
-void lc_scene_set_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, size_t i)
+int lc_scene_put_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, size_t i)
 {
     double *b = s->box + 6 * (size_t)slot;
     float *f = s->fbox + 6 * (size_t)slot;
-    int a, exact = 1;
+    int a, exact = 1, was = (s->flags[slot] & LC_SLOT_INEXACT) != 0;
     if (f64) {
         const double *in = (const double *)boxes + 6 * i;
         for (a = 0; a < 6; a++) {
@@ -123,11 +123,13 @@ void lc_scene_set_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, 
         for (a = 0; a < 6; a++)
             b[a] = (double)in[a], f[a] = in[a];
     }
-    if (s->flags[slot] & LC_SLOT_INEXACT)
-        s->ninexact--;
     s->flags[slot] = (uint8_t)((s->flags[slot] & ~LC_SLOT_INEXACT) | (exact ? 0 : LC_SLOT_INEXACT));
-    if (!exact)
-        s->ninexact++;
+    return !exact - was;
+}
+
+void lc_scene_set_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, size_t i)
+{
+    s->ninexact = (size_t)((long)s->ninexact + lc_scene_put_box(s, slot, boxes, f64, i));
 }
 
 void lc_scene_mark_dirty(locd_scene *s, uint32_t slot)

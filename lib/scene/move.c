@@ -1,0 +1,139 @@
+/* A large move on the pool. A move of most of the scene (every body of a
+ * simulation, each frame) is three passes over the batch, each one split
+ * over the threads: check the ids and boxes, check for repeated ids, then
+ * write the boxes and the dirty list. The result is the serial loop's
+ * (scene.c): the same boxes, flags and dirty list in batch order; a bad
+ * batch changes nothing and its error is the serial checks' own. */
+#include "scene/scene.h"
+
+#include <math.h>
+
+/* Below this many objects a move runs on the calling thread. */
+#define LC_MOVE_PARALLEL_MIN 65536
+
+typedef struct move_ctx {
+    locd_scene *s;
+    const locd_id *ids;
+    const void *boxes;
+    int f64;
+    size_t n;
+    uint32_t base;                 /* stamp of position k: base + k */
+    int bad[LC_MAX_THREADS];       /* a stale or repeated id, or a bad box, in the thread's range */
+    size_t fresh[LC_MAX_THREADS];  /* slots not dirty yet, then the dirty list's offset */
+    long inexact[LC_MAX_THREADS];  /* change of ninexact */
+    int pass;
+} move_ctx;
+
+LC_INLINE int box_ok(const move_ctx *c, size_t i)
+{
+    int a;
+    double b[6];
+    for (a = 0; a < 6; a++)
+        b[a] = c->f64 ? ((const double *)c->boxes)[6 * i + a] : (double)((const float *)c->boxes)[6 * i + a];
+    for (a = 0; a < 6; a++)
+        if (!isfinite(b[a]))
+            return 0;
+    return b[0] <= b[3] && b[1] <= b[4] && b[2] <= b[5];
+}
+
+static void task_move(void *arg, uint32_t t, uint32_t k)
+{
+    move_ctx *c = arg;
+    locd_scene *s = c->s;
+    size_t i = c->n * t / k, e = c->n * (t + 1) / k;
+    if (c->pass == 1) { /* ids live, boxes valid; each slot stamped with its position */
+        int bad = 0;
+        for (; i < e; i++) {
+            int64_t slot = lc_scene_slot(s, c->ids[i]);
+            if (slot < 0 || !box_ok(c, i)) {
+                bad = 1;
+                break;
+            }
+            s->stamp[slot] = c->base + (uint32_t)i;
+        }
+        c->bad[t] = bad;
+    } else if (c->pass == 2) { /* a slot whose stamp is not its own position's is repeated */
+        size_t fresh = 0;
+        int bad = 0;
+        for (; i < e; i++) {
+            uint32_t slot = LC_ID_SLOT(c->ids[i]);
+            if (s->stamp[slot] != c->base + (uint32_t)i) {
+                bad = 1;
+                break;
+            }
+            fresh += !(s->flags[slot] & LC_SLOT_DIRTY);
+        }
+        c->bad[t] = bad;
+        c->fresh[t] = fresh;
+    } else { /* the boxes, and the slots new to the dirty list at the thread's offset */
+        uint32_t *dirty = (uint32_t *)s->dirty.data + c->fresh[t];
+        long inexact = 0;
+        for (; i < e; i++) {
+            uint32_t slot = LC_ID_SLOT(c->ids[i]);
+            inexact += lc_scene_put_box(s, slot, c->boxes, c->f64, i);
+            if (!(s->flags[slot] & LC_SLOT_DIRTY)) {
+                s->flags[slot] |= LC_SLOT_DIRTY;
+                *dirty++ = slot;
+            }
+        }
+        c->inexact[t] = inexact;
+    }
+}
+
+/* 1 when any thread's range failed the pass just run. */
+static int any_bad(const move_ctx *c, uint32_t k)
+{
+    uint32_t t;
+    for (t = 0; t < k; t++)
+        if (c->bad[t])
+            return 1;
+    return 0;
+}
+
+int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t n,
+                           locd_status *st)
+{
+    move_ctx c;
+    uint32_t k = s->threads, t;
+    size_t off;
+    long inexact = 0;
+    if (k < 2 || n < LC_MOVE_PARALLEL_MIN || n >= UINT32_MAX || !ids || !boxes)
+        return 0;
+    if ((*st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK)
+        return 1;
+    memset(&c, 0, sizeof c);
+    c.s = s, c.ids = ids, c.boxes = boxes, c.f64 = f64, c.n = n;
+    /* The batch takes n stamps, so no later batch's stamp equals one of them. */
+    if ((uint64_t)s->stamp_now + n >= UINT32_MAX) {
+        memset(s->stamp, 0, s->slot_cap * sizeof *s->stamp);
+        s->stamp_now = 0;
+    }
+    c.base = s->stamp_now + 1;
+    s->stamp_now += (uint32_t)n;
+    c.pass = 1;
+    lc_pool_run(s->pool, k, task_move, &c);
+    if (!any_bad(&c, k)) {
+        c.pass = 2;
+        lc_pool_run(s->pool, k, task_move, &c);
+    }
+    if (any_bad(&c, k)) { /* the serial checks name the first bad position */
+        if ((*st = lc_scene_check_ids(s, ids, n)) == LOCD_OK)
+            *st = f64 ? lc_scene_check_boxes_f64(boxes, n) : lc_scene_check_boxes_f32(boxes, n);
+        if (*st == LOCD_OK) /* cannot happen: the passes and the checks test the same */
+            *st = lc_error(LOCD_ERR_INTERNAL, "the move's checks disagree");
+        return 1;
+    }
+    for (t = 0, off = s->ndirty; t < k; t++) {
+        size_t f = c.fresh[t];
+        c.fresh[t] = off;
+        off += f;
+    }
+    c.pass = 3;
+    lc_pool_run(s->pool, k, task_move, &c);
+    for (t = 0; t < k; t++)
+        inexact += c.inexact[t];
+    s->ninexact = (size_t)((long)s->ninexact + inexact);
+    s->ndirty = off;
+    *st = LOCD_OK;
+    return 1;
+}
