@@ -62,89 +62,176 @@ static int filter_passes_all(const locd_scene *s, const uint32_t *live, size_t n
     return 1;
 }
 
-/* Insertion sort of v[b, e) (an object's few partners). */
-static void sort_run(uint32_t *v, size_t b, size_t e)
-{
-    size_t x, y;
-    for (x = b + 1; x < e; x++) {
-        uint32_t t = v[x];
-        for (y = x; y > b && v[y - 1] > t; y--)
-            v[y] = v[y - 1];
-        v[y] = t;
-    }
-}
-
-/* Rows of the first indices [n t / k, n (t + 1) / k): i's partners are
- * second[start[i - 1], start[i]), its rows at the same positions. */
-typedef struct emit_ctx {
-    const size_t *start;
-    uint32_t *second;
-    const locd_id *idl;
-    locd_id *rows;
-    size_t n;
-} emit_ctx;
-
-static void task_emit(void *arg, uint32_t t, uint32_t k)
-{
-    emit_ctx *c = arg;
-    size_t i = c->n * t / k, e = c->n * (t + 1) / k, x = i ? c->start[i - 1] : 0;
-    for (; i < e; i++) {
-        size_t end = c->start[i];
-        locd_id a = c->idl[i];
-        sort_run(c->second, x, end);
-        for (; x < end; x++)
-            c->rows[2 * x] = a, c->rows[2 * x + 1] = c->idl[c->second[x]];
-    }
-}
-
-/* The counting sort of the pairs on i, split over the pool: thread t
- * counts the i of its share of the pairs (pass 1), then writes their j at
- * its own offsets within each i's run (pass 2; the offsets from a prefix
- * sum over i, then t). */
+/* Ordering the engine's pairs (i, j), i < j, by (i, j): buckets of 2^shift
+ * consecutive i (a few thousand buckets, so each thread's scatter writes a
+ * few thousand streams and each bucket's sort runs in the cache), then
+ * within a bucket a counting sort on i and an insertion sort of each i's
+ * few j. Pairs the filter drops are dropped first. Each step is split over
+ * the pool: pair ranges for the counts and the scatter, bucket ranges of
+ * about equal pairs for the sort and the rows. */
 typedef struct order_ctx {
-    const uint32_t *p;
-    size_t np, n, kk;
-    size_t *cnt[LC_MAX_THREADS];
-    size_t *start;
-    size_t sum[LC_MAX_THREADS + 1]; /* pass 3: the pairs of each thread's share of the i */
-    uint32_t *second;
+    const locd_scene *s;
+    uint32_t *p;               /* the engine's pairs; filtered in place */
+    size_t np, n;
+    const uint32_t *live;      /* slot of index i */
+    const locd_id *idl;        /* id of index i */
+    int all;                   /* no pair is filtered out */
+    uint32_t shift, nb;        /* bucket of i: i >> shift; nb buckets */
+    size_t pb[LC_MAX_THREADS + 1], kept[LC_MAX_THREADS];
+    size_t *cnt[LC_MAX_THREADS]; /* per thread: count then offset, per bucket */
+    size_t *start;             /* nb + 1: first pair of each bucket */
+    uint32_t bb[LC_MAX_THREADS + 1]; /* the threads' bucket ranges for the sort */
+    uint32_t *local[LC_MAX_THREADS]; /* per thread: 2^shift + 1 counters */
+    uint64_t *key, *tmp;       /* np each: (i << 32 | j) by bucket, then by i */
+    locd_id *rows;
     int pass;
 } order_ctx;
+
+static void order_count(order_ctx *c, uint32_t t)
+{
+    size_t x, w = c->pb[t], *cnt = c->cnt[t];
+    uint32_t *p = c->p;
+    memset(cnt, 0, c->nb * sizeof *cnt);
+    for (x = c->pb[t]; x < c->pb[t + 1]; x++) {
+        uint32_t i = p[2 * x], j = p[2 * x + 1];
+        if (!c->all && !lc_scene_may_pair(c->s, c->live[i], c->live[j]))
+            continue;
+        p[2 * w] = i, p[2 * w + 1] = j, w++;
+        cnt[i >> c->shift]++;
+    }
+    c->kept[t] = w - c->pb[t];
+}
+
+static void order_scatter(order_ctx *c, uint32_t t)
+{
+    size_t x, *off = c->cnt[t];
+    const uint32_t *p = c->p;
+    for (x = c->pb[t]; x < c->pb[t] + c->kept[t]; x++)
+        c->key[off[p[2 * x] >> c->shift]++] = (uint64_t)p[2 * x] << 32 | p[2 * x + 1];
+}
+
+/* Bucket b: key[start[b], start[b+1]) to tmp by i (counting sort), each
+ * i's run sorted by j, then the rows at the same positions. */
+static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
+{
+    size_t lo = c->start[b], hi = c->start[b + 1], x, y;
+    uint32_t span = 1u << c->shift, base = b << c->shift, *cnt = c->local[t], u, sum = 0;
+    const uint64_t *k = c->key;
+    uint64_t *v = c->tmp;
+    locd_id *rows = c->rows;
+    if (hi - lo > 1) {
+        memset(cnt, 0, (span + 1) * sizeof *cnt);
+        for (x = lo; x < hi; x++)
+            cnt[(uint32_t)(k[x] >> 32) - base]++;
+        for (u = 0; u < span; u++) {
+            uint32_t m = cnt[u];
+            cnt[u] = sum;
+            sum += m;
+        }
+        for (x = lo; x < hi; x++)
+            v[lo + cnt[(uint32_t)(k[x] >> 32) - base]++] = k[x];
+        for (x = lo + 1; x < hi; x++) { /* runs of one i are short and nearly sorted */
+            uint64_t e = v[x];
+            for (y = x; y > lo && v[y - 1] > e; y--)
+                v[y] = v[y - 1];
+            v[y] = e;
+        }
+    } else if (hi > lo) {
+        v[lo] = k[lo];
+    }
+    /* j's id is a cache miss each (j is anywhere): asked for ahead */
+    for (x = lo; x < hi; x++) {
+        if (x + 16 < hi)
+            __builtin_prefetch(c->idl + (uint32_t)v[x + 16]);
+        rows[2 * x] = c->idl[v[x] >> 32], rows[2 * x + 1] = c->idl[(uint32_t)v[x]];
+    }
+}
 
 static void task_order(void *arg, uint32_t t, uint32_t k)
 {
     order_ctx *c = arg;
-    size_t b = c->np * t / k, e = c->np * (t + 1) / k, x;
-    size_t *cnt = c->cnt[t];
-    const uint32_t *p = c->p;
-    if (c->pass == 1) {
-        memset(cnt, 0, c->n * sizeof *cnt);
-        for (x = b; x < e; x++)
-            cnt[p[2 * x]]++;
-    } else if (c->pass == 3 || c->pass == 4) {
-        /* The prefix sum over i then t, split by i: pass 3 sums each
-           share, pass 4 writes the offsets from the share's start. */
-        size_t i, ib = c->n * t / k, ie = c->n * (t + 1) / k, off = 0, u;
-        if (c->pass == 3) {
-            for (i = ib; i < ie; i++)
-                for (u = 0; u < c->kk; u++)
-                    off += c->cnt[u][i];
-            c->sum[t + 1] = off; /* the share's count */
-            return;
-        }
-        off = c->sum[t]; /* pass 4: the share's start */
-        for (i = ib; i < ie; i++) {
-            for (u = 0; u < c->kk; u++) {
-                size_t n = c->cnt[u][i];
-                c->cnt[u][i] = off;
-                off += n;
-            }
-            c->start[i] = off;
-        }
-    } else {
-        for (x = b; x < e; x++)
-            c->second[cnt[p[2 * x]]++] = p[2 * x + 1];
+    uint32_t b;
+    (void)k;
+    if (c->pass == 1)
+        order_count(c, t);
+    else if (c->pass == 2)
+        order_scatter(c, t);
+    else
+        for (b = c->bb[t]; b < c->bb[t + 1]; b++)
+            order_bucket(c, t, b);
+}
+
+static void order_run(lc_pool *pool, uint32_t kk, order_ctx *c, int pass)
+{
+    c->pass = pass;
+    if (kk > 1)
+        lc_pool_run(pool, kk, task_order, c);
+    else
+        task_order(c, 0, 1);
+}
+
+/* The pairs p[0, np) of the objects live[0, n) ordered into rows of ids;
+ * returns the rows written (those the filter keeps). */
+static locd_status order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint32_t *live, const locd_id *idl,
+                               size_t n, locd_id *rows, size_t *written)
+{
+    const locd_allocator *a = s->alloc;
+    uint32_t kk = s->threads > 1 && np > 65536 ? s->threads : 1, t, b, bits = 0;
+    order_ctx *c = lc_alloc(a, sizeof *c);
+    size_t scratch, total = 0, w = 0, x;
+    void *mem = NULL;
+    locd_status st = LOCD_OK;
+    if (!c)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
+    memset(c, 0, sizeof *c);
+    while (bits < 32 && ((size_t)1 << bits) < n)
+        bits++;
+    c->shift = bits > 11 ? bits - 11 : 0; /* at most 2048 buckets */
+    c->nb = (uint32_t)(((n ? n - 1 : 0) >> c->shift) + 1);
+    c->s = s, c->p = p, c->np = np, c->n = n, c->live = live, c->idl = idl, c->rows = rows;
+    c->all = filter_passes_all(s, live, n);
+    scratch = 2 * np * sizeof(uint64_t) + (kk + 1) * (c->nb + 1) * sizeof(size_t) +
+              kk * (((size_t)1 << c->shift) + 1) * sizeof(uint32_t);
+    if (!(mem = lc_alloc(a, scratch))) {
+        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
+        goto done;
     }
+    c->key = mem, c->tmp = c->key + np;
+    c->start = (size_t *)(c->tmp + np);
+    for (t = 0; t < kk; t++)
+        c->cnt[t] = c->start + (c->nb + 1) * (t + 1);
+    for (t = 0; t < kk; t++)
+        c->local[t] = (uint32_t *)(c->start + (kk + 1) * (c->nb + 1)) + t * (((size_t)1 << c->shift) + 1);
+    for (t = 0; t <= kk; t++)
+        c->pb[t] = np * t / kk;
+    order_run(s->pool, kk, c, 1);
+    /* offsets: bucket-major, thread-minor */
+    for (b = 0; b < c->nb; b++) {
+        c->start[b] = total;
+        for (t = 0; t < kk; t++) {
+            size_t m = c->cnt[t][b];
+            c->cnt[t][b] = total;
+            total += m;
+        }
+    }
+    c->start[c->nb] = total;
+    order_run(s->pool, kk, c, 2);
+    /* bucket ranges of about total / kk pairs each */
+    c->bb[0] = 0;
+    for (t = 1, b = 0; t < kk; t++) {
+        while (b < c->nb && c->start[b] < total * t / kk)
+            b++;
+        c->bb[t] = b;
+    }
+    c->bb[kk] = c->nb;
+    order_run(s->pool, kk, c, 3);
+    for (x = 0; x < kk; x++)
+        w += c->kept[x];
+    *written = w;
+done:
+    lc_free(a, mem, scratch);
+    lc_free(a, c, sizeof *c);
+    return st;
 }
 
 /* The live objects' pairs from scratch: the engine's find on their boxes
@@ -159,9 +246,7 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     float *fboxes = ordered || s->ninexact ? NULL : lc_alloc(a, cap * 6 * sizeof *fboxes);
     double *boxes = NULL;
     const void *in;
-    int f64 = 0, all;
-    size_t *start = NULL, kk = 1;
-    uint32_t *second = NULL;
+    int f64 = 0;
     locd_pairs found;
     locd_stats st_find;
     locd_status st;
@@ -209,79 +294,15 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     memset(&st_find, 0, sizeof st_find);
     st_find.size = sizeof st_find;
     st = s->engine->ops->find(s->engine, in, n, f64, 0, &found, &st_find);
-    if (st == LOCD_OK) {
-        kk = s->threads > 1 && found.count > 65536 ? s->threads : 1;
-        start = lc_alloc(a, (kk + 1) * (n + 1) * sizeof *start);
-        second = lc_alloc(a, (found.count ? found.count : 1) * sizeof *second);
-        if (!start || !second)
-            st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
-    }
     if (st == LOCD_OK)
         st = lc_plist_reserve(a, out, found.count ? found.count : 1);
+    if (st == LOCD_OK)
+        st = order_pairs(s, found.data, found.count, live, idl, n, out->rows.data, &w);
     if (st == LOCD_OK) {
-        locd_id *rows = out->rows.data;
-        const uint32_t *p = found.data;
-        size_t i, np = found.count;
-        /* The pairs (i, j), i < j, ordered by a counting sort on i and an insertion sort of each i's few j: ids ascend with
-           the index, so rows (idl[i], idl[j]) come out sorted. Filtered
-           pairs are dropped on the way. */
-        all = filter_passes_all(s, live, n);
-        {
-            order_ctx oc;
-            size_t off = 0, t;
-            oc.p = p, oc.np = np, oc.n = n, oc.kk = kk, oc.second = second, oc.start = start;
-            for (t = 0; t < kk; t++)
-                oc.cnt[t] = start + (n + 1) * (t + 1);
-            oc.pass = 1;
-            if (kk > 1)
-                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
-            else
-                task_order(&oc, 0, 1);
-            memset(oc.sum, 0, sizeof oc.sum);
-            if (kk > 1) {
-                oc.pass = 3;
-                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
-                for (t = 0; t < kk; t++) { /* sum[t + 1] held share t's count: now the start of share t + 1 */
-                    off += oc.sum[t + 1];
-                    oc.sum[t + 1] = off;
-                }
-                oc.sum[0] = 0;
-                oc.pass = 4;
-                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
-            } else {
-                oc.pass = 4;
-                task_order(&oc, 0, 1);
-            }
-            oc.pass = 2;
-            if (kk > 1)
-                lc_pool_run(s->pool, (uint32_t)kk, task_order, &oc);
-            else
-                task_order(&oc, 0, 1);
-        }
-        /* now i's run is [start[i - 1], start[i]) (start[-1] = 0) */
-        if (all) { /* no row dropped: each thread its share of the i, at known offsets */
-            emit_ctx c;
-            c.start = start, c.second = second, c.idl = idl, c.rows = rows, c.n = n;
-            if (s->threads > 1 && np > 65536)
-                lc_pool_run(s->pool, s->threads, task_emit, &c);
-            else
-                task_emit(&c, 0, 1);
-            w = np;
-        } else {
-            for (i = 0, k = 0; i < n; i++) {
-                size_t e = start[i];
-                sort_run(second, k, e);
-                for (; k < e; k++)
-                    if (lc_scene_may_pair(s, live[i], live[second[k]]))
-                        rows[2 * w] = idl[i], rows[2 * w + 1] = idl[second[k]], w++;
-            }
-        }
         out->count = w;
         *candidates = found.count;
     }
 done:
-    lc_free(a, start, (kk + 1) * (n + 1) * sizeof *start);
-    lc_free(a, second, (found.count ? found.count : 1) * sizeof *second);
     lc_pairs_fini_embedded(&found);
     lc_free(a, live, cap * sizeof *live);
     if (!ordered)

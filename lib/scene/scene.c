@@ -76,6 +76,7 @@ void locd_scene_destroy(locd_scene *s)
     lc_plist_fini(a, &s->pairs);
     lc_plist_fini(a, &s->created);
     lc_plist_fini(a, &s->lost);
+    lc_plist_fini(a, &s->spare);
     s->magic = LC_MAGIC_DEAD;
     lc_free(a, s, sizeof *s);
 }

@@ -134,6 +134,8 @@ struct locd_scene {
 
     /* pairs (update.c) */
     lc_plist pairs, created, lost; /* the current set and the last events */
+    lc_plist spare;                /* the set before last's buffer, the next update's output: a
+                                      million-pair list is 16 MB, page-faulted in again when new */
     int show_pairs, show_events;   /* the flags of the last update */
     locd_scene_stats stats;
 };

@@ -708,6 +708,8 @@ static void commit(upd *u)
     }
     s->have_pairs = 1;
     swap_plist(&s->pairs, &u->next);
+    s->spare = u->next; /* the previous set's buffer: the next update writes into it */
+    memset(&u->next, 0, sizeof u->next);
     swap_plist(&s->created, &u->cr);
     swap_plist(&s->lost, &u->lo);
     clear_changes(s);
@@ -730,6 +732,9 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     memset(&u, 0, sizeof u);
     u.s = s;
     u.flags = flags;
+    u.next = s->spare; /* written from its start (count and first set by the writer) */
+    u.next.count = u.next.first = 0;
+    memset(&s->spare, 0, sizeof s->spare);
     for (k = 0; k < s->ndirty; k++)
         moved += (s->flags[((const uint32_t *)s->dirty.data)[k]] & LC_SLOT_LIVE) != 0;
     if (want_rebuild(s, moved))
