@@ -76,17 +76,64 @@ LC_AVX512 LC_INLINE size_t store_cells8(const __m512i code[8], const uint32_t dd
 }
 #endif
 
+#if defined(__GNUC__) && defined(__x86_64__)
+#include <immintrin.h>
+#define LC_HAVE_AVX2_ENCODE 1
+#define LC_AVX2_ENCODE __attribute__((target("avx2")))
+
+/* split3 on four 21-bit values at once (lc_morton_split3's magic bits). */
+LC_AVX2_ENCODE LC_INLINE __m256i spread3x4(__m128i v)
+{
+    __m256i x = _mm256_cvtepu32_epi64(v);
+    x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 32)), _mm256_set1_epi64x(0x1f00000000ffffLL));
+    x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 16)), _mm256_set1_epi64x(0x1f0000ff0000ffLL));
+    x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 8)), _mm256_set1_epi64x(0x100f00f00f00f00fLL));
+    x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 4)), _mm256_set1_epi64x(0x10c30c30c30c30c3LL));
+    x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 2)), _mm256_set1_epi64x(0x1249249249249249LL));
+    return x;
+}
+
+/* lc_pack_qbox on four boxes (q: lo xyz, hi xyz, four lanes each). */
+LC_AVX2_ENCODE LC_INLINE void pack_qbox4(const __m128i q[6], uint64_t *qbox)
+{
+    __m256i wd[2], lo, hi;
+    int a;
+    for (a = 0; a < 2; a++)
+        wd[a] = _mm256_or_si256(
+            _mm256_cvtepu32_epi64(_mm_srli_epi32(q[3 * a], LC_SDROP)),
+            _mm256_or_si256(
+                _mm256_slli_epi64(_mm256_cvtepu32_epi64(_mm_srli_epi32(q[3 * a + 1], LC_SDROP)), LC_SBITS),
+                _mm256_slli_epi64(_mm256_cvtepu32_epi64(_mm_srli_epi32(q[3 * a + 2], LC_SDROP)), 2 * LC_SBITS)));
+    lo = _mm256_unpacklo_epi64(wd[0], wd[1]); /* objects 0 and 2 */
+    hi = _mm256_unpackhi_epi64(wd[0], wd[1]); /* objects 1 and 3 */
+    _mm256_storeu_si256((__m256i *)qbox, _mm256_permute2x128_si256(lo, hi, 0x20));
+    _mm256_storeu_si256((__m256i *)(qbox + 4), _mm256_permute2x128_si256(lo, hi, 0x31));
+}
+
+/* The cells k (bit 0: second x cell, bit 1: y, bit 2: z) an object has when
+ * its second cells are the bits of d, ascending ((z, y, x) order: the
+ * scalar body's), padded; and how many. */
+static const uint8_t cells_of_d[8][8] = {
+    {0, 0, 0, 0, 0, 0, 0, 0}, {0, 1, 0, 0, 0, 0, 0, 0}, {0, 2, 0, 0, 0, 0, 0, 0}, {0, 1, 2, 3, 0, 0, 0, 0},
+    {0, 4, 0, 0, 0, 0, 0, 0}, {0, 1, 4, 5, 0, 0, 0, 0}, {0, 2, 4, 6, 0, 0, 0, 0}, {0, 1, 2, 3, 4, 5, 6, 7}};
+static const uint8_t ncells_of_d[8] = {1, 2, 2, 4, 2, 4, 4, 8};
+#endif
+
 /* The variants (octree.h): the scalar body and, where the compiler has it,
- * the AVX-512 one, per precision; LC_GATHER loads coordinate a of eight
- * boxes as doubles. */
+ * the AVX2 and AVX-512 ones, per precision; LC_GATHER loads coordinate a of
+ * eight boxes as doubles, LC_LOAD4 of four. */
 #define LC_T float
 #define LC_SUFFIX f32
 #define LC_GATHER(a) _mm512_cvtps_pd(_mm256_i32gather_ps(b + (a), lane6, 4))
+#define LC_LOAD4(a) _mm256_cvtps_pd(_mm_setr_ps(b[a], b[(a) + 6], b[(a) + 12], b[(a) + 18]))
 #include "encode_impl.h"
 #undef LC_GATHER
+#undef LC_LOAD4
 
 #define LC_T double
 #define LC_SUFFIX f64
 #define LC_GATHER(a) _mm512_i32gather_pd(lane6, b + (a), 8)
+#define LC_LOAD4(a) _mm256_setr_pd(b[a], b[(a) + 6], b[(a) + 12], b[(a) + 18])
 #include "encode_impl.h"
 #undef LC_GATHER
+#undef LC_LOAD4

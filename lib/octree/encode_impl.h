@@ -1,5 +1,5 @@
-/* Encode's bodies for one precision: scalar, AVX-512 (eight objects a step)
- * and the dispatch between them. Included by encode.c once per precision
+/* Encode's bodies for one precision: scalar, AVX2 (four objects a step),
+ * AVX-512 (eight) and the dispatch between them. Included by encode.c once per precision
  * with LC_T, LC_SUFFIX and LC_GATHER defined (the include-template of
  * octree.h). */
 
@@ -150,12 +150,99 @@ LC_AVX512 static size_t LC_FN(encode_avx512_)(const locd_grid *g, const LC_T *bo
 }
 #endif
 
+#ifdef LC_HAVE_AVX2_ENCODE
+/* Four objects per step, with the scalar body's arithmetic (the same IEEE
+ * operations as lc_quantize, so the same integers; the level from the
+ * extent as the scalar lc_level_for) and its entries in its order. The
+ * eight candidate cells of the four objects are computed as vectors and
+ * stored; each object's real ones are then copied out through a table, so
+ * no branch depends on how many cells an object has. */
+LC_AVX2_ENCODE static size_t LC_FN(encode_avx2_)(const locd_grid *g, const LC_T *boxes, size_t first, size_t count,
+                                                 uint64_t *out, size_t capacity, size_t *needed, uint64_t *qbox)
+{
+    const uint32_t depth = g->depth, ib = g->index_bits;
+    const int32_t bias = g->cell_bias;
+    const int cubes = (g->flags & LOCD_CONFIG_CUBES) != 0;
+    const __m256d half = _mm256_set1_pd(0.5), zero = _mm256_setzero_pd(), qmax = _mm256_set1_pd(LC_QMAX);
+    const __m256d sa = _mm256_set1_pd(g->scale_a), sb = _mm256_set1_pd(g->scale_b);
+    const __m256i lane4 = _mm256_setr_epi64x(0, 1, 2, 3);
+    const size_t end = first + count;
+    size_t i = first, w = 0;
+    for (; i + 4 <= end && w + 32 <= capacity; i += 4) {
+        const LC_T *b = boxes + 6 * i;
+        __m128i q[6], ext, sh, lv, c0[3], d[3];
+        __m256i m0[3], m1[3], shl, base;
+        uint64_t code[8][4];
+        uint32_t dd[4];
+        int a, k, j;
+        for (a = 0; a < 6; a++) {
+            const __m256d o = _mm256_set1_pd(g->origin[a % 3]);
+            const __m256d x = LC_LOAD4(a);
+            const __m256d t = _mm256_mul_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_mul_pd(x, half), o), sa), sb);
+            q[a] = _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_max_pd(t, zero), qmax));
+        }
+        if (qbox)
+            pack_qbox4(q, qbox + 2 * i);
+        ext = _mm_max_epu32(_mm_sub_epi32(q[3], q[0]), _mm_sub_epi32(q[4], q[1]));
+        ext = _mm_max_epu32(ext, _mm_sub_epi32(q[5], q[2]));
+        if (cubes) /* the paper's bounding cube: same extent on every axis */
+            for (a = 0; a < 3; a++)
+                q[a + 3] = _mm_min_epu32(_mm_add_epi32(q[a], ext), _mm_set1_epi32(2147483647));
+        { /* lc_level_for: bitlen(ext) is the exponent of ext as a double (exact: ext < 2^31), less 1022 */
+            const __m256i e = _mm256_srli_epi64(_mm256_castpd_si256(_mm256_cvtepi32_pd(ext)), 52);
+            const __m128i len = _mm_max_epi32(
+                _mm_sub_epi32(_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(e, _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6))),
+                              _mm_set1_epi32(1022)),
+                _mm_setzero_si128());
+            lv = _mm_sub_epi32(_mm_set1_epi32((int)LC_QBITS - bias), len);
+            lv = _mm_min_epi32(_mm_max_epi32(lv, _mm_setzero_si128()), _mm_set1_epi32((int)depth));
+        }
+        sh = _mm_sub_epi32(_mm_set1_epi32(LC_QBITS), lv);
+        for (a = 0; a < 3; a++) { /* d is 0 or 1: lc_grid_check keeps the bias >= 0 */
+            c0[a] = _mm_srlv_epi32(q[a], sh);
+            d[a] = _mm_sub_epi32(_mm_srlv_epi32(q[a + 3], sh), c0[a]);
+            m0[a] = _mm256_slli_epi64(spread3x4(c0[a]), a);
+            m1[a] = _mm256_slli_epi64(spread3x4(_mm_add_epi32(c0[a], d[a])), a);
+        }
+        _mm_storeu_si128((__m128i *)dd, _mm_or_si128(d[0], _mm_or_si128(_mm_slli_epi32(d[1], 1), _mm_slli_epi32(d[2], 2))));
+        shl = _mm256_cvtepu32_epi64(_mm_add_epi32(_mm_mullo_epi32(_mm_sub_epi32(_mm_set1_epi32((int)depth), lv), _mm_set1_epi32(3)),
+                                                  _mm_set1_epi32((int)(LC_LEVEL_BITS + ib))));
+        base = _mm256_or_si256(_mm256_sllv_epi64(_mm256_cvtepu32_epi64(lv), _mm256_set1_epi64x(ib)),
+                               _mm256_add_epi64(_mm256_set1_epi64x((long long)i), lane4));
+        for (k = 0; k < 8; k++) {
+            const __m256i c = _mm256_or_si256(_mm256_or_si256((k & 1) ? m1[0] : m0[0], (k & 2) ? m1[1] : m0[1]),
+                                              (k & 4) ? m1[2] : m0[2]);
+            _mm256_storeu_si256((__m256i *)code[k], _mm256_or_si256(_mm256_sllv_epi64(c, shl), base));
+        }
+        for (j = 0; j < 4; j++) { /* eight stores each, the real cells first */
+            const uint8_t *cell = cells_of_d[dd[j]];
+            for (k = 0; k < 8; k++)
+                out[w + (size_t)k] = code[cell[k]][j];
+            w += ncells_of_d[dd[j]];
+        }
+    }
+    if (i < end) { /* the last objects, or the end of the buffer: the scalar body */
+        size_t more = LC_FN(encode_scalar_)(g, boxes, i, end - i, out + w, capacity - w, needed, qbox);
+        if (more == (size_t)-1) {
+            *needed += w;
+            return more;
+        }
+        w += more;
+    }
+    return w;
+}
+#endif
+
 size_t LC_FN(lc_encode_)(const locd_grid *g, const LC_T *boxes, size_t first, size_t count, uint64_t *out,
                          size_t capacity, size_t *needed, uint64_t *qbox, int kernel)
 {
 #ifdef LC_HAVE_AVX512_KERNEL
     if (kernel == LC_KERNEL_AVX512)
         return LC_FN(encode_avx512_)(g, boxes, first, count, out, capacity, needed, qbox);
+#endif
+#ifdef LC_HAVE_AVX2_ENCODE
+    if (kernel == LC_KERNEL_AVX2)
+        return LC_FN(encode_avx2_)(g, boxes, first, count, out, capacity, needed, qbox);
 #endif
     (void)kernel;
     return LC_FN(encode_scalar_)(g, boxes, first, count, out, capacity, needed, qbox);
