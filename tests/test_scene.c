@@ -1141,6 +1141,9 @@ static void large_moves_on_the_pool(void)
     b[6 * 20000 + 1] = m.o[20000].box[1];
     bad_move_both(s1, s2, mv, b, n, LOCD_ERR_DUPLICATE_ID, 30000); /* the only fault */
     mv[30000] = ids1[30000];
+    mv[100000] = ids1[10]; /* repeated across the two threads' halves */
+    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_DUPLICATE_ID, 100000);
+    mv[100000] = ids1[100000];
     b[6 * 40000 + 4] = NAN;
     b[6 * 45000 + 0] = b[6 * 45000 + 3] + 1.0;
     bad_move_both(s1, s2, mv, b, n, LOCD_ERR_NONFINITE, 40000);

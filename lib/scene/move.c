@@ -20,7 +20,7 @@ typedef struct move_ctx {
     uint32_t base;                 /* stamp of position k: base + k */
     int bad[LC_MAX_THREADS];       /* a stale or repeated id, or a bad box, in the thread's range */
     size_t fresh[LC_MAX_THREADS];  /* slots not dirty yet, then the dirty list's offset */
-    long inexact[LC_MAX_THREADS];  /* change of ninexact */
+    int64_t inexact[LC_MAX_THREADS]; /* change of ninexact */
     int pass;
 } move_ctx;
 
@@ -49,7 +49,8 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
                 bad = 1;
                 break;
             }
-            s->stamp[slot] = c->base + (uint32_t)i;
+            /* a repeated id stamps one slot from two threads: relaxed atomics, no race */
+            __atomic_store_n(&s->stamp[slot], c->base + (uint32_t)i, __ATOMIC_RELAXED);
         }
         c->bad[t] = bad;
     } else if (c->pass == 2) { /* a slot whose stamp is not its own position's is repeated */
@@ -57,7 +58,7 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
         int bad = 0;
         for (; i < e; i++) {
             uint32_t slot = LC_ID_SLOT(c->ids[i]);
-            if (s->stamp[slot] != c->base + (uint32_t)i) {
+            if (__atomic_load_n(&s->stamp[slot], __ATOMIC_RELAXED) != c->base + (uint32_t)i) {
                 bad = 1;
                 break;
             }
@@ -67,7 +68,7 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
         c->fresh[t] = fresh;
     } else { /* the boxes, and the slots new to the dirty list at the thread's offset */
         uint32_t *dirty = (uint32_t *)s->dirty.data + c->fresh[t];
-        long inexact = 0;
+        int64_t inexact = 0;
         for (; i < e; i++) {
             uint32_t slot = LC_ID_SLOT(c->ids[i]);
             inexact += lc_scene_put_box(s, slot, c->boxes, c->f64, i);
@@ -96,7 +97,7 @@ int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes,
     move_ctx c;
     uint32_t k = s->threads, t;
     size_t off;
-    long inexact = 0;
+    int64_t inexact = 0;
     if (k < 2 || n < LC_MOVE_PARALLEL_MIN || n >= UINT32_MAX || !ids || !boxes)
         return 0;
     if ((*st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK)
@@ -132,7 +133,7 @@ int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes,
     lc_pool_run(s->pool, k, task_move, &c);
     for (t = 0; t < k; t++)
         inexact += c.inexact[t];
-    s->ninexact = (size_t)((long)s->ninexact + inexact);
+    s->ninexact = (size_t)((int64_t)s->ninexact + inexact);
     s->ndirty = off;
     *st = LOCD_OK;
     return 1;

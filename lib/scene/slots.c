@@ -129,7 +129,7 @@ int lc_scene_put_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, s
 
 void lc_scene_set_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, size_t i)
 {
-    s->ninexact = (size_t)((long)s->ninexact + lc_scene_put_box(s, slot, boxes, f64, i));
+    s->ninexact = (size_t)((int64_t)s->ninexact + lc_scene_put_box(s, slot, boxes, f64, i));
 }
 
 void lc_scene_mark_dirty(locd_scene *s, uint32_t slot)
