@@ -1015,10 +1015,13 @@ static void update_both(locd_engine *e, locd_scene *s1, locd_scene *s2, model *m
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s2, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s1, &p1, &n1));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s2, &p2, &n2));
-    want = fresh_pairs(e, m, &nf);
-    same_rows("one thread's moves against a fresh scene", want, nf, p1, n1);
-    same_rows("two threads' moves against a fresh scene", want, nf, p2, n2);
-    free(want);
+    same_rows("two threads' moves against one thread's", p1, n1, p2, n2);
+    if (steps(10) == 10) { /* the sanitizer runs (LOCD_TEST_HEAVY=0) compare the two scenes only */
+        want = fresh_pairs(e, m, &nf);
+        same_rows("one thread's moves against a fresh scene", want, nf, p1, n1);
+        same_rows("two threads' moves against a fresh scene", want, nf, p2, n2);
+        free(want);
+    }
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_created(s1, &p1, &n1));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_created(s2, &p2, &n2));
     same_rows("created: 1 thread against 2", p1, n1, p2, n2);
