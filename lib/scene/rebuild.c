@@ -179,7 +179,7 @@ static locd_status order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint
     uint32_t kk = s->threads > 1 && np > 65536 ? s->threads : 1, t, b, bits = 0;
     order_ctx *c = lc_alloc(a, sizeof *c);
     size_t scratch, total = 0, w = 0, x;
-    void *mem = NULL;
+    void *mem;
     locd_status st = LOCD_OK;
     if (!c)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
@@ -192,10 +192,11 @@ static locd_status order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint
     c->all = filter_passes_all(s, live, n);
     scratch = 2 * np * sizeof(uint64_t) + (kk + 1) * (c->nb + 1) * sizeof(size_t) +
               kk * (((size_t)1 << c->shift) + 1) * sizeof(uint32_t);
-    if (!(mem = lc_alloc(a, scratch))) {
+    if (lc_buf_reserve(a, &s->order_buf, 1, scratch) != LOCD_OK) {
         st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
         goto done;
     }
+    mem = s->order_buf.data;
     c->key = mem, c->tmp = c->key + np;
     c->start = (size_t *)(c->tmp + np);
     for (t = 0; t < kk; t++)
@@ -229,7 +230,6 @@ static locd_status order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint
         w += c->kept[x];
     *written = w;
 done:
-    lc_free(a, mem, scratch);
     lc_free(a, c, sizeof *c);
     return st;
 }
@@ -247,10 +247,9 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     double *boxes = NULL;
     const void *in;
     int f64 = 0;
-    locd_pairs found;
+    locd_pairs *found = &s->found;
     locd_stats st_find;
     locd_status st;
-    lc_pairs_init_embedded(&found, a);
     if (!live || (!ordered && (!by_serial || !idl)) || (!ordered && !s->ninexact && !fboxes)) {
         st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's rebuild buffers");
         goto done;
@@ -293,17 +292,16 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     }
     memset(&st_find, 0, sizeof st_find);
     st_find.size = sizeof st_find;
-    st = s->engine->ops->find(s->engine, in, n, f64, 0, &found, &st_find);
+    st = s->engine->ops->find(s->engine, in, n, f64, 0, found, &st_find);
     if (st == LOCD_OK)
-        st = lc_plist_reserve(a, out, found.count ? found.count : 1);
+        st = lc_plist_reserve(a, out, found->count ? found->count : 1);
     if (st == LOCD_OK)
-        st = order_pairs(s, found.data, found.count, live, idl, n, out->rows.data, &w);
+        st = order_pairs(s, found->data, found->count, live, idl, n, out->rows.data, &w);
     if (st == LOCD_OK) {
         out->count = w;
-        *candidates = found.count;
+        *candidates = found->count;
     }
 done:
-    lc_pairs_fini_embedded(&found);
     lc_free(a, live, cap * sizeof *live);
     if (!ordered)
         lc_free(a, idl, cap * sizeof *idl);

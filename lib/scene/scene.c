@@ -52,6 +52,7 @@ locd_status locd_scene_create(locd_engine *engine, const locd_scene_config *conf
     s->alloc = &engine->alloc;
     s->pool = lc_inproc_pool(engine, &s->kernel);
     s->threads = engine->threads;
+    lc_pairs_init_embedded(&s->found, s->alloc);
     locd_scene_stats_init(&s->stats);
     if (cfg.capacity_hint) {
         size_t hint = cfg.capacity_hint > UINT32_MAX ? UINT32_MAX : (size_t)cfg.capacity_hint;
@@ -77,6 +78,8 @@ void locd_scene_destroy(locd_scene *s)
     lc_plist_fini(a, &s->created);
     lc_plist_fini(a, &s->lost);
     lc_plist_fini(a, &s->spare);
+    lc_pairs_fini_embedded(&s->found);
+    lc_buf_release(a, &s->order_buf, 1);
     s->magic = LC_MAGIC_DEAD;
     lc_free(a, s, sizeof *s);
 }
