@@ -1343,6 +1343,36 @@ static void hard_cases(void)
 
 /* The float32 entry points give what the float64 ones give for the same
  * (float-representable) values. */
+/* A box over the whole scene, added first: its row run in the from-scratch
+ * ordering is every other object, far past the insertion sort's few
+ * (rebuild.c, sort_run). */
+static void a_box_over_everything(void)
+{
+    locd_engine *e = new_engine(2, NULL);
+    locd_scene *s = NULL;
+    model m;
+    world w;
+    double b[6 * 301];
+    locd_id ids[301];
+    int k, a;
+    memset(&m, 0, sizeof m);
+    memset(&w, 0, sizeof w);
+    ts_seed(&w.r, 909);
+    w.extent = 50.0, w.size = 3.0;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    for (a = 0; a < 3; a++)
+        b[a] = -100.0, b[3 + a] = 100.0;
+    for (k = 1; k < 301; k++)
+        random_box(&w, b + 6 * k);
+    add_boxes(s, &m, b, 301, 0, ids);
+    check_update(s, &m);
+    for (k = 0; k < 3; k++)
+        update_all_from_scratch(s, &m);
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    free(m.o), free(m.pairs);
+}
+
 static void f32_entry_points_match_f64(void)
 {
     locd_engine *e = new_engine(1, NULL);
@@ -1525,6 +1555,7 @@ static const lt_test tests[] = {
     LT_TEST(queries_from_two_threads),
     LT_TEST(f32_entry_points_match_f64),
     LT_TEST(hard_cases),
+    LT_TEST(a_box_over_everything),
     LT_TEST(float_copies_follow_the_boxes),
     LT_TEST(large_scene_threads_and_fresh),
     LT_TEST(large_moves_on_the_pool),

@@ -110,6 +110,24 @@ static void order_scatter(order_ctx *c, uint32_t t)
         c->key[off[p[2 * x] >> c->shift]++] = (uint64_t)p[2 * x] << 32 | p[2 * x + 1];
 }
 
+/* Sorts v[0, n): an object's partners, a few as a rule (insertion sort),
+ * all the others for a box over the whole scene (lc_sort_u64: no
+ * quadratic case). */
+static void sort_run(uint64_t *v, size_t n)
+{
+    size_t x, y;
+    if (n > 32) {
+        lc_sort_u64(v, n);
+        return;
+    }
+    for (x = 1; x < n; x++) {
+        uint64_t e = v[x];
+        for (y = x; y > 0 && v[y - 1] > e; y--)
+            v[y] = v[y - 1];
+        v[y] = e;
+    }
+}
+
 /* Bucket b: key[start[b], start[b+1]) to tmp by i (counting sort), each
  * i's run sorted by j, then the rows at the same positions. */
 static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
@@ -130,11 +148,10 @@ static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
         }
         for (x = lo; x < hi; x++)
             v[lo + cnt[(uint32_t)(k[x] >> 32) - base]++] = k[x];
-        for (x = lo + 1; x < hi; x++) { /* runs of one i are short and nearly sorted */
-            uint64_t e = v[x];
-            for (y = x; y > lo && v[y - 1] > e; y--)
-                v[y] = v[y - 1];
-            v[y] = e;
+        for (x = lo; x < hi; x = y) { /* each i's run by j */
+            for (y = x + 1; y < hi && v[y] >> 32 == v[x] >> 32; y++)
+                ;
+            sort_run(v + x, y - x);
         }
     } else if (hi > lo) {
         v[lo] = k[lo];
