@@ -91,17 +91,15 @@ static int any_bad(const move_ctx *c, uint32_t k)
     return 0;
 }
 
-int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t n,
-                           locd_status *st)
+static locd_status move_on_pool(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t n)
 {
     move_ctx c;
     uint32_t k = s->threads, t;
     size_t off;
     int64_t inexact = 0;
-    if (k < 2 || n < LC_MOVE_PARALLEL_MIN || n >= UINT32_MAX || !ids || !boxes)
-        return 0;
-    if ((*st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK)
-        return 1;
+    locd_status st;
+    if ((st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK)
+        return st;
     memset(&c, 0, sizeof c);
     c.s = s, c.ids = ids, c.boxes = boxes, c.f64 = f64, c.n = n;
     /* The batch takes n stamps, so no later batch's stamp equals one of them. */
@@ -118,11 +116,11 @@ int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes,
         lc_pool_run(s->pool, k, task_move, &c);
     }
     if (any_bad(&c, k)) { /* the serial checks name the first bad position */
-        if ((*st = lc_scene_check_ids(s, ids, n)) == LOCD_OK)
-            *st = f64 ? lc_scene_check_boxes_f64(boxes, n) : lc_scene_check_boxes_f32(boxes, n);
-        if (*st == LOCD_OK) /* cannot happen: the passes and the checks test the same */
-            *st = lc_error(LOCD_ERR_INTERNAL, "the move's checks disagree");
-        return 1;
+        if ((st = lc_scene_check_ids(s, ids, n)) == LOCD_OK)
+            st = f64 ? lc_scene_check_boxes_f64(boxes, n) : lc_scene_check_boxes_f32(boxes, n);
+        if (st == LOCD_OK) /* cannot happen: the passes and the checks test the same */
+            st = lc_error(LOCD_ERR_INTERNAL, "the move's checks disagree");
+        return st;
     }
     for (t = 0, off = s->ndirty; t < k; t++) {
         size_t f = c.fresh[t];
@@ -135,6 +133,19 @@ int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes,
         inexact += c.inexact[t];
     s->ninexact = (size_t)((int64_t)s->ninexact + inexact);
     s->ndirty = off;
-    *st = LOCD_OK;
+    return LOCD_OK;
+}
+
+int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t n,
+                           locd_status *st)
+{
+    if (s->threads < 2 || n < LC_MOVE_PARALLEL_MIN || n >= UINT32_MAX || !ids || !boxes)
+        return 0;
+    /* The pool is the engine's: while a call runs on the engine it has the
+       pool, and the caller's thread moves the objects itself. */
+    if (!lc_engine_acquire(s->engine))
+        return 0;
+    *st = move_on_pool(s, ids, boxes, f64, n);
+    lc_engine_release(s->engine);
     return 1;
 }
