@@ -72,6 +72,25 @@ static size_t LC_FN(encode_scalar_)(const locd_grid *g, const LC_T *boxes, size_
     return w;
 }
 
+#if defined(LC_HAVE_AVX512_KERNEL) || defined(LC_HAVE_AVX2_ENCODE)
+/* The end of a SIMD body: objects [i, end) that did not fill a step, or
+ * that met the end of the buffer, go to the scalar body, after the w
+ * entries already written. */
+static size_t LC_FN(encode_rest_)(const locd_grid *g, const LC_T *boxes, size_t i, size_t end, uint64_t *out,
+                                  size_t capacity, size_t *needed, uint64_t *qbox, size_t w)
+{
+    size_t more;
+    if (i >= end)
+        return w;
+    more = LC_FN(encode_scalar_)(g, boxes, i, end - i, out + w, capacity - w, needed, qbox);
+    if (more == (size_t)-1) {
+        *needed += w;
+        return more;
+    }
+    return w + more;
+}
+#endif
+
 #ifdef LC_HAVE_AVX512_KERNEL
 /* Eight objects per step, with the same arithmetic as the scalar body (the
  * same IEEE operations in the same order as lc_quantize, so the same
@@ -138,15 +157,7 @@ LC_AVX512 static size_t LC_FN(encode_avx512_)(const locd_grid *g, const LC_T *bo
         }
         w = store_cells8(code, dd, out, w);
     }
-    if (i < end) { /* the last objects, or the end of the buffer: the scalar body */
-        size_t more = LC_FN(encode_scalar_)(g, boxes, i, end - i, out + w, capacity - w, needed, qbox);
-        if (more == (size_t)-1) {
-            *needed += w;
-            return more;
-        }
-        w += more;
-    }
-    return w;
+    return LC_FN(encode_rest_)(g, boxes, i, end, out, capacity, needed, qbox, w);
 }
 #endif
 
@@ -221,15 +232,7 @@ LC_AVX2_ENCODE static size_t LC_FN(encode_avx2_)(const locd_grid *g, const LC_T 
             w += ncells_of_d[dd[j]];
         }
     }
-    if (i < end) { /* the last objects, or the end of the buffer: the scalar body */
-        size_t more = LC_FN(encode_scalar_)(g, boxes, i, end - i, out + w, capacity - w, needed, qbox);
-        if (more == (size_t)-1) {
-            *needed += w;
-            return more;
-        }
-        w += more;
-    }
-    return w;
+    return LC_FN(encode_rest_)(g, boxes, i, end, out, capacity, needed, qbox, w);
 }
 #endif
 

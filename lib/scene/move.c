@@ -6,8 +6,6 @@
  * batch changes nothing and its error is the serial checks' own. */
 #include "scene/scene.h"
 
-#include <math.h>
-
 /* Below this many objects a move runs on the calling thread. */
 #define LC_MOVE_PARALLEL_MIN 65536
 
@@ -24,16 +22,14 @@ typedef struct move_ctx {
     int pass;
 } move_ctx;
 
+/* Box i passes the batch checks (validate.c's test). */
 LC_INLINE int box_ok(const move_ctx *c, size_t i)
 {
     int a;
     double b[6];
     for (a = 0; a < 6; a++)
         b[a] = c->f64 ? ((const double *)c->boxes)[6 * i + a] : (double)((const float *)c->boxes)[6 * i + a];
-    for (a = 0; a < 6; a++)
-        if (!isfinite(b[a]))
-            return 0;
-    return b[0] <= b[3] && b[1] <= b[4] && b[2] <= b[5];
+    return lc_scene_box_fault(b, &a) == LOCD_OK;
 }
 
 static void task_move(void *arg, uint32_t t, uint32_t k)

@@ -168,6 +168,10 @@ int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes,
                            locd_status *st);
 
 /* ---- batch checks (validate.c): nothing is changed; errors name the index ---- */
+/* What is wrong with one box, as doubles (a float converts exactly):
+ * LOCD_ERR_NONFINITE, LOCD_ERR_INVERTED_BOX (*axis set) or LOCD_OK; no
+ * error is recorded (the checks below record it, naming the position). */
+locd_status lc_scene_box_fault(const double *b, int *axis);
 locd_status lc_scene_check_boxes_f32(const float *boxes, size_t n);
 locd_status lc_scene_check_boxes_f64(const double *boxes, size_t n);
 /* Every id live and none twice (stamps only). */

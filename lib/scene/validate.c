@@ -5,16 +5,29 @@
 
 #include <math.h>
 
-/* One box, as doubles (a float converts exactly). */
-static locd_status check_box(const double *b, size_t i)
+locd_status lc_scene_box_fault(const double *b, int *axis)
 {
     int a;
     for (a = 0; a < 6; a++)
         if (!isfinite(b[a]))
-            return lc_error_box(LOCD_ERR_NONFINITE, (int64_t)i, "box %zu has a non-finite coordinate", i);
+            return LOCD_ERR_NONFINITE;
     for (a = 0; a < 3; a++)
-        if (b[a] > b[a + 3])
-            return lc_error_box(LOCD_ERR_INVERTED_BOX, (int64_t)i, "box %zu has min > max on axis %d", i, a);
+        if (b[a] > b[a + 3]) {
+            *axis = a;
+            return LOCD_ERR_INVERTED_BOX;
+        }
+    return LOCD_OK;
+}
+
+/* One box, as doubles (a float converts exactly). */
+static locd_status check_box(const double *b, size_t i)
+{
+    int a = 0;
+    locd_status st = lc_scene_box_fault(b, &a);
+    if (st == LOCD_ERR_NONFINITE)
+        return lc_error_box(st, (int64_t)i, "box %zu has a non-finite coordinate", i);
+    if (st == LOCD_ERR_INVERTED_BOX)
+        return lc_error_box(st, (int64_t)i, "box %zu has min > max on axis %d", i, a);
     return LOCD_OK;
 }
 
