@@ -66,6 +66,24 @@ static void swap_tree(lc_tree *a, lc_tree *b)
     *b = t;
 }
 
+/* The update's event buffers come from the scene's spares and go back
+ * there (after commit: the events before last's), so that a frame does not
+ * fault in two lists sized for a whole pair set. */
+static void take_event_buffers(upd *u)
+{
+    u->cr = u->s->spare_cr, u->lo = u->s->spare_lo;
+    u->cr.count = u->cr.first = u->lo.count = u->lo.first = 0;
+    memset(&u->s->spare_cr, 0, sizeof u->s->spare_cr);
+    memset(&u->s->spare_lo, 0, sizeof u->s->spare_lo);
+}
+
+static void keep_event_buffers(upd *u)
+{
+    u->s->spare_cr = u->cr, u->s->spare_lo = u->lo;
+    memset(&u->cr, 0, sizeof u->cr);
+    memset(&u->lo, 0, sizeof u->lo);
+}
+
 static void upd_free(upd *u)
 {
     const locd_allocator *a = u->s->alloc;
@@ -712,6 +730,7 @@ static void commit(upd *u)
     memset(&u->next, 0, sizeof u->next);
     swap_plist(&s->created, &u->cr);
     swap_plist(&s->lost, &u->lo);
+    keep_event_buffers(u);
     clear_changes(s);
 }
 
@@ -735,6 +754,7 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     u.next = s->spare; /* written from its start (count and first set by the writer) */
     u.next.count = u.next.first = 0;
     memset(&s->spare, 0, sizeof s->spare);
+    take_event_buffers(&u);
     for (k = 0; k < s->ndirty; k++)
         moved += (s->flags[((const uint32_t *)s->dirty.data)[k]] & LC_SLOT_LIVE) != 0;
     if (want_rebuild(s, moved))
@@ -745,6 +765,7 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
         st = incremental(&u);
     if (st != LOCD_OK) {
         undo(&u);
+        keep_event_buffers(&u);
         upd_free(&u);
         lc_engine_release(s->engine);
         return st;
