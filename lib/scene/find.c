@@ -81,11 +81,23 @@ static uint32_t consider_q(const find_ctx *c, find_out *fo, uint64_t eq, const l
         return 0;
     qo = s->hq + 2 * (size_t)o;
     fo->cand++;
-    for (a = 0; a < 3; a++) {
-        uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(qo[0], a), mh = FIELD(hm->qhi, a), oh = FIELD(qo[1], a);
-        if (ml > oh || ol > mh)
+    /* Each axis's field compared in place (masked, not shifted), and the
+       three axes' results or-ed before one branch: a branch per axis
+       mispredicts on about every candidate (most miss on one axis or
+       another, which one at random). */
+    {
+        uint32_t miss = 0;
+        for (a = 0; a < 3; a++) {
+            const uint64_t fm = LC_SMASK << (a * LC_SBITS);
+            const uint64_t ml = hm->qlo & fm, mh = hm->qhi & fm, ol = qo[0] & fm, oh = qo[1] & fm;
+            miss |= (uint32_t)(ml > oh) | (uint32_t)(ol > mh);
+            tie |= (uint32_t)(ml == oh) | (uint32_t)(ol == mh);
+        }
+        if (miss)
             return 0;
-        tie |= (ml == oh) | (ol == mh);
+    }
+    for (a = 0; a < 3; a++) {
+        uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(qo[0], a);
         p[a] = ml > ol ? ml : ol;
     }
     if (lm >= lo ? !cell_holds(g, eq >> (ib + LC_LEVEL_BITS), lm, p)
@@ -211,6 +223,30 @@ static void search(const find_ctx *c, find_out *fo, const lc_tree *tr, uint64_t 
         search_array(c, fo, tr, tr->ovf.data, tr->novf, eq, ac + 1);
 }
 
+/* How many query entries ahead the main arrays' lookups are started. */
+#define LC_LOOK_AHEAD 16
+
+/* Starts loading the part of tr's main array where the cell of query
+ * entry eq lies (its directory bucket), and eq's record: the lookup of a
+ * query entry is then a hit, its misses overlapped with the ones before. */
+LC_INLINE void prefetch_lookup(const find_ctx *c, const lc_tree *tr, uint64_t eq)
+{
+    const uint32_t ib = c->s->grid.index_bits;
+    size_t j;
+    if (!tr->dir || !tr->count)
+        return;
+    j = (size_t)((((eq >> ib) << ib)) >> tr->dir_shift);
+    if (j < ((size_t)1 << tr->dir_bits)) {
+        /* the bucket (about 8 entries) and the cell's run that may go on
+           past it (a dozen entries a cell): four lines */
+        const uint64_t *b = (const uint64_t *)tr->ent.data + tr->dir[j];
+        __builtin_prefetch(b);
+        __builtin_prefetch(b + 8);
+        __builtin_prefetch(b + 16);
+        __builtin_prefetch(b + 24);
+    }
+}
+
 static void task_find(void *arg, uint32_t t, uint32_t k)
 {
     find_ctx *c = arg;
@@ -219,8 +255,17 @@ static void task_find(void *arg, uint32_t t, uint32_t k)
     find_out fo;
     memset(&fo, 0, sizeof fo);
     memset(fo.anc, 0xff, sizeof fo.anc); /* no key: a key's level bits are at most LC_SBITS */
+    for (i = b; i < b + LC_LOOK_AHEAD && i < e; i++)
+        prefetch_lookup(c, c->dyn, c->q[i]);
     for (i = b; i < e; i++) {
         const lc_hot *hm = &c->s->hot[c->q[i] & imask];
+        if (i + LC_LOOK_AHEAD < e) {
+            const uint64_t ahead = c->q[i + LC_LOOK_AHEAD];
+            prefetch_lookup(c, c->dyn, ahead);
+            if (c->sta->count)
+                prefetch_lookup(c, c->sta, ahead);
+            __builtin_prefetch(&c->s->hot[ahead & imask]);
+        }
         search(c, &fo, c->dyn, c->q[i], fo.anc);
         if (!(hm->flags & LC_SLOT_STATIC))
             search(c, &fo, c->sta, c->q[i], fo.anc + 2);

@@ -31,16 +31,22 @@ static void gather_floats(const locd_scene *s, const uint32_t *live, size_t n, f
 
 /* 1 when the slots [0, nslots) are all live and their serials ascend: then
  * slot order is id order and the slot arrays are the engine's input as
- * they are (the common case: no object removed). */
+ * they are (the common case: no object removed). 2 when, besides, the
+ * serials are consecutive: then the id of slot k is
+ * (serial of slot 0 + k) << 32 | k, and the pair order writes its rows
+ * without reading the ids (each a cache miss: a pair's j is anywhere). */
 static int slots_in_id_order(const locd_scene *s)
 {
     size_t k;
+    int affine = 1;
     if (s->live != s->nslots)
         return 0;
-    for (k = 0; k < s->nslots; k++)
+    for (k = 0; k < s->nslots; k++) {
         if (!(s->flags[k] & LC_SLOT_LIVE) || (k && LC_ID_SERIAL(s->id[k]) <= LC_ID_SERIAL(s->id[k - 1])))
             return 0;
-    return 1;
+        affine &= (uint64_t)LC_ID_SERIAL(s->id[k]) == (uint64_t)LC_ID_SERIAL(s->id[0]) + k;
+    }
+    return 1 + affine;
 }
 
 /* 1 when no two live objects can be filtered out: none static, no group,
@@ -74,7 +80,8 @@ typedef struct order_ctx {
     uint32_t *p;               /* the engine's pairs; filtered in place */
     size_t np, n;
     const uint32_t *live;      /* slot of index i */
-    const locd_id *idl;        /* id of index i */
+    const locd_id *idl;        /* id of index i; NULL when it is (serial0 + i) << 32 | i */
+    uint64_t serial0;
     int all;                   /* no pair is filtered out */
     uint32_t shift, nb;        /* bucket of i: i >> shift; nb buckets */
     size_t pb[LC_MAX_THREADS + 1], kept[LC_MAX_THREADS];
@@ -156,6 +163,14 @@ static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
     } else if (hi > lo) {
         v[lo] = k[lo];
     }
+    if (!c->idl) { /* ids in arithmetic progression with the index */
+        const uint64_t s0 = c->serial0;
+        for (x = lo; x < hi; x++) {
+            const uint64_t i = v[x] >> 32, j = (uint32_t)v[x];
+            rows[2 * x] = (s0 + i) << 32 | i, rows[2 * x + 1] = (s0 + j) << 32 | j;
+        }
+        return;
+    }
     /* j's id is a cache miss each (j is anywhere): asked for ahead */
     for (x = lo; x < hi; x++) {
         if (x + 16 < hi)
@@ -206,6 +221,7 @@ static locd_status order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint
     c->shift = bits > 11 ? bits - 11 : 0; /* at most 2048 buckets */
     c->nb = (uint32_t)(((n ? n - 1 : 0) >> c->shift) + 1);
     c->s = s, c->p = p, c->np = np, c->n = n, c->live = live, c->idl = idl, c->rows = rows;
+    c->serial0 = n ? LC_ID_SERIAL(s->id[live[0]]) : 0;
     c->all = filter_passes_all(s, live, n);
     scratch = 2 * np * sizeof(uint64_t) + (kk + 1) * (c->nb + 1) * sizeof(size_t) +
               kk * (((size_t)1 << c->shift) + 1) * sizeof(uint32_t);
@@ -313,7 +329,7 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     if (st == LOCD_OK)
         st = lc_plist_reserve(a, out, found->count ? found->count : 1);
     if (st == LOCD_OK)
-        st = order_pairs(s, found->data, found->count, live, idl, n, out->rows.data, &w);
+        st = order_pairs(s, found->data, found->count, live, ordered == 2 ? NULL : idl, n, out->rows.data, &w);
     if (st == LOCD_OK) {
         out->count = w;
         *candidates = found->count;

@@ -80,6 +80,7 @@ void locd_scene_destroy(locd_scene *s)
     lc_plist_fini(a, &s->spare);
     lc_plist_fini(a, &s->spare_cr);
     lc_plist_fini(a, &s->spare_lo);
+    lc_plist_fini(a, &s->spare_drop);
     lc_pairs_fini_embedded(&s->found);
     lc_buf_release(a, &s->order_buf, 1);
     s->magic = LC_MAGIC_DEAD;

@@ -138,6 +138,7 @@ struct locd_scene {
                                       million-pair list is 16 MB, page-faulted in again when new */
     lc_plist spare_cr, spare_lo;   /* the events before last's buffers, the next update's: sized
                                       for every row of a set, so new ones faulted in each frame */
+    lc_plist spare_drop;           /* the carry pass's dropped rows (sized likewise), kept too */
     locd_pairs found;              /* from scratch: the engine's pairs, and the ordering's scratch */
     lc_buf order_buf;              /* (bytes), kept from one from-scratch update to the next for the same reason */
     int show_pairs, show_events;   /* the flags of the last update */

@@ -493,9 +493,11 @@ static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, c
 {
     locd_scene *s = u->s;
     const locd_allocator *a = s->alloc;
-    lc_plist n = {{NULL, 0}, 0, 0}, dropped = {{NULL, 0}, 0, 0};
+    lc_plist n = {{NULL, 0}, 0, 0}, dropped = s->spare_drop;
     locd_status st;
     double t0 = lc_now_ms(), t1;
+    dropped.count = dropped.first = 0;
+    memset(&s->spare_drop, 0, sizeof s->spare_drop);
     st = lc_scene_find_moved(s, dyn, sta, q, nq, &n, &u->candidates);
     t1 = lc_now_ms();
     u->ms_sweep = t1 - t0;
@@ -512,7 +514,7 @@ static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, c
     }
     u->ms_events = lc_now_ms() - t0;
     lc_plist_fini(a, &n);
-    lc_plist_fini(a, &dropped);
+    s->spare_drop = dropped; /* sized for a whole set: kept, as the set's own buffers */
     return st;
 }
 
