@@ -1129,6 +1129,52 @@ static void large_moves_on_the_pool(void)
         TEST_ASSERT_EQUAL_UINT32(0, st.rebuilt);
         TEST_ASSERT_EQUAL_UINT64(500, st.moved);
     }
+    /* an incremental update long enough to split its dirty list over the
+       pool (LC_ENCODE_SPLIT, update.c): 10,000 moved, every 14th, and 100
+       added (new dense indices taken in each part's turn) */
+    {
+        locd_id added1[100], added2[100], more1[5], more2[5];
+        locd_scene_stats st;
+        for (k = 0; k < 100; k++)
+            lattice_box(n + k, 0.0, b + 6 * k);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s1, b, 100, NULL, added1));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s2, b, 100, NULL, added2));
+        TEST_ASSERT_EQUAL_MEMORY(added1, added2, sizeof added1);
+        for (k = 0; k < 100; k++)
+            m_add(&m, added1[k], b + 6 * k, 1, ~(uint64_t)0, 0, 0, 0);
+        for (k = 0; k < 10000; k++)
+            pos[k] = 14 * k + (k & 3);
+        move_both(s1, s2, &m, ids1, pos, 10000, 0.25, 0); /* odd ones shrunk: their touching pairs lost */
+        update_both(e1, s1, s2, &m);
+        locd_scene_stats_init(&st);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s2, &st));
+        TEST_ASSERT_EQUAL_UINT32(0, st.rebuilt);
+        TEST_ASSERT_EQUAL_UINT64(10100, st.moved);
+        for (k = 0; k < 10000; k++) /* back: the pairs those moves broke come back */
+            pos[k] = 14 * k + (k & 3);
+        move_both(s1, s2, &m, ids1, pos, 10000, 0.0, 0);
+        update_both(e1, s1, s2, &m);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s2, &st));
+        TEST_ASSERT_EQUAL_UINT32(0, st.rebuilt);
+        /* five more, touching the hundred: each takes a dense index after
+           theirs, which must all be taken */
+        for (k = 0; k < 5; k++)
+            lattice_box(n + 100 + k, 0.0, b + 6 * k);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s1, b, 5, NULL, more1));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s2, b, 5, NULL, more2));
+        TEST_ASSERT_EQUAL_MEMORY(more1, more2, sizeof more1);
+        for (k = 0; k < 5; k++)
+            m_add(&m, more1[k], b + 6 * k, 1, ~(uint64_t)0, 0, 0, 0);
+        update_both(e1, s1, s2, &m);
+        /* the bad batches below work on the first n objects */
+        while (m.n > n) {
+            locd_id id = m.o[m.n - 1].id;
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s1, &id, 1));
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s2, &id, 1));
+            m_remove(&m, id);
+        }
+        update_both(e1, s1, s2, &m);
+    }
     /* bad batches of the whole scene */
     for (k = 0; k < n; k++) { /* odd ones 2 up in y: applied, the batch would change the pairs */
         mv[k] = ids1[k];
@@ -1203,6 +1249,83 @@ static void update_all_from_scratch(locd_scene *s, model *m)
  * only when every live box is floats exactly. Boxes 1e-12 apart, which
  * touch once rounded to floats, go from not floats to floats and back, on
  * slots in id order and, after removals and adds, out of it. */
+/* A from-scratch update keeps what it learns of every slot (ids in slot
+ * order and consecutive; no filter that can drop a pair) until an add, a
+ * remove or a set_filter changes it (scene.h, order_known and
+ * filter_known): each change here comes between two from-scratch updates
+ * of a scene that moves only, and each update is checked against the
+ * model. */
+static void from_scratch_follows_adds_removes_and_filters(void)
+{
+    locd_engine *e = new_engine(2, NULL);
+    locd_scene *s = NULL;
+    const size_t n = 3000;
+    double *b = malloc(n * 6 * sizeof *b);
+    locd_id *ids = malloc(n * sizeof *ids);
+    uint64_t *grp = malloc(n * sizeof *grp);
+    model m;
+    world w;
+    size_t k;
+    memset(&m, 0, sizeof m);
+    memset(&w, 0, sizeof w);
+    ts_seed(&w.r, 8080);
+    w.extent = 60.0, w.size = 3.0;
+    for (k = 0; k < n; k++)
+        random_box(&w, b + 6 * k);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    add_boxes(s, &m, b, n, 0, ids); /* one batch: ids consecutive in slot order */
+    update_all_from_scratch(s, &m);
+    update_all_from_scratch(s, &m);
+    /* a group on every third object: pairs among them go */
+    for (k = 0; k < n; k++)
+        grp[k] = k % 3 == 0 ? 7 : 0;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_filter(s, ids, n, NULL, NULL, grp));
+    for (k = 0; k < n; k++)
+        m_find(&m, ids[k])->group = grp[k];
+    update_all_from_scratch(s, &m);
+    /* groups off again, then a mask that drops every pair with category 2 */
+    for (k = 0; k < n; k++)
+        grp[k] = 0;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_filter(s, ids, n, NULL, NULL, grp));
+    for (k = 0; k < n; k++)
+        m_find(&m, ids[k])->group = 0;
+    update_all_from_scratch(s, &m);
+    /* two static objects on one box: their pair must not be reported */
+    {
+        locd_id st_ids[2];
+        random_box(&w, b);
+        memcpy(b + 6, b, 6 * sizeof *b);
+        add_boxes(s, &m, b, 2, 1, st_ids);
+    }
+    update_all_from_scratch(s, &m);
+    {
+        uint64_t cat = 2, mask = ~(uint64_t)2;
+        locd_id some[40];
+        for (k = 0; k < 40; k++)
+            some[k] = ids[k * 70];
+        for (k = 0; k < 40; k++) {
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_filter(s, &some[k], 1, &cat, &mask, NULL));
+            m_find(&m, some[k])->cat = cat, m_find(&m, some[k])->mask = mask;
+        }
+    }
+    update_all_from_scratch(s, &m);
+    /* removed objects: slot order is no longer id order once their slots
+       are free, then new objects fill the slots with later ids */
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, ids + 100, 50));
+    for (k = 0; k < 50; k++)
+        m_remove(&m, ids[100 + k]);
+    update_all_from_scratch(s, &m);
+    update_all_from_scratch(s, &m);
+    for (k = 0; k < 30; k++)
+        random_box(&w, b + 6 * k);
+    add_boxes(s, &m, b, 30, 0, ids + 100);
+    update_all_from_scratch(s, &m);
+    update_all_from_scratch(s, &m);
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    free(b), free(ids), free(grp), free(m.o), free(m.pairs);
+}
+
 static void float_copies_follow_the_boxes(void)
 {
     locd_engine *e = new_engine(2, NULL);
@@ -1559,6 +1682,7 @@ static const lt_test tests[] = {
     LT_TEST(float_copies_follow_the_boxes),
     LT_TEST(large_scene_threads_and_fresh),
     LT_TEST(large_moves_on_the_pool),
+    LT_TEST(from_scratch_follows_adds_removes_and_filters),
     LT_TEST(bad_batches_change_nothing),
     LT_TEST(levels_2_and_3_are_unsupported),
     LT_TEST(allocation_failures_change_nothing),

@@ -1,7 +1,4 @@
 /* The allocator hook: every byte the library owns goes through here. */
-#if defined(__linux__)
-#define _DEFAULT_SOURCE /* madvise under -std=c99 */
-#endif
 #include "core/core.h"
 
 #include <stdlib.h>

@@ -35,10 +35,13 @@ static void gather_floats(const locd_scene *s, const uint32_t *live, size_t n, f
  * serials are consecutive: then the id of slot k is
  * (serial of slot 0 + k) << 32 | k, and the pair order writes its rows
  * without reading the ids (each a cache miss: a pair's j is anywhere). */
-static int slots_in_id_order(const locd_scene *s)
+static int slots_in_id_order(locd_scene *s)
 {
     size_t k;
     int affine = 1;
+    if (s->order_known >= 0)
+        return s->order_known;
+    s->order_known = 0;
     if (s->live != s->nslots)
         return 0;
     for (k = 0; k < s->nslots; k++) {
@@ -46,26 +49,36 @@ static int slots_in_id_order(const locd_scene *s)
             return 0;
         affine &= (uint64_t)LC_ID_SERIAL(s->id[k]) == (uint64_t)LC_ID_SERIAL(s->id[0]) + k;
     }
-    return 1 + affine;
+    return s->order_known = 1 + affine;
+}
+
+/* The slot of the engine's index i: live[i], or i itself when live is
+ * NULL (the slots in id order). */
+LC_INLINE uint32_t slot_of(const uint32_t *live, size_t i)
+{
+    return live ? live[i] : (uint32_t)i;
 }
 
 /* 1 when no two live objects can be filtered out: none static, no group,
  * and every category meets the AND of all masks. */
-static int filter_passes_all(const locd_scene *s, const uint32_t *live, size_t n)
+static int filter_passes_all(locd_scene *s, const uint32_t *live, size_t n)
 {
     uint64_t m = ~(uint64_t)0;
     size_t k;
+    if (s->filter_known >= 0)
+        return s->filter_known;
+    s->filter_known = 0;
     if (s->live_static)
         return 0;
     for (k = 0; k < n; k++) {
-        m &= s->mask[live[k]];
-        if (s->group[live[k]])
+        m &= s->mask[slot_of(live, k)];
+        if (s->group[slot_of(live, k)])
             return 0;
     }
     for (k = 0; k < n; k++)
-        if (!(s->cat[live[k]] & m))
+        if (!(s->cat[slot_of(live, k)] & m))
             return 0;
-    return 1;
+    return s->filter_known = 1;
 }
 
 /* Ordering the engine's pairs (i, j), i < j, by (i, j): buckets of 2^shift
@@ -79,7 +92,7 @@ typedef struct order_ctx {
     const locd_scene *s;
     uint32_t *p;               /* the engine's pairs; filtered in place */
     size_t np, n;
-    const uint32_t *live;      /* slot of index i */
+    const uint32_t *live;      /* slot of index i (slot_of) */
     const locd_id *idl;        /* id of index i; NULL when it is (serial0 + i) << 32 | i */
     uint64_t serial0;
     int all;                   /* no pair is filtered out */
@@ -101,7 +114,7 @@ static void order_count(order_ctx *c, uint32_t t)
     memset(cnt, 0, c->nb * sizeof *cnt);
     for (x = c->pb[t]; x < c->pb[t + 1]; x++) {
         uint32_t i = p[2 * x], j = p[2 * x + 1];
-        if (!c->all && !lc_scene_may_pair(c->s, c->live[i], c->live[j]))
+        if (!c->all && !lc_scene_may_pair(c->s, slot_of(c->live, i), slot_of(c->live, j)))
             continue;
         p[2 * w] = i, p[2 * w + 1] = j, w++;
         cnt[i >> c->shift]++;
@@ -221,7 +234,7 @@ static locd_status order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint
     c->shift = bits > 11 ? bits - 11 : 0; /* at most 2048 buckets */
     c->nb = (uint32_t)(((n ? n - 1 : 0) >> c->shift) + 1);
     c->s = s, c->p = p, c->np = np, c->n = n, c->live = live, c->idl = idl, c->rows = rows;
-    c->serial0 = n ? LC_ID_SERIAL(s->id[live[0]]) : 0;
+    c->serial0 = n ? LC_ID_SERIAL(s->id[slot_of(live, 0)]) : 0;
     c->all = filter_passes_all(s, live, n);
     scratch = 2 * np * sizeof(uint64_t) + (kk + 1) * (c->nb + 1) * sizeof(size_t) +
               kk * (((size_t)1 << c->shift) + 1) * sizeof(uint32_t);
@@ -274,7 +287,9 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     const locd_allocator *a = s->alloc;
     size_t n = 0, k, w = 0, cap = s->nslots ? s->nslots : 1, ncap = (size_t)s->serial + 1;
     const int ordered = slots_in_id_order(s);
-    uint32_t *live = lc_alloc(a, cap * sizeof *live), *by_serial = ordered ? NULL : lc_alloc(a, ncap * sizeof *by_serial);
+    /* live: the slot of each index in id order; none when that is the index */
+    uint32_t *live = ordered ? NULL : lc_alloc(a, cap * sizeof *live),
+             *by_serial = ordered ? NULL : lc_alloc(a, ncap * sizeof *by_serial);
     locd_id *idl = ordered ? s->id : lc_alloc(a, cap * sizeof *idl);
     float *fboxes = ordered || s->ninexact ? NULL : lc_alloc(a, cap * 6 * sizeof *fboxes);
     double *boxes = NULL;
@@ -283,14 +298,12 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     locd_pairs *found = &s->found;
     locd_stats st_find;
     locd_status st;
-    if (!live || (!ordered && (!by_serial || !idl)) || (!ordered && !s->ninexact && !fboxes)) {
+    if (!ordered && (!live || !by_serial || !idl || (!s->ninexact && !fboxes))) {
         st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's rebuild buffers");
         goto done;
     }
     /* the live slots in serial (= id) order */
     if (ordered) {
-        for (k = 0; k < s->nslots; k++)
-            live[k] = (uint32_t)k;
         n = s->nslots;
     } else {
         memset(by_serial, 0xff, ncap * sizeof *by_serial);
@@ -335,9 +348,10 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
         *candidates = found->count;
     }
 done:
-    lc_free(a, live, cap * sizeof *live);
-    if (!ordered)
+    if (!ordered) {
+        lc_free(a, live, cap * sizeof *live);
         lc_free(a, idl, cap * sizeof *idl);
+    }
     lc_free(a, by_serial, ncap * sizeof *by_serial);
     lc_free(a, fboxes, cap * 6 * sizeof *fboxes);
     lc_free(a, boxes, cap * 6 * sizeof *boxes);

@@ -48,6 +48,7 @@ locd_status locd_scene_create(locd_engine *engine, const locd_scene_config *conf
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene");
     memset(s, 0, sizeof *s);
     s->magic = LC_MAGIC_SCENE;
+    s->order_known = s->filter_known = -1;
     s->engine = engine;
     s->alloc = &engine->alloc;
     s->pool = lc_inproc_pool(engine, &s->kernel);
@@ -137,6 +138,8 @@ static locd_status add_common(locd_scene *s, const void *boxes, int f64, size_t 
     s->live += n;
     if (o.flags & LOCD_OBJECT_STATIC)
         s->live_static += n;
+    if (n)
+        s->order_known = s->filter_known = -1;
     lc_clear_error();
     return LOCD_OK;
 }
@@ -205,6 +208,8 @@ locd_status locd_scene_remove(locd_scene *s, const locd_id *ids, size_t n)
         ((uint32_t *)s->removed.data)[s->nremoved++] = slot;
     }
     s->live -= n;
+    if (n) /* a filter that passed every pair still does: filter_known stays */
+        s->order_known = -1;
     lc_clear_error();
     return LOCD_OK;
 }
@@ -225,6 +230,8 @@ locd_status locd_scene_set_filter(locd_scene *s, const locd_id *ids, size_t n, c
         lc_scene_mark_dirty(s, slot);
         s->flags[slot] |= LC_SLOT_REFILTER;
     }
+    if (n)
+        s->filter_known = -1;
     lc_clear_error();
     return LOCD_OK;
 }

@@ -139,6 +139,10 @@ struct locd_scene {
     lc_plist spare_cr, spare_lo;   /* the events before last's buffers, the next update's: sized
                                       for every row of a set, so new ones faulted in each frame */
     lc_plist spare_drop;           /* the carry pass's dropped rows (sized likewise), kept too */
+    /* What a from-scratch update reads of every slot, kept until an add,
+       remove or set_filter changes it (moves do not): -1 unknown, else
+       rebuild.c's slots_in_id_order and filter_passes_all. */
+    int order_known, filter_known;
     locd_pairs found;              /* from scratch: the engine's pairs, and the ordering's scratch */
     lc_buf order_buf;              /* (bytes), kept from one from-scratch update to the next for the same reason */
     int show_pairs, show_events;   /* the flags of the last update */

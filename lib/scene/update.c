@@ -518,16 +518,153 @@ static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, c
     return st;
 }
 
+/* The dirty objects' part of an incremental update, split over the pool
+ * by ranges of the dirty list when it is long: pass 1 computes each
+ * object's new cells and packed box and counts its entries (queries,
+ * deleted, added), pass 2 writes them at offsets the counts give. Every
+ * part writes where the serial loop would have, and takes the next dense
+ * indices in dirty-list order, so the lists and the undo are the same for
+ * every thread count. */
+#define LC_ENCODE_SPLIT 8192
+
+typedef struct enc_part {
+    size_t b, e;                 /* the part of the dirty list */
+    size_t nq, ndel[2], nadd[2]; /* pass 1: counts; pass 2: where to write them in u->buf */
+    size_t live, fresh;          /* live objects, those new to the lists; pass 2: first undo row, dense index */
+    size_t reenc;                /* objects whose cells changed */
+} enc_part;
+
+typedef struct enc_ctx {
+    upd *u;
+    enc_part part[LC_MAX_THREADS];
+    int pass;
+} enc_ctx;
+
+static void encode_count(upd *u, enc_part *pt)
+{
+    locd_scene *s = u->s;
+    const locd_grid *g = &s->grid;
+    const uint32_t *d = s->dirty.data;
+    uint64_t tmp[8];
+    size_t k;
+    for (k = pt->b; k < pt->e; k++) {
+        uint32_t slot = d[k], cnt;
+        uint8_t f = s->flags[slot];
+        int l = (f & LC_SLOT_STATIC) ? 1 : 0;
+        lc_cells c;
+        uint64_t *q = u->new_q + 2 * k;
+        if (k + LC_AHEAD < pt->e) { /* the dirty slots are scattered: a miss each, overlapped */
+            uint32_t ahead = d[k + LC_AHEAD];
+            __builtin_prefetch(s->flags + ahead);
+            __builtin_prefetch(s->box + 6 * (size_t)ahead);
+            __builtin_prefetch(s->box + 6 * (size_t)ahead + 5);
+            __builtin_prefetch(s->cell + ahead);
+            __builtin_prefetch(s->dense + ahead);
+        }
+        if (!(f & LC_SLOT_LIVE))
+            continue;
+        pt->live++;
+        pt->fresh += !(f & LC_SLOT_INTREE);
+        lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
+        u->new_cells[k] = c;
+        cnt = lc_cells_entries(g, &c, 0, tmp);
+        pt->nq += cnt;
+        if ((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))
+            continue;
+        if (f & LC_SLOT_INTREE)
+            pt->ndel[l] += lc_cells_entries(g, &s->cell[slot], 0, tmp);
+        pt->nadd[l] += cnt;
+    }
+}
+
+static void encode_write(upd *u, enc_part *pt)
+{
+    locd_scene *s = u->s;
+    const locd_grid *g = &s->grid;
+    const uint32_t *d = s->dirty.data;
+    size_t k, w = pt->live, at_q = pt->nq, at_del[2] = {pt->ndel[0], pt->ndel[1]},
+              at_add[2] = {pt->nadd[0], pt->nadd[1]};
+    uint32_t fresh = (uint32_t)pt->fresh;
+    for (k = pt->b; k < pt->e; k++) {
+        uint32_t slot = d[k], cnt;
+        uint8_t f = s->flags[slot];
+        int l = (f & LC_SLOT_STATIC) ? 1 : 0;
+        lc_cells c;
+        const uint64_t *q = u->new_q + 2 * k;
+        uint32_t di;
+        if (k + LC_AHEAD < pt->e) {
+            uint32_t ahead = d[k + LC_AHEAD];
+            if ((s->flags[ahead] & (LC_SLOT_LIVE | LC_SLOT_INTREE)) == (LC_SLOT_LIVE | LC_SLOT_INTREE)) {
+                const char *h = (const char *)&s->hot[s->dense[ahead]];
+                __builtin_prefetch(h, 1);
+                __builtin_prefetch(h + sizeof(lc_hot) - 1, 1);
+                __builtin_prefetch(s->hq + 2 * (size_t)s->dense[ahead], 1);
+            }
+        }
+        if (!(f & LC_SLOT_LIVE))
+            continue;
+        c = u->new_cells[k];
+        /* an object new to the lists takes the next dense index */
+        di = (f & LC_SLOT_INTREE) ? s->dense[slot] : fresh++;
+        u->undo_slot[w] = slot;
+        u->undo_cells[w] = s->cell[slot];
+        u->undo_dense[w] = s->dense[slot];
+        u->undo_hot[w] = s->hot[di];
+        u->undo_flags[w] = f;
+        w++;
+        cnt = lc_cells_entries(g, &c, di, u->buf + at_q);
+        if (!((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))) {
+            if (f & LC_SLOT_INTREE)
+                at_del[l] += lc_cells_entries(g, &s->cell[slot], di, u->buf + at_del[l]);
+            memcpy(u->buf + at_add[l], u->buf + at_q, cnt * sizeof(uint64_t));
+            at_add[l] += cnt;
+            pt->reenc++;
+        }
+        at_q += cnt;
+        s->cell[slot] = c;
+        s->dense[slot] = di;
+        if ((f & (LC_SLOT_INTREE | LC_SLOT_REFILTER)) == LC_SLOT_INTREE) { /* moved only: the filter is as it was */
+            s->hot[di].qlo = q[0], s->hot[di].qhi = q[1];
+        } else {
+            lc_hot_fill(s, slot, q, &s->hot[di]);
+        }
+        s->hot[di].flags |= LC_SLOT_DIRTY;
+        s->hq[2 * (size_t)di] = q[0], s->hq[2 * (size_t)di + 1] = q[1];
+        s->flags[slot] |= LC_SLOT_INTREE;
+    }
+}
+
+static void task_encode(void *arg, uint32_t t, uint32_t k)
+{
+    enc_ctx *c = arg;
+    (void)k;
+    if (c->pass == 1)
+        encode_count(c->u, &c->part[t]);
+    else
+        encode_write(c->u, &c->part[t]);
+}
+
+static void encode_run(enc_ctx *c, uint32_t nk, int pass)
+{
+    c->pass = pass;
+    if (nk > 1)
+        lc_pool_run(c->u->s->pool, nk, task_encode, c);
+    else
+        task_encode(c, 0, 1);
+}
+
 static locd_status incremental(upd *u)
 {
     locd_scene *s = u->s;
     const locd_allocator *a = s->alloc;
     const locd_grid *g = &s->grid;
-    const uint32_t *d = s->dirty.data, *r = s->removed.data;
-    size_t k, ndel[2] = {0, 0}, nadd[2] = {0, 0}, nq = 0, off_del[2], off_add[2], off_q;
+    const uint32_t *r = s->removed.data;
+    size_t k, ndel[2] = {0, 0}, nadd[2] = {0, 0}, nrem[2], nq = 0, off_del[2], off_add[2], off_q;
     locd_status st;
     double t0 = lc_now_ms(), t1;
     uint64_t tmp[8];
+    enc_ctx ec;
+    uint32_t nk, t;
     /* undo room: one per dirty slot */
     u->undo_cap = s->ndirty ? s->ndirty : 1;
     u->undo_slot = lc_alloc(a, u->undo_cap * sizeof *u->undo_slot);
@@ -541,36 +678,23 @@ static locd_status incremental(upd *u)
     if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags || !u->undo_dense || !u->new_cells ||
         !u->new_q)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the update's undo list");
-    /* Pass 1: count the deltas (deleted and added per list, queries). */
+    /* Pass 1: the dirty objects' new cells and packed boxes, and the
+       counts of the deltas (deleted and added per list, queries). */
+    nk = s->threads > 1 && s->ndirty >= LC_ENCODE_SPLIT ? s->threads : 1;
+    for (t = 0; t < nk; t++) {
+        memset(&ec.part[t], 0, sizeof ec.part[t]);
+        ec.part[t].b = s->ndirty * t / nk, ec.part[t].e = s->ndirty * (t + 1) / nk;
+    }
+    ec.u = u;
+    encode_run(&ec, nk, 1);
     for (k = 0; k < s->nremoved; k++)
         if (s->flags[r[k]] & LC_SLOT_INTREE)
             ndel[(s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0] += lc_cells_entries(g, &s->cell[r[k]], 0, tmp);
-    for (k = 0; k < s->ndirty; k++) {
-        uint32_t slot = d[k], cnt;
-        uint8_t f = s->flags[slot];
-        int t = (f & LC_SLOT_STATIC) ? 1 : 0;
-        lc_cells c;
-        uint64_t *q = u->new_q + 2 * k;
-        if (k + LC_AHEAD < s->ndirty) { /* the dirty slots are scattered: a miss each, overlapped */
-            uint32_t ahead = d[k + LC_AHEAD];
-            __builtin_prefetch(s->flags + ahead);
-            __builtin_prefetch(s->box + 6 * (size_t)ahead);
-            __builtin_prefetch(s->box + 6 * (size_t)ahead + 5);
-            __builtin_prefetch(s->cell + ahead);
-            __builtin_prefetch(s->dense + ahead);
-        }
-        if (!(f & LC_SLOT_LIVE))
-            continue;
-        u->moved++;
-        lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
-        u->new_cells[k] = c;
-        cnt = lc_cells_entries(g, &c, 0, tmp);
-        nq += cnt;
-        if ((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))
-            continue;
-        if (f & LC_SLOT_INTREE)
-            ndel[t] += lc_cells_entries(g, &s->cell[slot], 0, tmp);
-        nadd[t] += cnt;
+    nrem[0] = ndel[0], nrem[1] = ndel[1];
+    for (t = 0; t < nk; t++) {
+        ndel[0] += ec.part[t].ndel[0], ndel[1] += ec.part[t].ndel[1];
+        nadd[0] += ec.part[t].nadd[0], nadd[1] += ec.part[t].nadd[1];
+        nq += ec.part[t].nq;
     }
     off_del[0] = 0, off_del[1] = ndel[0];
     off_add[0] = ndel[0] + ndel[1], off_add[1] = off_add[0] + nadd[0];
@@ -578,60 +702,39 @@ static locd_status incremental(upd *u)
     if ((st = buf_room(u, 0, off_q + nq + 1)) != LOCD_OK)
         return st;
 
-    ndel[0] = ndel[1] = nadd[0] = nadd[1] = 0;
-    nq = 0;
-    /* Pass 2: write them, and the new cells (undo kept). */
-    for (k = 0; k < s->nremoved; k++)
-        if (s->flags[r[k]] & LC_SLOT_INTREE) {
-            int t = (s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0;
-            ndel[t] += lc_cells_entries(g, &s->cell[r[k]], s->dense[r[k]], u->buf + off_del[t] + ndel[t]);
-        }
-    for (k = 0; k < s->ndirty; k++) {
-        uint32_t slot = d[k], cnt;
-        uint8_t f = s->flags[slot];
-        int t = (f & LC_SLOT_STATIC) ? 1 : 0;
-        lc_cells c;
-        const uint64_t *q = u->new_q + 2 * k;
-        uint32_t di;
-        if (k + LC_AHEAD < s->ndirty) {
-            uint32_t ahead = d[k + LC_AHEAD];
-            if ((s->flags[ahead] & (LC_SLOT_LIVE | LC_SLOT_INTREE)) == (LC_SLOT_LIVE | LC_SLOT_INTREE)) {
-                const char *h = (const char *)&s->hot[s->dense[ahead]];
-                __builtin_prefetch(h, 1);
-                __builtin_prefetch(h + sizeof(lc_hot) - 1, 1);
-                __builtin_prefetch(s->hq + 2 * (size_t)s->dense[ahead], 1);
+    /* Pass 2: write them, and the new cells (undo kept): the removed
+       objects' deletions first, then each part's rows where the serial
+       loop would put them. */
+    {
+        size_t w[2] = {0, 0};
+        for (k = 0; k < s->nremoved; k++)
+            if (s->flags[r[k]] & LC_SLOT_INTREE) {
+                int l = (s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0;
+                w[l] += lc_cells_entries(g, &s->cell[r[k]], s->dense[r[k]], u->buf + off_del[l] + w[l]);
             }
+    }
+    {
+        size_t at_del[2] = {off_del[0] + nrem[0], off_del[1] + nrem[1]}, at_add[2] = {off_add[0], off_add[1]};
+        size_t at_q = off_q, at_undo = 0, at_dense = s->ndense;
+        for (t = 0; t < nk; t++) {
+            enc_part *pt = &ec.part[t];
+            const size_t c_del[2] = {pt->ndel[0], pt->ndel[1]}, c_add[2] = {pt->nadd[0], pt->nadd[1]};
+            const size_t c_q = pt->nq, c_live = pt->live, c_fresh = pt->fresh;
+            int l;
+            for (l = 0; l < 2; l++) {
+                pt->ndel[l] = at_del[l], at_del[l] += c_del[l];
+                pt->nadd[l] = at_add[l], at_add[l] += c_add[l];
+            }
+            pt->nq = at_q, at_q += c_q;
+            pt->live = at_undo, at_undo += c_live;
+            pt->fresh = at_dense, at_dense += c_fresh;
         }
-        if (!(f & LC_SLOT_LIVE))
-            continue;
-        c = u->new_cells[k];
-        /* an object new to the lists takes the next dense index */
-        di = (f & LC_SLOT_INTREE) ? s->dense[slot] : (uint32_t)s->ndense++;
-        u->undo_slot[u->nundo] = slot;
-        u->undo_cells[u->nundo] = s->cell[slot];
-        u->undo_dense[u->nundo] = s->dense[slot];
-        u->undo_hot[u->nundo] = s->hot[di];
-        u->undo_flags[u->nundo] = f;
-        u->nundo++;
-        cnt = lc_cells_entries(g, &c, di, u->buf + off_q + nq);
-        if (!((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))) {
-            if (f & LC_SLOT_INTREE)
-                ndel[t] += lc_cells_entries(g, &s->cell[slot], di, u->buf + off_del[t] + ndel[t]);
-            memcpy(u->buf + off_add[t] + nadd[t], u->buf + off_q + nq, cnt * sizeof(uint64_t));
-            nadd[t] += cnt;
-            u->reencoded++;
-        }
-        nq += cnt;
-        s->cell[slot] = c;
-        s->dense[slot] = di;
-        if ((f & (LC_SLOT_INTREE | LC_SLOT_REFILTER)) == LC_SLOT_INTREE) { /* moved only: the filter is as it was */
-            s->hot[di].qlo = q[0], s->hot[di].qhi = q[1];
-        } else {
-            lc_hot_fill(s, slot, q, &s->hot[di]);
-        }
-        s->hot[di].flags |= LC_SLOT_DIRTY;
-        s->hq[2 * (size_t)di] = q[0], s->hq[2 * (size_t)di + 1] = q[1];
-        s->flags[slot] |= LC_SLOT_INTREE;
+        encode_run(&ec, nk, 2);
+        u->nundo = at_undo;
+        u->moved = at_undo;
+        s->ndense = at_dense;
+        for (t = 0; t < nk; t++)
+            u->reencoded += ec.part[t].reenc;
     }
     for (k = 0; k < 2; k++)
         if ((st = lc_sort_u64_radix(a, u->buf + off_del[k], ndel[k])) != LOCD_OK ||
@@ -711,12 +814,10 @@ static void commit(upd *u)
         lc_scene_tree_fini(s);
         memset(&s->dyn, 0, sizeof s->dyn);
         memset(&s->sta, 0, sizeof s->sta);
+        if (s->have_tree) /* else no slot has the flag: the lists were dropped before */
+            for (k = 0; k < s->nslots; k++)
+                s->flags[k] &= (uint8_t)~LC_SLOT_INTREE;
         s->have_tree = 0;
-        for (k = 0; k < s->nslots; k++)
-            s->flags[k] &= (uint8_t)~LC_SLOT_INTREE;
-        u->moved = 0;
-        for (k = 0; k < s->ndirty; k++)
-            u->moved += (s->flags[((const uint32_t *)s->dirty.data)[k]] & LC_SLOT_LIVE) != 0;
     } else if (u->relisted) {
         u->nundo = 0;
     } else {
@@ -760,7 +861,7 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     for (k = 0; k < s->ndirty; k++)
         moved += (s->flags[((const uint32_t *)s->dirty.data)[k]] & LC_SLOT_LIVE) != 0;
     if (want_rebuild(s, moved))
-        st = rebuild(&u);
+        u.moved = moved, st = rebuild(&u);
     else if (want_relist(s))
         u.relisted = 1, st = relist(&u);
     else
