@@ -82,8 +82,8 @@ static int filter_passes_all(locd_scene *s, const uint32_t *live, size_t n)
 }
 
 /* Ordering the engine's pairs (i, j), i < j, by (i, j): buckets of 2^shift
- * consecutive i (a few thousand buckets, so each thread's scatter writes a
- * few thousand streams and each bucket's sort runs in the cache), then
+ * consecutive i (a few hundred buckets, so each thread's scatter writes a
+ * few hundred streams and each bucket's sort runs in the cache), then
  * within a bucket a counting sort on i and an insertion sort of each i's
  * few j. Pairs the filter drops are dropped first. Each step is split over
  * the pool: pair ranges for the counts and the scatter, bucket ranges of
@@ -168,10 +168,17 @@ static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
         }
         for (x = lo; x < hi; x++)
             v[lo + cnt[(uint32_t)(k[x] >> 32) - base]++] = k[x];
-        for (x = lo; x < hi; x = y) { /* each i's run by j */
-            for (y = x + 1; y < hi && v[y] >> 32 == v[x] >> 32; y++)
-                ;
-            sort_run(v + x, y - x);
+        /* each i's run by j: run u ends where the scatter left cnt[u]
+           and starts where run u - 1 ended */
+        for (u = 0, x = lo; u < span; u++) {
+            y = lo + cnt[u];
+            if (y - x == 2) { /* the common case past one: no loop */
+                const uint64_t a = v[x], d = v[x + 1];
+                v[x] = a < d ? a : d, v[x + 1] = a < d ? d : a;
+            } else if (y - x > 2) {
+                sort_run(v + x, y - x);
+            }
+            x = y;
         }
     } else if (hi > lo) {
         v[lo] = k[lo];
@@ -231,7 +238,9 @@ static locd_status order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint
     memset(c, 0, sizeof *c);
     while (bits < 32 && ((size_t)1 << bits) < n)
         bits++;
-    c->shift = bits > 11 ? bits - 11 : 0; /* at most 2048 buckets */
+    /* at most 512 buckets: the scatter's streams stay few enough for the
+       caches (2,048 took 6.1 ms against 5.7 at 10^6 pairs, 256 6.0) */
+    c->shift = bits > 9 ? bits - 9 : 0;
     c->nb = (uint32_t)(((n ? n - 1 : 0) >> c->shift) + 1);
     c->s = s, c->p = p, c->np = np, c->n = n, c->live = live, c->idl = idl, c->rows = rows;
     c->serial0 = n ? LC_ID_SERIAL(s->id[slot_of(live, 0)]) : 0;
