@@ -392,9 +392,38 @@ static size_t scan_scalar(const lc_scan *sc, size_t first, size_t end, uint32_t 
 }
 
 #ifdef LC_HAVE_AVX2_KERNEL
+#define LC_AVX2 __attribute__((target("avx2")))
+
+/* The 32-bit lanes that gather the 64-bit lanes set in a 4-bit mask to
+ * the front, in order (AVX2 has no compress). */
+static const int32_t lc_compress4[16][8] = {
+    {0, 1, 0, 1, 0, 1, 0, 1}, {0, 1, 0, 1, 0, 1, 0, 1}, {2, 3, 0, 1, 0, 1, 0, 1}, {0, 1, 2, 3, 0, 1, 0, 1},
+    {4, 5, 0, 1, 0, 1, 0, 1}, {0, 1, 4, 5, 0, 1, 0, 1}, {2, 3, 4, 5, 0, 1, 0, 1}, {0, 1, 2, 3, 4, 5, 0, 1},
+    {6, 7, 0, 1, 0, 1, 0, 1}, {0, 1, 6, 7, 0, 1, 0, 1}, {2, 3, 6, 7, 0, 1, 0, 1}, {0, 1, 2, 3, 6, 7, 0, 1},
+    {4, 5, 6, 7, 0, 1, 0, 1}, {0, 1, 4, 5, 6, 7, 0, 1}, {2, 3, 4, 5, 6, 7, 0, 1}, {0, 1, 2, 3, 4, 5, 6, 7},
+};
+
+/* Writes the pairs (min, max) of object me (in every lane of mev) and the
+ * objects in J's lanes set in m, in lane order, at pairs[np..]: two
+ * full-vector stores (the pair buffer keeps LC_PAIR_SLACK spare pairs, as
+ * for the AVX-512 scan), no branch on the lanes. Returns the new count. */
+LC_AVX2 LC_INLINE size_t store_pairs_avx2(uint32_t *pairs, size_t np, __m256i J, __m256i mev, unsigned m)
+{
+    const __m256i a = _mm256_min_epu32(J, mev), b = _mm256_max_epu32(J, mev);
+    /* (a, b) interleaved: lanes 0 1 4 5 in lo, 2 3 6 7 in hi; then 0-3 and 4-7 */
+    const __m256i lo = _mm256_unpacklo_epi32(a, b), hi = _mm256_unpackhi_epi32(a, b);
+    const __m256i p0 = _mm256_permute2x128_si256(lo, hi, 0x20), p1 = _mm256_permute2x128_si256(lo, hi, 0x31);
+    const unsigned m0 = m & 15u, m1 = m >> 4;
+    _mm256_storeu_si256((__m256i *)(pairs + 2 * np),
+                        _mm256_permutevar8x32_epi32(p0, _mm256_loadu_si256((const __m256i *)lc_compress4[m0])));
+    np += (size_t)__builtin_popcount(m0);
+    _mm256_storeu_si256((__m256i *)(pairs + 2 * np),
+                        _mm256_permutevar8x32_epi32(p1, _mm256_loadu_si256((const __m256i *)lc_compress4[m1])));
+    return np + (size_t)__builtin_popcount(m1);
+}
+
 /* Inlined into the AVX2 main loop (sweep_range_*_avx2), whose runs of
  * candidates are short; pick_scan takes its address for nothing else. */
-#define LC_AVX2 __attribute__((target("avx2")))
 LC_AVX2 LC_INLINE size_t scan_avx2(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np,
                                    uint64_t *exact)
 {
@@ -411,6 +440,7 @@ LC_AVX2 LC_INLINE size_t scan_avx2(const lc_scan *sc, size_t first, size_t end, 
     const __m256i cx = _mm256_set1_epi32(sc->cell[0]), cy = _mm256_set1_epi32(sc->cell[1]),
                   cz = _mm256_set1_epi32(sc->cell[2]);
     const __m128i sh = _mm_cvtsi32_si128((int)sc->s);
+    const __m256i mev = _mm256_set1_epi32((int)me);
     size_t r;
     for (r = first; r < end; r += 8) {
         const __m256i L0 = _mm256_loadu_si256((const __m256i *)(X0 + r)),
@@ -443,6 +473,10 @@ LC_AVX2 LC_INLINE size_t scan_avx2(const lc_scan *sc, size_t first, size_t end, 
                 _mm256_and_si256(_mm256_cmpgt_epi32(H2, lo2), _mm256_cmpgt_epi32(hi2, L2)));
             m &= (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(canon));
             weak = m & ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(strict));
+        }
+        if (!(weak | split)) { /* every lane left is a pair: written in lane order, no loop */
+            np = store_pairs_avx2(pairs, np, _mm256_loadu_si256((const __m256i *)(J + r)), mev, m);
+            continue;
         }
         /* In lane order, as the scalar path: the two-set filter, then the
            exact test for equal ends. */
