@@ -227,15 +227,14 @@ static void search(const find_ctx *c, find_out *fo, const lc_tree *tr, uint64_t 
 #define LC_LOOK_AHEAD 16
 
 /* Starts loading the part of tr's main array where the cell of query
- * entry eq lies (its directory bucket), and eq's record: the lookup of a
- * query entry is then a hit, its misses overlapped with the ones before. */
+ * entry eq lies (its directory bucket, as lc_tree_lower_bound finds it). */
 LC_INLINE void prefetch_lookup(const find_ctx *c, const lc_tree *tr, uint64_t eq)
 {
     const uint32_t ib = c->s->grid.index_bits;
     size_t j;
     if (!tr->dir || !tr->count)
         return;
-    j = (size_t)((((eq >> ib) << ib)) >> tr->dir_shift);
+    j = (size_t)(((eq >> ib) << ib) >> tr->dir_shift);
     if (j < ((size_t)1 << tr->dir_bits)) {
         /* the bucket (about 8 entries) and the cell's run that may go on
            past it (a dozen entries a cell): four lines */
@@ -247,6 +246,18 @@ LC_INLINE void prefetch_lookup(const find_ctx *c, const lc_tree *tr, uint64_t eq
     }
 }
 
+/* Starts the lookups of query entry eq and the load of its record: when
+ * its turn comes they are hits, their misses overlapped with the ones of
+ * the query entries before it. */
+LC_INLINE void prefetch_query(const find_ctx *c, uint64_t eq)
+{
+    const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
+    prefetch_lookup(c, c->dyn, eq);
+    if (c->sta->count)
+        prefetch_lookup(c, c->sta, eq);
+    __builtin_prefetch(&c->s->hot[eq & imask]);
+}
+
 static void task_find(void *arg, uint32_t t, uint32_t k)
 {
     find_ctx *c = arg;
@@ -256,16 +267,11 @@ static void task_find(void *arg, uint32_t t, uint32_t k)
     memset(&fo, 0, sizeof fo);
     memset(fo.anc, 0xff, sizeof fo.anc); /* no key: a key's level bits are at most LC_SBITS */
     for (i = b; i < b + LC_LOOK_AHEAD && i < e; i++)
-        prefetch_lookup(c, c->dyn, c->q[i]);
+        prefetch_query(c, c->q[i]);
     for (i = b; i < e; i++) {
         const lc_hot *hm = &c->s->hot[c->q[i] & imask];
-        if (i + LC_LOOK_AHEAD < e) {
-            const uint64_t ahead = c->q[i + LC_LOOK_AHEAD];
-            prefetch_lookup(c, c->dyn, ahead);
-            if (c->sta->count)
-                prefetch_lookup(c, c->sta, ahead);
-            __builtin_prefetch(&c->s->hot[ahead & imask]);
-        }
+        if (i + LC_LOOK_AHEAD < e)
+            prefetch_query(c, c->q[i + LC_LOOK_AHEAD]);
         search(c, &fo, c->dyn, c->q[i], fo.anc);
         if (!(hm->flags & LC_SLOT_STATIC))
             search(c, &fo, c->sta, c->q[i], fo.anc + 2);
