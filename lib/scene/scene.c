@@ -174,6 +174,12 @@ static locd_status move_common(locd_scene *s, const locd_id *ids, const void *bo
         return st;
     for (i = 0; i < n; i++) {
         uint32_t slot = LC_ID_SLOT(ids[i]);
+        if (i + LC_AHEAD < n) { /* the box, its float copy: written next */
+            const uint32_t ahead = LC_ID_SLOT(ids[i + LC_AHEAD]);
+            __builtin_prefetch(s->box + 6 * (size_t)ahead, 1);
+            __builtin_prefetch(s->box + 6 * (size_t)ahead + 5, 1);
+            __builtin_prefetch(s->fbox + 6 * (size_t)ahead, 1);
+        }
         lc_scene_set_box(s, slot, boxes, f64, i);
         lc_scene_mark_dirty(s, slot);
     }

@@ -150,6 +150,21 @@ struct locd_scene {
 };
 
 /* ---- slots (slots.c) ---- */
+/* How far ahead the passes over scattered slots (a batch's ids, the dirty
+ * list) start loading what they read: a miss each, overlapped. */
+#define LC_AHEAD 8
+
+/* Starts loading the id and flags of the slot id names (a batch's checks
+ * read them), if it is one of the scene's. */
+LC_INLINE void lc_scene_prefetch_slot(const locd_scene *s, locd_id id)
+{
+    const uint32_t slot = LC_ID_SLOT(id);
+    if (slot < s->nslots) {
+        __builtin_prefetch(s->id + slot);
+        __builtin_prefetch(s->flags + slot);
+    }
+}
+
 /* The slot of id if it names a live object, else -1. */
 int64_t lc_scene_slot(const locd_scene *s, locd_id id);
 /* Makes room for `more` new slots (nothing else changes on failure). */

@@ -19,9 +19,6 @@
  * update costs (docs/scene.md). */
 #define LC_REBUILD_FRACTION 0.10
 
-/* How far ahead the passes over the dirty slots prefetch. */
-#define LC_AHEAD 8
-
 typedef struct upd {
     locd_scene *s;
     uint32_t flags;

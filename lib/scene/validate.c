@@ -72,11 +72,14 @@ locd_status lc_scene_check_ids_live(const locd_scene *s, const locd_id *ids, siz
     size_t k;
     if (n && !ids)
         return lc_error(LOCD_ERR_NULL_POINTER, "ids is NULL");
-    for (k = 0; k < n; k++)
+    for (k = 0; k < n; k++) {
+        if (k + LC_AHEAD < n)
+            lc_scene_prefetch_slot(s, ids[k + LC_AHEAD]);
         if (lc_scene_slot(s, ids[k]) < 0)
             return lc_error_box(LOCD_ERR_STALE_ID, (int64_t)k,
                                 "id %llu at %zu was removed or never issued by this scene",
                                 (unsigned long long)ids[k], k);
+    }
     return LOCD_OK;
 }
 
@@ -94,6 +97,8 @@ locd_status lc_scene_check_ids(locd_scene *s, const locd_id *ids, size_t n)
     }
     for (k = 0; k < n; k++) {
         uint32_t slot = LC_ID_SLOT(ids[k]);
+        if (k + LC_AHEAD < n) /* the ids are live: their slots are in range */
+            __builtin_prefetch(s->stamp + LC_ID_SLOT(ids[k + LC_AHEAD]), 1);
         if (s->stamp[slot] == s->stamp_now)
             return lc_error_box(LOCD_ERR_DUPLICATE_ID, (int64_t)k, "id %llu at %zu appears earlier in the batch",
                                 (unsigned long long)ids[k], k);
