@@ -222,7 +222,7 @@ def main():
     ap.add_argument("--quick", action="store_true", help="CI-sized run into bench/results/tmp/frames-quick/")
     ap.add_argument("--report-only", action="store_true")
     ap.add_argument("--build", default="build-bench", help="meson build directory holding tools/locd and "
-                    "bench/frames_peers (built if missing)")
+                    "bench/frames_peers (set up if missing, brought up to date each run)")
     ap.add_argument("--sizes", default="1e5,1e6")
     ap.add_argument("--statics", default="0,0.9")
     ap.add_argument("--moving", default="0.01,0.1,1")
@@ -243,9 +243,11 @@ def main():
         return 0
     bdir = Path(args.build) if Path(args.build).is_absolute() else ROOT / args.build
     exe, locd = bdir / "bench" / "frames_peers", bdir / "tools" / "locd"
-    if not exe.exists():
+    if not (bdir / "build.ninja").exists():
         bench_run.build(argparse.Namespace(build=str(bdir), native=True))
-        bench_run.run(["ninja", "-C", bdir, "-j", "2", "bench/frames_peers"], cwd=ROOT)
+    # Always brought up to date (ninja does nothing when it is): the report names the checkout's
+    # commit, so binaries left from an older one would be measured under the new one's name.
+    bench_run.run(["ninja", "-C", bdir, "-j", "2", "bench/frames_peers", "tools/locd"], cwd=ROOT)
     meta = {"machine": bench_run.machine(), "simd": bench_run.simd(),
             "command": "bench/frames.py" + "".join(" " + shlex.quote(a) for a in sys.argv[1:]),
             "commit": bench_run.git_rev(), "reps": args.reps, "threads": args.threads,
