@@ -728,7 +728,6 @@ static locd_status incremental(upd *u)
         }
         encode_run(&ec, nk, 2);
         u->nundo = at_undo;
-        u->moved = at_undo;
         s->ndense = at_dense;
         for (t = 0; t < nk; t++)
             u->reencoded += ec.part[t].reenc;
@@ -776,7 +775,6 @@ static locd_status relist(upd *u)
         uint32_t slot = d[k];
         if (!(s->flags[slot] & LC_SLOT_LIVE))
             continue;
-        u->moved++;
         nq += lc_cells_entries(g, &s->cell[slot], s->dense[slot], u->buf + nq);
         s->hot[s->dense[slot]].flags |= LC_SLOT_DIRTY;
     }
@@ -857,8 +855,9 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     take_event_buffers(&u);
     for (k = 0; k < s->ndirty; k++)
         moved += (s->flags[((const uint32_t *)s->dirty.data)[k]] & LC_SLOT_LIVE) != 0;
+    u.moved = moved; /* every path's count: the live objects of the dirty list */
     if (want_rebuild(s, moved))
-        u.moved = moved, st = rebuild(&u);
+        st = rebuild(&u);
     else if (want_relist(s))
         u.relisted = 1, st = relist(&u);
     else
