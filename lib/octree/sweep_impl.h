@@ -171,11 +171,14 @@ LC_TARGET LC_INLINE void LC_FN(scan_)(lc_sweep_ctx *cx, lc_sweep_state *ss, size
  * segment's records directly (those that miss its cell fail the canonical
  * test, and the order is the filtered one's). */
 LC_TARGET LC_INLINE locd_status LC_FN(sweep_lone_)(lc_sweep_ctx *cx, lc_sweep_state *ss, uint64_t pm, uint32_t level,
-                                                   const int32_t me[8], uint32_t idx)
+                                                   const int32_t me[8], uint32_t idx, int sibling_next)
 {
     size_t first;
-    locd_status st = open_parent(cx->g, cx->o, ss->segs, &ss->nseg, &ss->ncand, pm, level, ss->sc.cell);
-    if (st)
+    locd_status st;
+    /* A parent segment pays when a later cell under the same parent reads
+       it too; for this entry alone, filtering the records costs what
+       scanning them does. Same pairs either way (open_parent). */
+    if (sibling_next && (st = open_parent(cx->g, cx->o, ss->segs, &ss->nseg, &ss->ncand, pm, level, ss->sc.cell)) != LOCD_OK)
         return st;
     first = ss->nseg ? ss->segs[ss->nseg - 1].start : ss->ncand;
     if (ss->ncand > first) {
@@ -305,7 +308,8 @@ LC_TARGET LC_INLINE locd_status LC_FN(sweep_cell_)(lc_sweep_ctx *cx, lc_sweep_st
     lc_cell_of(me, pm >> (3u * (depth - level)), ss->sc.s, ss->sc.cell);
     pop_to_ancestors(ss, pm, level, depth);
     if (q - p == 1 && !(q < end && lc_descends(cx->entries[q] >> ib, pm, level, depth)))
-        return LC_FN(sweep_lone_)(cx, ss, pm, level, me, idx);
+        return LC_FN(sweep_lone_)(cx, ss, pm, level, me, idx,
+                                  level > 0 && q < end && lc_descends(cx->entries[q] >> ib, pm, level - 1, depth));
     return LC_FN(sweep_dense_)(cx, ss, boxes, p, q, pm, level, me);
 }
 
