@@ -742,6 +742,88 @@ static void levels_2_and_3_are_unsupported(void)
     locd_engine_destroy(e);
 }
 
+/* A scene fed floats keeps no doubles; the first double box that is not a
+ * float exactly makes them. That allocation failing rejects the batch and
+ * changes nothing; once it works, the pairs and the queries see the double
+ * boxes, not their floats (a box 1e-9 apart from another only as doubles). */
+static void doubles_come_in_late(void)
+{
+    locd_engine *e = new_engine(2, fa_allocator());
+    locd_scene *s = NULL;
+    enum { N0 = 3000 };
+    double *b = malloc(6 * N0 * sizeof *b);
+    float *f = malloc(6 * N0 * sizeof *f);
+    locd_id *ids = malloc(N0 * sizeof *ids);
+    double q[7];
+    uint64_t k;
+    int i, a, failed = 0;
+    world w;
+    model m;
+    memset(&w, 0, sizeof w);
+    memset(&m, 0, sizeof m);
+    ts_seed(&w.r, 11);
+    w.extent = 60.0, w.size = 3.0;
+    for (i = 0; i < 6 * N0; i++) {
+        if (i % 6 == 0)
+            random_box(&w, b + i);
+        f[i] = to_float(b[i]), b[i] = f[i];
+    }
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, N0, NULL, ids));
+    for (i = 0; i < N0; i++)
+        m_add(&m, ids[i], b + 6 * i, 1, ~(uint64_t)0, 0, 0, 0);
+    check_update(s, &m);
+    /* Object 1 moves to touch object 0's high x face from beyond it by
+       1e-9: as floats the two would touch; as doubles they do not. Object 2
+       takes object 1's old box nudged by 1e-9, overlapping as doubles. */
+    for (a = 0; a < 6; a++) {
+        b[a] = m.o[0].box[a];
+        b[6 + a] = m.o[0].box[a] + (a == 0 ? m.o[0].box[3] - m.o[0].box[0] + 1e-9 : 0.0);
+        b[12 + a] = m.o[1].box[a] + 1e-9;
+    }
+    b[9] = b[6] + 1.0;
+    for (k = 1; k < 1000; k++) {
+        locd_status st;
+        fa_counts c;
+        fa_arm(k, 0);
+        st = locd_scene_move_f64(s, ids, b, 3);
+        fa_counts_get(&c);
+        fa_arm(0, 0);
+        if (st == LOCD_OK)
+            break;
+        TEST_ASSERT_EQUAL_INT(LOCD_ERR_NO_MEMORY, st);
+        TEST_ASSERT_TRUE(c.failures > 0);
+        failed++;
+        check_update(s, &m); /* nothing moved */
+    }
+    TEST_ASSERT_TRUE(failed > 0);
+    for (i = 0; i < 3; i++)
+        memcpy(m_find(&m, ids[i])->box, b + 6 * i, 6 * sizeof(double));
+    check_update(s, &m);
+    /* a query between the two as doubles: a point on object 1's low face */
+    for (a = 0; a < 3; a++)
+        q[a] = b[6 + a];
+    check_query(s, &m, 1, q, ~(uint64_t)0);
+    for (a = 0; a < 6; a++)
+        q[a] = b[6 + a];
+    check_query(s, &m, 0, q, ~(uint64_t)0);
+    /* more float moves and a big double move on the pool keep it exact */
+    for (i = 0; i < N0; i++)
+        for (a = 0; a < 6; a++)
+            b[6 * i + a] = m_find(&m, ids[i])->box[a] + 1e-7 * (double)(i % 5);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s, ids, b, N0));
+    for (i = 0; i < N0; i++)
+        memcpy(m_find(&m, ids[i])->box, b + 6 * i, 6 * sizeof(double));
+    check_update(s, &m);
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    free(m.o);
+    free(m.pairs);
+    free(b);
+    free(f);
+    free(ids);
+}
+
 /* Every allocation of a change or an update fails in turn: the call gives
  * LOCD_ERR_NO_MEMORY, and the scene then behaves as if the failed call had
  * not been made (checked against the model by the next, working update). */
@@ -1686,6 +1768,7 @@ static const lt_test tests[] = {
     LT_TEST(bad_batches_change_nothing),
     LT_TEST(levels_2_and_3_are_unsupported),
     LT_TEST(allocation_failures_change_nothing),
+    LT_TEST(doubles_come_in_late),
     LT_TEST(random_sequences),
     LT_TEST(bigger_scene_two_threads),
     LT_TEST(whole_scene_moves_then_a_few),

@@ -122,8 +122,11 @@ static void consider_rest(const find_ctx *c, find_out *fo, const lc_hot *hm, con
     /* Strictly overlapping quantized boxes need no exact test: the
        quantization is monotone, so q(x) < q(y) implies x < y. Only a tie
        (equal quantized ends) may hide boxes that do not overlap. */
-    if (tie && !lc_box_overlap(s->box + 6 * (size_t)hm->slot, s->box + 6 * (size_t)ho->slot))
-        return;
+    if (tie) {
+        double tm[6], to[6];
+        if (!lc_box_overlap(lc_scene_box(s, hm->slot, tm), lc_scene_box(s, ho->slot, to)))
+            return;
+    }
     if (fo->st == LOCD_OK && lc_buf_reserve(s->alloc, &fo->rows, 2 * sizeof(locd_id), fo->count + 1) != LOCD_OK) {
         fo->st = LOCD_ERR_NO_MEMORY;
         return;

@@ -118,6 +118,8 @@ static locd_status move_on_pool(locd_scene *s, const locd_id *ids, const void *b
             st = lc_error(LOCD_ERR_INTERNAL, "the move's checks disagree");
         return st;
     }
+    if (f64 && (st = lc_scene_need_doubles(s, boxes, n)) != LOCD_OK)
+        return st;
     for (t = 0, off = s->ndirty; t < k; t++) {
         size_t f = c.fresh[t];
         c.fresh[t] = off;

@@ -63,12 +63,13 @@ typedef struct lc_ask {
 
 static int hit_one(const locd_scene *s, const lc_ask *q, size_t k, double *t)
 {
+    double tmp[6];
     if (!(s->cat[k] & q->mask))
         return 0;
     if (q->ray)
-        return lc_ray_box(s->box + 6 * k, q->o, q->d, q->max_t, t);
+        return lc_ray_box(lc_scene_box(s, k, tmp), q->o, q->d, q->max_t, t);
     *t = 0.0;
-    return lc_box_overlap(s->box + 6 * k, q->box);
+    return lc_box_overlap(lc_scene_box(s, k, tmp), q->box);
 }
 
 /* The hits gathered so far. */

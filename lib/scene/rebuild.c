@@ -408,7 +408,8 @@ static void task_build(void *arg, uint32_t t, uint32_t k)
             const lc_cells *cl = &c->cells[j];
             if (!(s->flags[j] & LC_SLOT_LIVE))
                 continue;
-            lc_cells_of(c->g, s->box + 6 * j, &c->cells[j], c->qb + 2 * j);
+            double tmp[6];
+            lc_cells_of(c->g, lc_scene_box(s, j, tmp), &c->cells[j], c->qb + 2 * j);
             n[(s->flags[j] & LC_SLOT_STATIC) ? 1 : 0] +=
                 (1u + (cl->span & 1u)) * (1u + ((cl->span >> 1) & 1u)) * (1u + ((cl->span >> 2) & 1u));
         }

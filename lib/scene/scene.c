@@ -121,7 +121,8 @@ static locd_status add_common(locd_scene *s, const void *boxes, int f64, size_t 
         return st;
     if ((uint64_t)n > (uint64_t)(LC_MAX_SERIAL - s->serial))
         return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "a scene issues at most %u ids in its lifetime", LC_MAX_SERIAL);
-    if ((st = lc_scene_reserve(s, n)) != LOCD_OK || (st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK)
+    if ((st = lc_scene_reserve(s, n)) != LOCD_OK || (st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK ||
+        (f64 && (st = lc_scene_need_doubles(s, boxes, n)) != LOCD_OK))
         return st;
     for (i = 0; i < n; i++) {
         uint32_t slot = lc_scene_take_slot(s);
@@ -170,16 +171,13 @@ static locd_status move_common(locd_scene *s, const locd_id *ids, const void *bo
     if ((st = lc_scene_check_ids(s, ids, n)) != LOCD_OK)
         return st;
     st = f64 ? lc_scene_check_boxes_f64(boxes, n) : lc_scene_check_boxes_f32(boxes, n);
-    if (st || (st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK)
+    if (st || (st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK ||
+        (f64 && (st = lc_scene_need_doubles(s, boxes, n)) != LOCD_OK))
         return st;
     for (i = 0; i < n; i++) {
         uint32_t slot = LC_ID_SLOT(ids[i]);
-        if (i + LC_AHEAD < n) { /* the box, its float copy: written next */
-            const uint32_t ahead = LC_ID_SLOT(ids[i + LC_AHEAD]);
-            __builtin_prefetch(s->box + 6 * (size_t)ahead, 1);
-            __builtin_prefetch(s->box + 6 * (size_t)ahead + 5, 1);
-            __builtin_prefetch(s->fbox + 6 * (size_t)ahead, 1);
-        }
+        if (i + LC_AHEAD < n) /* the box, its float copy: written next */
+            lc_scene_prefetch_box(s, LC_ID_SLOT(ids[i + LC_AHEAD]), 1);
         lc_scene_set_box(s, slot, boxes, f64, i);
         lc_scene_mark_dirty(s, slot);
     }

@@ -104,9 +104,12 @@ struct locd_scene {
     size_t live_static; /* static objects now */
     size_t slot_cap;
     locd_id *id;        /* per slot; the current object's id (kept after removal until freed) */
-    double *box;        /* 6 per slot */
+    double *box;        /* 6 per slot, only once keep_f64 is set (else NULL: lc_scene_box reads fbox) */
     float *fbox;        /* 6 per slot: the box as floats, the engine's cheaper input when every live box is floats
                            exactly (ninexact == 0: always so through the f32 entry points) */
+    int keep_f64;       /* some box came in as doubles that are not floats exactly: the doubles are kept
+                           (set for good). Until then every box is its float copy, and a move writes 24
+                           bytes an object, not 72 */
     size_t ninexact;    /* live objects flagged LC_SLOT_INEXACT */
     uint64_t *cat, *mask, *group, *user;
     uint8_t *flags;
@@ -164,6 +167,42 @@ LC_INLINE void lc_scene_prefetch_slot(const locd_scene *s, locd_id id)
         __builtin_prefetch(s->flags + slot);
     }
 }
+
+/* Slot's box as doubles: the kept doubles, or (keep_f64 unset) its float
+ * copy converted into tmp, the same values. */
+LC_INLINE const double *lc_scene_box(const locd_scene *s, size_t slot, double tmp[6])
+{
+    const float *f = s->fbox + 6 * slot;
+    int a;
+    if (s->keep_f64)
+        return s->box + 6 * slot;
+    for (a = 0; a < 6; a++)
+        tmp[a] = (double)f[a];
+    return tmp;
+}
+
+/* Starts loading slot's box (for a write when `write`). */
+LC_INLINE void lc_scene_prefetch_box(const locd_scene *s, size_t slot, int write)
+{
+    if (s->keep_f64) {
+        if (write) {
+            __builtin_prefetch(s->box + 6 * slot, 1);
+            __builtin_prefetch(s->box + 6 * slot + 5, 1);
+        } else {
+            __builtin_prefetch(s->box + 6 * slot);
+            __builtin_prefetch(s->box + 6 * slot + 5);
+        }
+    }
+    if (write)
+        __builtin_prefetch(s->fbox + 6 * slot, 1);
+    else
+        __builtin_prefetch(s->fbox + 6 * slot);
+}
+
+/* Before a batch of n double boxes is written: sets keep_f64 (the doubles
+ * made from the float copies) if one of them is not floats exactly.
+ * LOCD_ERR_NO_MEMORY changes nothing. */
+locd_status lc_scene_need_doubles(locd_scene *s, const double *boxes, size_t n);
 
 /* The slot of id if it names a live object, else -1. */
 int64_t lc_scene_slot(const locd_scene *s, locd_id id);

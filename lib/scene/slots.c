@@ -66,6 +66,8 @@ locd_status lc_scene_reserve(locd_scene *s, size_t more)
     /* All or nothing: allocate every new array first, then swap them in. */
     for (k = 0; k < nk; k++) {
         fresh[k] = NULL;
+        if (k == 1 && !s->keep_f64)
+            continue; /* no doubles kept */
         if (k == 11) {
             if (lc_buf_reserve(s->alloc, &s->free_slots, sizeof(uint32_t), cap) != LOCD_OK)
                 break;
@@ -77,7 +79,8 @@ locd_status lc_scene_reserve(locd_scene *s, size_t more)
     if (k < nk) {
         int j;
         for (j = 0; j < k && j < 11; j++)
-            lc_free(s->alloc, fresh[j], elems[j] * cap);
+            if (fresh[j])
+                lc_free(s->alloc, fresh[j], elems[j] * cap);
         return lc_error(LOCD_ERR_NO_MEMORY, "could not grow the scene to %zu slots", cap);
     }
     for (k = 0; k < 11; k++) {
@@ -106,22 +109,46 @@ locd_status lc_scene_reserve_lists(locd_scene *s, size_t more_dirty, size_t more
     return LOCD_OK;
 }
 
+locd_status lc_scene_need_doubles(locd_scene *s, const double *boxes, size_t n)
+{
+    size_t k, bytes = s->slot_cap * 6 * sizeof(double);
+    double *b;
+    if (s->keep_f64)
+        return LOCD_OK;
+    for (k = 0; k < 6 * n; k++)
+        if ((double)(float)boxes[k] != boxes[k])
+            break;
+    if (k == 6 * n)
+        return LOCD_OK;
+    b = s->slot_cap ? lc_alloc(s->alloc, bytes) : NULL;
+    if (s->slot_cap && !b)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate %zu bytes for the scene's double boxes", bytes);
+    for (k = 0; k < 6 * s->slot_cap; k++)
+        b[k] = (double)s->fbox[k];
+    s->box = b;
+    s->keep_f64 = 1;
+    return LOCD_OK;
+}
+
 int lc_scene_put_box(locd_scene *s, uint32_t slot, const void *boxes, int f64, size_t i)
 {
-    double *b = s->box + 6 * (size_t)slot;
     float *f = s->fbox + 6 * (size_t)slot;
     int a, exact = 1, was = (s->flags[slot] & LC_SLOT_INEXACT) != 0;
     if (f64) {
         const double *in = (const double *)boxes + 6 * i;
         for (a = 0; a < 6; a++) {
-            b[a] = in[a];
             f[a] = (float)in[a];
             exact &= (double)f[a] == in[a];
         }
+        if (s->keep_f64)
+            memcpy(s->box + 6 * (size_t)slot, in, 6 * sizeof(double));
     } else {
         const float *in = (const float *)boxes + 6 * i;
         for (a = 0; a < 6; a++)
-            b[a] = (double)in[a], f[a] = in[a];
+            f[a] = in[a];
+        if (s->keep_f64)
+            for (a = 0; a < 6; a++)
+                s->box[6 * (size_t)slot + (size_t)a] = (double)in[a];
     }
     s->flags[slot] = (uint8_t)((s->flags[slot] & ~LC_SLOT_INEXACT) | (exact ? 0 : LC_SLOT_INEXACT));
     return !exact - was;
@@ -156,7 +183,8 @@ void lc_scene_slots_fini(locd_scene *s)
 {
     size_t c = s->slot_cap;
     lc_free(s->alloc, s->id, c * sizeof(locd_id));
-    lc_free(s->alloc, s->box, c * 6 * sizeof(double));
+    if (s->box)
+        lc_free(s->alloc, s->box, c * 6 * sizeof(double));
     lc_free(s->alloc, s->fbox, c * 6 * sizeof(float));
     lc_free(s->alloc, s->cat, c * sizeof(uint64_t));
     lc_free(s->alloc, s->mask, c * sizeof(uint64_t));

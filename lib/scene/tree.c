@@ -341,11 +341,13 @@ locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g)
     lc_bounds_init(&b);
     for (k = 0; k < s->nslots; k++)
         if (s->flags[k] & LC_SLOT_LIVE) {
+            double tmp[6];
+            const double *bx = lc_scene_box(s, k, tmp);
             for (a = 0; a < 3; a++) {
-                if (!n || s->box[6 * k + (size_t)a] < b.lo[a])
-                    b.lo[a] = s->box[6 * k + (size_t)a];
-                if (!n || s->box[6 * k + 3 + (size_t)a] > b.hi[a])
-                    b.hi[a] = s->box[6 * k + 3 + (size_t)a];
+                if (!n || bx[a] < b.lo[a])
+                    b.lo[a] = bx[a];
+                if (!n || bx[3 + a] > b.hi[a])
+                    b.hi[a] = bx[3 + a];
             }
             n++;
         }
@@ -381,7 +383,12 @@ locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g)
         }
     }
     if (!e->cfg.max_depth)
-        lc_grid_tune_depth_f64(g, s->box, s->nslots);
+    {
+        if (s->keep_f64)
+            lc_grid_tune_depth_f64(g, s->box, s->nslots);
+        else
+            lc_grid_tune_depth_f32(g, s->fbox, s->nslots);
+    }
     (void)n;
     return LOCD_OK;
 }

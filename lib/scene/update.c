@@ -153,8 +153,11 @@ static int want_relist(const locd_scene *s)
             return 1;
     }
     for (k = 0; k < s->ndirty; k++)
-        if ((s->flags[d[k]] & LC_SLOT_LIVE) && !lc_grid_holds(&s->grid, s->box + 6 * (size_t)d[k]))
-            return 1;
+        if (s->flags[d[k]] & LC_SLOT_LIVE) {
+            double tmp[6];
+            if (!lc_grid_holds(&s->grid, lc_scene_box(s, d[k], tmp)))
+                return 1;
+        }
     return 0;
 }
 
@@ -553,8 +556,7 @@ static void encode_count(upd *u, enc_part *pt)
         if (k + LC_AHEAD < pt->e) { /* the dirty slots are scattered: a miss each, overlapped */
             uint32_t ahead = d[k + LC_AHEAD];
             __builtin_prefetch(s->flags + ahead);
-            __builtin_prefetch(s->box + 6 * (size_t)ahead);
-            __builtin_prefetch(s->box + 6 * (size_t)ahead + 5);
+            lc_scene_prefetch_box(s, ahead, 0);
             __builtin_prefetch(s->cell + ahead);
             __builtin_prefetch(s->dense + ahead);
         }
@@ -562,7 +564,10 @@ static void encode_count(upd *u, enc_part *pt)
             continue;
         pt->live++;
         pt->fresh += !(f & LC_SLOT_INTREE);
-        lc_cells_of(g, s->box + 6 * (size_t)slot, &c, q);
+        {
+            double box[6];
+            lc_cells_of(g, lc_scene_box(s, slot, box), &c, q);
+        }
         u->new_cells[k] = c;
         cnt = lc_cells_entries(g, &c, 0, tmp);
         pt->nq += cnt;
