@@ -15,9 +15,10 @@
 #include "scene/scene.h"
 
 /* Find the pairs from scratch when more than this fraction of the objects
- * moved: at 10^6 uniform cubes, 10% moving costs about what a from-scratch
- * update costs (docs/scene.md). */
-#define LC_REBUILD_FRACTION 0.10
+ * moved: at 10^6 uniform cubes on 2 threads, 8% moving costs about what a
+ * from-scratch update costs (`locd frames u.aabb --moving P`, docs/scene.md;
+ * it was 10% before the sweep's scan lost its mispredicted branch). */
+#define LC_REBUILD_FRACTION 0.08
 
 typedef struct upd {
     locd_scene *s;
