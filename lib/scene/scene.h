@@ -16,6 +16,9 @@
 #include "locd/scene.h"
 #include "octree/octree.h"
 
+#include <float.h>
+#include <math.h>
+
 /* Slot flags. */
 #define LC_SLOT_LIVE 0x1u    /* holds an object */
 #define LC_SLOT_STATIC 0x2u  /* the object is static */
@@ -231,8 +234,29 @@ int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes,
 /* ---- batch checks (validate.c): nothing is changed; errors name the index ---- */
 /* What is wrong with one box, as doubles (a float converts exactly):
  * LOCD_ERR_NONFINITE, LOCD_ERR_INVERTED_BOX (*axis set) or LOCD_OK; no
- * error is recorded (the checks below record it, naming the position). */
-locd_status lc_scene_box_fault(const double *b, int *axis);
+ * error is recorded (the checks below record it, naming the position).
+ * Inline: a move of every object checks a million boxes a frame. The
+ * common case is one branch: every |x| <= DBL_MAX (false for NaN and
+ * infinities) and every min <= max. */
+LC_INLINE locd_status lc_scene_box_fault(const double *b, int *axis)
+{
+    int a, ok = 1;
+    for (a = 0; a < 6; a++)
+        ok &= fabs(b[a]) <= DBL_MAX;
+    for (a = 0; a < 3; a++)
+        ok &= b[a] <= b[a + 3];
+    if (ok)
+        return LOCD_OK;
+    for (a = 0; a < 6; a++)
+        if (!isfinite(b[a]))
+            return LOCD_ERR_NONFINITE;
+    for (a = 0; a < 3; a++)
+        if (b[a] > b[a + 3]) {
+            *axis = a;
+            return LOCD_ERR_INVERTED_BOX;
+        }
+    return LOCD_OK;
+}
 locd_status lc_scene_check_boxes_f32(const float *boxes, size_t n);
 locd_status lc_scene_check_boxes_f64(const double *boxes, size_t n);
 /* Every id live and none twice (stamps only). */

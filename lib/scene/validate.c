@@ -5,20 +5,6 @@
 
 #include <math.h>
 
-locd_status lc_scene_box_fault(const double *b, int *axis)
-{
-    int a;
-    for (a = 0; a < 6; a++)
-        if (!isfinite(b[a]))
-            return LOCD_ERR_NONFINITE;
-    for (a = 0; a < 3; a++)
-        if (b[a] > b[a + 3]) {
-            *axis = a;
-            return LOCD_ERR_INVERTED_BOX;
-        }
-    return LOCD_OK;
-}
-
 /* One box, as doubles (a float converts exactly). */
 static locd_status check_box(const double *b, size_t i)
 {
