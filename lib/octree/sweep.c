@@ -151,10 +151,8 @@ LC_INLINE uint32_t slab_of(const lc_slabs *sl, int a, int64_t x)
 {
     const int64_t top = ((int64_t)1 << sl->bits[a]) - 1;
     int64_t b = x - sl->origin[a];
-    if (b < 0)
-        return 0;
-    b >>= sl->shift[a];
-    return b >= top ? (uint32_t)top : (uint32_t)b;
+    b = b < 0 ? 0 : b >> sl->shift[a];
+    return (uint32_t)(b < top ? b : top);
 }
 
 /* The bucket of x slab bx and y slab by (row-major: x slab first). */

@@ -94,7 +94,7 @@ static LC_TARGET int LC_FN(load_cell_)(const locd_grid *g, const LC_T *boxes, co
         const uint32_t idx = (uint32_t)(entries[p + i] & imask);
         int32_t qb[8];
         LC_FN(qbox_of_)(g, boxes, qbox, idx, qb);
-        b = bucket_of(sl, slab_of(sl, 0, qb[0]), slab_of(sl, 1, qb[1]));
+        b = sl->bits[1] ? bucket_of(sl, slab_of(sl, 0, qb[0]), slab_of(sl, 1, qb[1])) : slab_of(sl, 0, qb[0]);
         slab[b + 1]++;
         tag[i] = ((uint64_t)b << 32) | idx;
         if ((int64_t)qb[3] - qb[0] > wide)
