@@ -162,7 +162,7 @@ typedef struct locd_scene_stats {
     uint64_t created;
     uint64_t lost;
     uint32_t rebuilt;        /* 1 if this update found its pairs from scratch (the first one, or
-                                more than 10% of the objects moved) */
+                                more than 8% of the objects moved) */
     uint32_t reserved;
     double ms_total;
     double ms_encode;
