@@ -285,6 +285,16 @@ typedef struct world {
     int shape;     /* 0 random, 1 lattice (touching faces), 2 far from the origin */
 } world;
 
+/* A world of random boxes: coordinates in [0, extent), edges about size. */
+static world world_make(uint64_t seed, double extent, double size, int shape)
+{
+    world w;
+    memset(&w, 0, sizeof w);
+    ts_seed(&w.r, seed);
+    w.extent = extent, w.size = size, w.shape = shape;
+    return w;
+}
+
 static void random_box(world *w, double *b)
 {
     int a;
@@ -383,11 +393,7 @@ static uint64_t run_sequence(const run_opts *ro)
     float *f = malloc(6 * big * sizeof *f);
     v[0] = malloc(3 * big * sizeof(uint64_t)), v[1] = v[0] + big, v[2] = v[1] + big;
     memset(&m, 0, sizeof m);
-    memset(&w, 0, sizeof w);
-    ts_seed(&w.r, ro->seed);
-    w.extent = 100.0;
-    w.size = 4.0;
-    w.shape = ro->shape;
+    w = world_make(ro->seed, 100.0, 4.0, ro->shape);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
     for (step = 0; step < ro->steps; step++) {
         int op = step == 0 ? 0 : (int)(ts_next(&w.r) % 10);
@@ -554,9 +560,7 @@ static void whole_scene_moves_then_a_few(void)
             float *f = malloc(6 * n0 * sizeof *f);
             size_t i, k;
             memset(&m, 0, sizeof m);
-            memset(&w, 0, sizeof w);
-            ts_seed(&w.r, 77 + (uint64_t)variant);
-            w.extent = 20.0, w.size = 4.0, w.shape = 0;
+            w = world_make(77 + (uint64_t)variant, 20.0, 4.0, 0);
             TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
             locd_scene_add_options_init(&o);
             for (i = 0; i < n0; i++) {
@@ -759,10 +763,8 @@ static void doubles_come_in_late(void)
     int i, a, failed = 0;
     world w;
     model m;
-    memset(&w, 0, sizeof w);
+    w = world_make(11, 60.0, 3.0, 0);
     memset(&m, 0, sizeof m);
-    ts_seed(&w.r, 11);
-    w.extent = 60.0, w.size = 3.0;
     for (i = 0; i < 6 * N0; i++) {
         if (i % 6 == 0)
             random_box(&w, b + i);
@@ -838,10 +840,8 @@ static void allocation_failures_change_nothing(void)
     int i, round, failed_calls = 0;
     world w;
     model m;
-    memset(&w, 0, sizeof w);
+    w = world_make(5, 60.0, 3.0, 0);
     memset(&m, 0, sizeof m);
-    ts_seed(&w.r, 5);
-    w.extent = 60.0, w.size = 3.0;
     for (i = 0; i < N0; i++)
         random_box(&w, b + 6 * i);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
@@ -980,9 +980,7 @@ static void large_scene_threads_and_fresh(void)
     size_t k, i;
     int step;
     memset(&m, 0, sizeof m);
-    memset(&w, 0, sizeof w);
-    ts_seed(&w.r, 4242);
-    w.extent = 100.0, w.size = 6.0;
+    w = world_make(4242, 100.0, 6.0, 0);
     for (k = 0; k < n; k++)
         random_box(&w, b + 6 * k);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e1, NULL, &s1));
@@ -1349,9 +1347,7 @@ static void from_scratch_follows_adds_removes_and_filters(void)
     world w;
     size_t k;
     memset(&m, 0, sizeof m);
-    memset(&w, 0, sizeof w);
-    ts_seed(&w.r, 8080);
-    w.extent = 60.0, w.size = 3.0;
+    w = world_make(8080, 60.0, 3.0, 0);
     for (k = 0; k < n; k++)
         random_box(&w, b + 6 * k);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
@@ -1561,9 +1557,7 @@ static void a_box_over_everything(void)
     locd_id ids[301];
     int k, a;
     memset(&m, 0, sizeof m);
-    memset(&w, 0, sizeof w);
-    ts_seed(&w.r, 909);
-    w.extent = 50.0, w.size = 3.0;
+    w = world_make(909, 50.0, 3.0, 0);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
     for (a = 0; a < 3; a++)
         b[a] = -100.0, b[3 + a] = 100.0;
