@@ -327,9 +327,10 @@ __attribute__((target("avx2"))) LC_INLINE void compress_store8(int32_t *col, siz
  * rows w.. (w >= to: the copies never overwrite a row still to be read).
  * Each block of 8 is compressed with one permutation and one full-vector
  * store per column (the columns keep LC_PAD spare rows past the reserved
- * ones for the last store's extra lanes); when big boxes overlap most child
- * cells nearly every record is kept, and a copy one lane at a time was a
- * fifth of a call on the mixed35 scene. */
+ * ones for the last store's extra lanes), not one lane at a time: on the
+ * mixed35 scene, whose big boxes make long ancestor lists, a call filters
+ * 20.8 million records and keeps 4.3 million, and perf put the filter at a
+ * fifth of the call. */
 __attribute__((target("avx2"))) static size_t filter_avx2(const lc_cols *c, size_t from, size_t to,
                                                           const int32_t lo[3], const int32_t hi[3], size_t w)
 {
@@ -346,7 +347,7 @@ __attribute__((target("avx2"))) static size_t filter_avx2(const lc_cols *c, size
             m &= (1u << (to - r)) - 1u;
         if (!m)
             continue;
-        perm = _mm256_cvtepu8_epi32(_mm_cvtsi64_si128((long long)lc_compress8[m]));
+        perm = _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(lc_compress8 + m)));
         for (a = 0; a < 3; a++) {
             compress_store8(c->lo[a], w, _mm256_loadu_si256((const __m256i *)(c->lo[a] + r)), perm);
             compress_store8(c->hi[a], w, _mm256_loadu_si256((const __m256i *)(c->hi[a] + r)), perm);
