@@ -382,13 +382,10 @@ locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g)
                 g->depth = depth;
         }
     }
-    if (!e->cfg.max_depth)
-    {
-        if (s->keep_f64)
-            lc_grid_tune_depth_f64(g, s->box, s->nslots);
-        else
-            lc_grid_tune_depth_f32(g, s->fbox, s->nslots);
-    }
+    if (!e->cfg.max_depth && s->keep_f64)
+        lc_grid_tune_depth_f64(g, s->box, s->nslots);
+    else if (!e->cfg.max_depth)
+        lc_grid_tune_depth_f32(g, s->fbox, s->nslots);
     (void)n;
     return LOCD_OK;
 }

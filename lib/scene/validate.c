@@ -3,8 +3,6 @@
  * batch (locd_last_error_index). */
 #include "scene/scene.h"
 
-#include <math.h>
-
 /* One box, as doubles (a float converts exactly). */
 static locd_status check_box(const double *b, size_t i)
 {
