@@ -225,7 +225,7 @@ typedef struct locd_stats {
     double ms_bounds;     /* validation + root cube */
     double ms_encode;
     double ms_sort;
-    double ms_merge;
+    double ms_merge;      /* level 2's merge of the workers' sorted runs (0 at level 1) */
     double ms_sweep;
     double ms_order;      /* sorting the pairs by (i, j), when asked for */
     double ms_transfer;   /* levels 2 and 3: shared memory / socket traffic */

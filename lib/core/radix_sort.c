@@ -21,7 +21,7 @@ static void insertion_sort(uint64_t *a, size_t n)
 uint64_t *lc_radix_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits)
 {
     uint64_t diff = 0, first, *src = entries, *dst = scratch;
-    uint32_t lowbit, highbit, span, passes, bits, p;
+    uint32_t lowbit, highbit, span, passes, bits, p, maxbits;
     size_t i;
     uint32_t hist[LC_RADIX_MAX_PASSES][1u << LC_RADIX_MAX_BITS];
     uint32_t shift[LC_RADIX_MAX_PASSES];
@@ -41,7 +41,15 @@ uint64_t *lc_radix_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint
     lowbit = (uint32_t)__builtin_ctzll(diff) + index_bits;
     highbit = 63u - (uint32_t)__builtin_clzll(diff) + index_bits;
     span = highbit - lowbit + 1;
-    passes = (span + LC_RADIX_MAX_BITS - 1) / LC_RADIX_MAX_BITS;
+    /* A short input (a bucket of lc_psort) takes narrower digits: the
+       counts' clearing and prefix cost 2^bits each pass whatever count is,
+       so they stay below about count / 4. */
+    maxbits = 64u - (uint32_t)__builtin_clzll((uint64_t)count) - 3u;
+    if (maxbits > LC_RADIX_MAX_BITS)
+        maxbits = LC_RADIX_MAX_BITS;
+    passes = (span + maxbits - 1) / maxbits;
+    if (passes > LC_RADIX_MAX_PASSES)
+        passes = LC_RADIX_MAX_PASSES; /* then bits <= 11: span <= 64 */
     bits = (span + passes - 1) / passes;
     mask = (1ull << bits) - 1;
     for (p = 0; p < passes; p++) {

@@ -43,7 +43,6 @@ typedef struct lc_job_ctx {
     const uint64_t *sorted;
     locd_status status[LC_MAX_THREADS];
     size_t pair_off[LC_MAX_THREADS];
-    double ms_enc[LC_MAX_THREADS], ms_sort[LC_MAX_THREADS];
     uint32_t *dst;
     uint64_t swept; /* pairs found so far by all sweep threads (atomic; with a stop hook) */
     int stopped;    /* the stop hook's status (atomic), 0 while going on */
@@ -60,14 +59,11 @@ static void task_bounds(void *arg, uint32_t t, uint32_t k)
         lc_bounds_f32(c->boxes, b, e, &c->bounds[t], c->ip->kernel);
 }
 
-static void task_encode_sort(void *arg, uint32_t t, uint32_t k)
+static void task_encode(void *arg, uint32_t t, uint32_t k)
 {
     lc_job_ctx *c = arg;
     size_t b = lc_chunk_begin(c->n, t, k), e = lc_chunk_begin(c->n, t + 1, k), w;
     uint64_t *ent = (uint64_t *)c->ip->ent.data + c->plan.off[t];
-    uint64_t *scr = (uint64_t *)c->ip->scr.data + c->plan.off[t];
-    uint64_t *res;
-    double t0 = lc_now_ms(), t1;
     if (c->f64)
         w = lc_encode_f64(&c->grid, c->boxes, b, e - b, ent, c->plan.cap[t], &c->need[t], c->ip->qbox.data,
                           c->ip->kernel);
@@ -80,23 +76,7 @@ static void task_encode_sort(void *arg, uint32_t t, uint32_t k)
     }
     c->overflow[t] = 0;
     c->plan.cnt[t] = w;
-    t1 = lc_now_ms();
-    res = lc_radix_sort(ent, scr, w, c->grid.index_bits);
-    if (res != ent && k > 1)
-        memcpy(ent, res, w * sizeof *ent); /* runs must sit in `ent`: the merge writes `scr` */
-    c->plan.runs[t] = k > 1 ? ent : res;
-    c->ms_enc[t] = t1 - t0;
-    c->ms_sort[t] = lc_now_ms() - t1;
-}
-
-static void task_merge(void *arg, uint32_t t, uint32_t k)
-{
-    lc_job_ctx *c = arg;
-    size_t lo[LC_MAX_THREADS], hi[LC_MAX_THREADS];
-    size_t r0 = lc_chunk_begin(c->plan.total, t, k), r1 = lc_chunk_begin(c->plan.total, t + 1, k);
-    lc_merge_split(c->plan.runs, c->plan.cnt, k, r0, lo);
-    lc_merge_split(c->plan.runs, c->plan.cnt, k, r1, hi);
-    lc_merge_ranges(c->plan.runs, lo, hi, k, (uint64_t *)c->ip->scr.data + r0);
+    c->plan.runs[t] = ent;
 }
 
 static locd_status sweep_part(lc_job_ctx *c, size_t b, size_t e, lc_sweep_out *o)
@@ -287,48 +267,44 @@ static int grow_overflowed(lc_job_ctx *c)
     return again;
 }
 
-/* Encode and sort run back to back in each thread: splits the wall time in
- * the proportion of the slowest thread's two parts. */
-static void split_encode_sort_time(const lc_job_ctx *c, double wall, locd_stats *stats)
-{
-    double enc = 0, srt = 0;
-    uint32_t t;
-    for (t = 0; t < c->plan.k; t++)
-        if (c->ms_enc[t] + c->ms_sort[t] > enc + srt) {
-            enc = c->ms_enc[t];
-            srt = c->ms_sort[t];
-        }
-    stats->ms_encode = (enc + srt) > 0 ? wall * enc / (enc + srt) : 0;
-    stats->ms_sort = wall - stats->ms_encode;
-}
-
-/* Each thread encodes and sorts its share into its region; regions are
- * sized from the last call's entries per object and redone with exact sizes
- * if one overflows. */
-static locd_status encode_sort(locd_engine *e, lc_job_ctx *c, locd_stats *stats)
+/* Each thread encodes its share into its region; regions are sized from
+ * the last call's entries per object and redone with exact sizes if one
+ * overflows. */
+static locd_status encode(locd_engine *e, lc_job_ctx *c, locd_stats *stats)
 {
     locd_status st;
     lc_plan_regions(&c->plan, c->n, c->ip->per_object);
     do {
         if ((st = layout(e, c)) != LOCD_OK)
             return st;
-        lc_pool_run(c->ip->pool, c->plan.k, task_encode_sort, c);
+        lc_pool_run(c->ip->pool, c->plan.k, task_encode, c);
     } while (grow_overflowed(c));
     c->ip->per_object = lc_plan_finish(&c->plan, c->n);
     stats->entries = c->plan.total;
-    split_encode_sort_time(c, lap(c), stats);
+    stats->ms_encode = lap(c);
     return LOCD_OK;
 }
 
-static void merge_runs(lc_job_ctx *c, locd_stats *stats)
+/* The entries sorted: one thread's region in place (lc_radix_sort), more
+ * threads' regions into scr on the pool (lc_psort, which has no merge
+ * pass: ms_merge stays 0; the regions are its scratch). */
+static locd_status sort_entries(locd_engine *e, lc_job_ctx *c, locd_stats *stats)
 {
-    if (c->plan.k > 1) {
-        lc_pool_run(c->ip->pool, c->plan.k, task_merge, c);
-        c->sorted = c->ip->scr.data;
-    } else {
-        c->sorted = c->plan.runs[0];
+    lc_psort_in in;
+    locd_status st = LOCD_OK;
+    uint32_t t;
+    if (c->plan.k == 1) {
+        c->sorted = lc_radix_sort(c->ip->ent.data, c->ip->scr.data, c->plan.cnt[0], c->grid.index_bits);
+        stats->ms_sort = lap(c);
+        return st;
     }
-    stats->ms_merge = lap(c);
+    in.k = c->plan.k, in.index_bits = c->grid.index_bits;
+    for (t = 0; t < c->plan.k; t++)
+        in.run[t] = c->plan.runs[t], in.count[t] = c->plan.cnt[t];
+    st = lc_psort(c->ip->pool, &e->alloc, &in, c->ip->scr.data, c->ip->ent.data);
+    c->sorted = c->ip->scr.data;
+    stats->ms_sort = lap(c);
+    return st;
 }
 
 /* The entry buffer the sweep does not read is dead until the next call:
@@ -454,12 +430,10 @@ static locd_status inproc_run(locd_engine *e, const void *boxes, size_t n, size_
     if (!(c = new_job(e, boxes, n, split, f64)))
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the call state");
     stats->threads = c->plan.k;
-    if ((st = fit_grid(c, stats)) == LOCD_OK && !stop_requested(c, 0) && (st = encode_sort(e, c, stats)) == LOCD_OK &&
-        !stop_requested(c, 0)) {
-        merge_runs(c, stats);
-        if (!stop_requested(c, 0) && (st = sweep(c, stats, &npairs)) == LOCD_OK && !stop_requested(c, npairs))
-            st = hand_over(e, c, flags, npairs, out, stats);
-    }
+    if ((st = fit_grid(c, stats)) == LOCD_OK && !stop_requested(c, 0) && (st = encode(e, c, stats)) == LOCD_OK &&
+        !stop_requested(c, 0) && (st = sort_entries(e, c, stats)) == LOCD_OK && !stop_requested(c, 0) &&
+        (st = sweep(c, stats, &npairs)) == LOCD_OK && !stop_requested(c, npairs))
+        st = hand_over(e, c, flags, npairs, out, stats);
     if (st == LOCD_OK && c->stopped) /* *out is untouched: hand_over did not run */
         st = lc_error(c->stopped, "the find was stopped before it finished");
     else if (st == LOCD_ERR_CANCELLED) /* the sweep saw the stop flag (on a pool thread) */

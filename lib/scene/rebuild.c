@@ -381,8 +381,9 @@ void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *
 
 /* The parallel steps of a rebuild's lists: thread t takes slots
  * [b[t], b[t+1]), computes their cells and packed boxes and counts their
- * entries (pass 1), then writes and radix-sorts its entries in its own
- * region of each list (pass 2). The k sorted runs are merged after. */
+ * entries (pass 1), then writes its entries in its own region of each
+ * list's run buffer (pass 2), in slot order. lc_psort sorts the regions
+ * into the lists after. */
 typedef struct build_ctx {
     locd_scene *s;
     const locd_grid *g;
@@ -390,8 +391,7 @@ typedef struct build_ctx {
     uint64_t *qb;
     size_t b[LC_MAX_THREADS + 1];
     size_t cnt[2][LC_MAX_THREADS], off[2][LC_MAX_THREADS];
-    uint64_t *ent[2], *scr[2];
-    const uint64_t *run[2][LC_MAX_THREADS];
+    uint64_t *ent[2];
     int pass;
 } build_ctx;
 
@@ -400,7 +400,6 @@ static void task_build(void *arg, uint32_t t, uint32_t k)
     build_ctx *c = arg;
     const locd_scene *s = c->s;
     size_t j;
-    int i;
     (void)k;
     if (c->pass == 1) {
         size_t n[2] = {0, 0};
@@ -425,11 +424,6 @@ static void task_build(void *arg, uint32_t t, uint32_t k)
             kind = (s->flags[j] & LC_SLOT_STATIC) ? 1 : 0;
             w[kind] += lc_cells_entries(c->g, &c->cells[j], (uint32_t)j, c->ent[kind] + c->off[kind][t] + w[kind]);
         }
-        /* Slot order within the region: equal keys in index order, as the
-           radix sort wants. */
-        for (i = 0; i < 2; i++)
-            c->run[i][t] = lc_radix_sort(c->ent[i] + c->off[i][t], c->scr[i] + c->off[i][t], c->cnt[i][t],
-                                         c->g->index_bits);
     }
 }
 
@@ -473,36 +467,21 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
         goto nomem;
     ts[0] = dyn, ts[1] = sta;
     /* Each thread writes its entries into its region of scr (dyn's part,
-       then sta's) and sorts them with the same region of the list as
-       scratch; the sorted runs, in either buffer, are merged into the
-       lists below. */
+       then sta's), in slot order: equal keys in index order, as lc_psort
+       wants. The regions are its scratch. */
     c->ent[0] = scr, c->ent[1] = scr + n[0];
-    c->scr[0] = dyn->ent.data, c->scr[1] = sta->ent.data;
     c->pass = 2;
     if (kk > 1)
         lc_pool_run(s->pool, kk, task_build, c);
     else
         task_build(c, 0, 1);
     for (i = 0; i < 2; i++) {
-        size_t begin[LC_MAX_THREADS], end[LC_MAX_THREADS];
-        uint64_t *out = ts[i]->ent.data, *tmp = i ? scr + n[0] : scr;
-        for (t = 0; t < kk; t++) {
-            begin[t] = c->off[i][t];
-            end[t] = begin[t] + c->cnt[i][t];
-        }
-        if (kk == 1) {
-            if (c->run[i][0] != out)
-                memcpy(out, c->run[i][0], n[i] * sizeof *out);
-        } else {
-            /* each run is in its region of either buffer: bring them all to tmp, then merge into out */
-            const uint64_t *runs[LC_MAX_THREADS];
-            for (t = 0; t < kk; t++) {
-                if (c->run[i][t] != tmp + c->off[i][t])
-                    memcpy(tmp + c->off[i][t], c->run[i][t], c->cnt[i][t] * sizeof *tmp);
-                runs[t] = tmp;
-            }
-            lc_merge_ranges(runs, begin, end, kk, out);
-        }
+        lc_psort_in in;
+        in.k = kk, in.index_bits = g->index_bits;
+        for (t = 0; t < kk; t++)
+            in.run[t] = c->ent[i] + c->off[i][t], in.count[t] = c->cnt[i][t];
+        if (lc_psort(s->pool, a, &in, ts[i]->ent.data, c->ent[i]) != LOCD_OK)
+            goto nomem;
         ts[i]->count = n[i];
     }
     /* Number the objects in entry order and put the numbers in the entries.

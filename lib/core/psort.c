@@ -1,0 +1,190 @@
+/* Sorts k runs of 64-bit entries into one array on the pool, with no merge
+ * pass: every thread scatters its run into 2^d buckets of the top bits
+ * that vary (thread t's share of a bucket after thread t-1's, so entries
+ * with equal high bits keep the runs' order), then sorts a range of the
+ * buckets, each small enough for the cache, with lc_radix_sort.
+ *
+ * Why: the engine's threads used to radix sort their own runs (four
+ * passes over their entries, each scattering to 2,048 places out of the
+ * cache) and then merge the runs (one more pass over everything). Here one
+ * pass leaves the cache; the buckets' passes stay in it. */
+#include "core/core.h"
+
+/* Buckets hold about 2^17 entries at most (1 MiB, the second cache
+ * level), and there are at least 8 per thread so that the threads' ranges
+ * of buckets come out about even. Smaller buckets cost more than they
+ * save: below about 2^13 entries the counts of each pass (2^bits of them)
+ * weigh as much as the entries (m35, 1.5 million entries: 2^10-entry
+ * buckets took 15.5 ms on one thread, 2^17-entry ones 9.1). */
+#define LC_PSORT_BUCKET_LOG2 17
+#define LC_PSORT_MAX_DIGIT 11
+
+typedef struct psort_ctx {
+    const lc_psort_in *in;
+    uint64_t *out, *scratch;
+    uint64_t or_[LC_MAX_THREADS], and_[LC_MAX_THREADS];
+    uint32_t shift, digit;
+    size_t *count; /* k rows of 2^digit: counts, then where thread t writes each bucket */
+    size_t *start; /* 2^digit + 1: where each bucket starts in out */
+    uint32_t first_bucket[LC_MAX_THREADS + 1];
+    int pass;
+} psort_ctx;
+
+static void count_digit(const uint64_t *r, size_t n, uint32_t sh, uint32_t digit, size_t *h)
+{
+    const uint64_t mask = ((uint64_t)1 << digit) - 1;
+    size_t i;
+    memset(h, 0, sizeof(size_t) << digit);
+    for (i = 0; i < n; i++)
+        h[(r[i] >> sh) & mask]++;
+}
+
+/* The bits that vary, and the counts of the digit at the top of the key
+ * (where it nearly always is: the octree's first split varies), in one
+ * read of the run. */
+static void or_and_count(psort_ctx *c, uint32_t t)
+{
+    const uint64_t *r = c->in->run[t];
+    const uint64_t mask = ((uint64_t)1 << c->digit) - 1;
+    const uint32_t sh = c->shift;
+    uint64_t o = 0, a = ~(uint64_t)0;
+    size_t *h = c->count + ((size_t)t << c->digit), i, n = c->in->count[t];
+    memset(h, 0, sizeof(size_t) << c->digit);
+    for (i = 0; i < n; i++) {
+        const uint64_t v = r[i];
+        o |= v, a &= v;
+        h[(v >> sh) & mask]++;
+    }
+    c->or_[t] = o, c->and_[t] = a;
+}
+
+static void scatter(psort_ctx *c, uint32_t t)
+{
+    const uint64_t *r = c->in->run[t];
+    const uint64_t mask = ((uint64_t)1 << c->digit) - 1;
+    const uint32_t sh = c->shift;
+    size_t *w = c->count + ((size_t)t << c->digit), i, n = c->in->count[t];
+    uint64_t *out = c->out;
+    for (i = 0; i < n; i++) {
+        const uint64_t v = r[i];
+        out[w[(v >> sh) & mask]++] = v;
+    }
+}
+
+static void sort_buckets(psort_ctx *c, uint32_t t)
+{
+    uint32_t b;
+    for (b = c->first_bucket[t]; b < c->first_bucket[t + 1]; b++) {
+        const size_t s = c->start[b], n = c->start[b + 1] - s;
+        const uint64_t *r = lc_radix_sort(c->out + s, c->scratch + s, n, c->in->index_bits);
+        if (r != c->out + s)
+            memcpy(c->out + s, r, n * sizeof *r);
+    }
+}
+
+static void task_psort(void *arg, uint32_t t, uint32_t k)
+{
+    psort_ctx *c = arg;
+    (void)k;
+    switch (c->pass) {
+    case 0: or_and_count(c, t); break;
+    case 1: count_digit(c->in->run[t], c->in->count[t], c->shift, c->digit, c->count + ((size_t)t << c->digit)); break;
+    case 2: scatter(c, t); break;
+    default: sort_buckets(c, t); break;
+    }
+}
+
+static void run_pass(lc_pool *pool, psort_ctx *c, int pass)
+{
+    c->pass = pass;
+    if (c->in->k > 1)
+        lc_pool_run(pool, c->in->k, task_psort, c);
+    else
+        task_psort(c, 0, 1);
+}
+
+/* The digit's width for total entries on k threads (see LC_PSORT_BUCKET_LOG2). */
+static uint32_t digit_width(size_t total, uint32_t k)
+{
+    uint32_t d = 1;
+    while (d < LC_PSORT_MAX_DIGIT && ((total >> (LC_PSORT_BUCKET_LOG2 + d)) > 0 || (1u << d) < 8 * k))
+        d++;
+    return d;
+}
+
+/* The top bits that vary above index_bits, at most *d of them, as the
+ * digit's shift; narrows *d when fewer vary. 0 when no bit varies. */
+static int top_varying(const psort_ctx *c, uint32_t *d, uint32_t *shift)
+{
+    uint64_t o = 0, a = ~(uint64_t)0, diff;
+    uint32_t t, hb, lb;
+    for (t = 0; t < c->in->k; t++)
+        o |= c->or_[t], a &= c->and_[t];
+    diff = (o ^ a) >> c->in->index_bits;
+    if (!diff)
+        return 0;
+    hb = 63u - (uint32_t)__builtin_clzll(diff) + c->in->index_bits;
+    lb = (uint32_t)__builtin_ctzll(diff) + c->in->index_bits;
+    if (*d > hb - lb + 1)
+        *d = hb - lb + 1;
+    *shift = hb + 1 - *d;
+    return 1;
+}
+
+/* Each bucket's start, each thread's offsets in it, and each thread's
+ * range of buckets to sort (about total / k entries each). */
+static void plan_buckets(psort_ctx *c, size_t total)
+{
+    const uint32_t k = c->in->k, nb = 1u << c->digit;
+    uint32_t b, t, next = 1;
+    size_t s = 0;
+    c->first_bucket[0] = 0;
+    for (b = 0; b < nb; b++) {
+        c->start[b] = s;
+        while (next < k && s >= total / k * next)
+            c->first_bucket[next++] = b;
+        for (t = 0; t < k; t++) {
+            size_t *h = c->count + ((size_t)t << c->digit) + b, n = *h;
+            *h = s;
+            s += n;
+        }
+    }
+    c->start[nb] = s;
+    while (next <= k)
+        c->first_bucket[next++] = nb;
+}
+
+locd_status lc_psort(lc_pool *pool, const locd_allocator *alloc, const lc_psort_in *in, uint64_t *out, uint64_t *scratch)
+{
+    psort_ctx c;
+    size_t total = 0, words;
+    uint32_t t, d, shift = 0;
+    memset(&c, 0, sizeof c);
+    c.in = in, c.out = out, c.scratch = scratch;
+    for (t = 0; t < in->k; t++)
+        total += in->count[t];
+    d = digit_width(total, in->k);
+    words = ((size_t)in->k << d) + ((size_t)1 << d) + 1;
+    if (!(c.count = lc_alloc(alloc, words * sizeof(size_t))))
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the sort's %zu counts", words);
+    c.start = c.count + ((size_t)in->k << d);
+    c.digit = d, c.shift = 64 - d;
+    run_pass(pool, &c, 0);
+    if (!top_varying(&c, &d, &shift)) { /* one key: the runs in order are sorted */
+        uint64_t *o = out;
+        for (t = 0; t < in->k; t++) {
+            memcpy(o, in->run[t], in->count[t] * sizeof *o);
+            o += in->count[t];
+        }
+    } else {
+        if (d != c.digit || shift != c.shift) { /* the top bits did not vary: count again */
+            c.digit = d, c.shift = shift;
+            run_pass(pool, &c, 1);
+        }
+        plan_buckets(&c, total);
+        run_pass(pool, &c, 2);
+        run_pass(pool, &c, 3);
+    }
+    lc_free(alloc, c.count, words * sizeof(size_t));
+    return LOCD_OK;
+}
