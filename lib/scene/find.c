@@ -233,16 +233,24 @@ static void search(const find_ctx *c, find_out *fo, const lc_tree *tr, uint64_t 
 #define LC_LOOK_AHEAD 16
 #define LC_DIR_AHEAD 48
 
-/* Starts loading the part of tr's main array where the cell of query
- * entry eq lies (its directory bucket, as lc_tree_lower_bound finds it). */
-LC_INLINE void prefetch_lookup(const find_ctx *c, const lc_tree *tr, uint64_t eq)
+/* The directory entry of tr's main array for query entry eq (as
+ * lc_tree_lower_bound finds it), or SIZE_MAX when tr has none. */
+LC_INLINE size_t dir_slot(const find_ctx *c, const lc_tree *tr, uint64_t eq)
 {
     const uint32_t ib = c->s->grid.index_bits;
     size_t j;
     if (!tr->dir || !tr->count)
-        return;
+        return SIZE_MAX;
     j = (size_t)(((eq >> ib) << ib) >> tr->dir_shift);
-    if (j < ((size_t)1 << tr->dir_bits)) {
+    return j < ((size_t)1 << tr->dir_bits) ? j : SIZE_MAX;
+}
+
+/* Starts loading the part of tr's main array where the cell of query
+ * entry eq lies (its directory bucket). */
+LC_INLINE void prefetch_lookup(const find_ctx *c, const lc_tree *tr, uint64_t eq)
+{
+    const size_t j = dir_slot(c, tr, eq);
+    if (j != SIZE_MAX) {
         /* the bucket (about 8 entries) and the cell's run that may go on
            past it (a dozen entries a cell): four lines */
         const uint64_t *b = (const uint64_t *)tr->ent.data + tr->dir[j];
@@ -256,12 +264,8 @@ LC_INLINE void prefetch_lookup(const find_ctx *c, const lc_tree *tr, uint64_t eq
 /* Starts loading tr's directory entry for query entry eq. */
 LC_INLINE void prefetch_dir(const find_ctx *c, const lc_tree *tr, uint64_t eq)
 {
-    const uint32_t ib = c->s->grid.index_bits;
-    size_t j;
-    if (!tr->dir || !tr->count)
-        return;
-    j = (size_t)(((eq >> ib) << ib) >> tr->dir_shift);
-    if (j < ((size_t)1 << tr->dir_bits))
+    const size_t j = dir_slot(c, tr, eq);
+    if (j != SIZE_MAX)
         __builtin_prefetch(tr->dir + j);
 }
 
