@@ -195,6 +195,42 @@ static void reused_engine_and_repeated_runs(void)
     free(small);
 }
 
+/* Nearly every entry in one corner of the grid: a dense cluster and a few
+ * boxes far away, which the root cube must also hold. The threads' sort
+ * then finds almost all entries in one bucket of their top bits and
+ * merges instead (octree/sort.c); the bytes are still the one-thread
+ * bytes, and the set brute force's. */
+static void cluster_and_far_boxes(void)
+{
+    const size_t n = scene_n(0), far = 5;
+    float *f = ts_scene(0, n + far, 31);
+    locd_pairs *ref, *p;
+    size_t i;
+    uint32_t t;
+    char what[64];
+    for (i = n; i < n + far; i++) { /* unit boxes 1000 away, apart from each other */
+        const float x = 1000.0f + 2.0f * (float)(i - n);
+        const float b[6] = {x, 1000.0f, 1000.0f, x + 1.0f, 1001.0f, 1001.0f};
+        memcpy(f + 6 * i, b, sizeof b);
+    }
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &ref));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
+    for (t = 1; t <= MAX_THREADS; t++) {
+        locd_engine *e = engine_for(t, LOCD_DEFAULT_CELL_BIAS, 0, 0);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, f, n + far, 0, t == 1 ? ref : p));
+        if (t > 1) {
+            snprintf(what, sizeof what, "cluster and far boxes, threads %u", t);
+            same_pairs(p, ref, what);
+        }
+        locd_engine_destroy(e);
+    }
+    TEST_ASSERT_TRUE(locd_pairs_count(ref) > 0);
+    TEST_ASSERT_TRUE(ts_same_as_brute_f32(f, n + far, ref));
+    locd_pairs_destroy(ref);
+    locd_pairs_destroy(p);
+    free(f);
+}
+
 /* LOCD_FIND_SORTED gives brute force's (i, j) order byte for byte, at every thread count. */
 static void sorted_flag_is_brute_force_order(void)
 {
@@ -274,6 +310,7 @@ int main(void)
         LT_TEST(every_thread_count_precision_and_entry_point),
         LT_TEST(every_thread_count_for_other_configs),
         LT_TEST(reused_engine_and_repeated_runs),
+        LT_TEST(cluster_and_far_boxes),
         LT_TEST(sorted_flag_is_brute_force_order),
         LT_TEST(every_kernel_same_bytes),
     };

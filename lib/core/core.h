@@ -180,24 +180,6 @@ void lc_pool_destroy(lc_pool *p);
 void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx);
 uint32_t lc_cpu_count(void);
 
-/* ---- parallel sort (psort.c) ---- */
-/* k runs whose concatenation is in order of the low index_bits within
- * equal high bits (as lc_radix_sort's input): thread t's run of objects
- * below thread t+1's, each run in object order. */
-typedef struct lc_psort_in {
-    uint32_t k; /* runs; the pool runs k tasks (k <= its size) */
-    uint32_t index_bits;
-    const uint64_t *run[LC_MAX_THREADS];
-    size_t count[LC_MAX_THREADS];
-} lc_psort_in;
-/* Sorts the runs into out (all their entries; it must not overlap a run),
- * the same result as lc_radix_sort of the concatenation. scratch holds as
- * many entries and may be the runs' own memory (it is written only after
- * they are read). Fails only on the allocation of the counts (changing
- * nothing the caller reads). */
-locd_status lc_psort(lc_pool *pool, const locd_allocator *alloc, const lc_psort_in *in, uint64_t *out,
-                     uint64_t *scratch);
-
 #ifdef __cplusplus
 }
 #endif

@@ -300,7 +300,7 @@ static locd_status sort_entries(locd_engine *e, lc_job_ctx *c, locd_stats *stats
     }
     in.k = c->plan.k, in.index_bits = c->grid.index_bits;
     for (t = 0; t < c->plan.k; t++)
-        in.run[t] = c->plan.runs[t], in.count[t] = c->plan.cnt[t];
+        in.run[t] = (uint64_t *)c->ip->ent.data + c->plan.off[t], in.count[t] = c->plan.cnt[t];
     st = lc_psort(c->ip->pool, &e->alloc, &in, c->ip->scr.data, c->ip->ent.data);
     c->sorted = c->ip->scr.data;
     stats->ms_sort = lap(c);

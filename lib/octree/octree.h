@@ -107,7 +107,7 @@ LC_INLINE uint32_t lc_level_for(uint32_t w, int32_t bias, uint32_t depth)
     return (uint32_t)l > depth ? depth : (uint32_t)l;
 }
 
-/* ---- encode / merge (encode.c, merge.c); the sort is core's lc_radix_sort ---- */
+/* ---- encode / merge (encode.c, merge.c); the radix sort is core's lc_radix_sort ---- */
 /* Bits of the octree key: (padded morton << 5) | level. */
 #define LC_LEVEL_BITS 5
 /* Encodes boxes [first, first+count); returns entries written or, when
@@ -124,6 +124,25 @@ void lc_merge_ranges(const uint64_t *const *runs, const size_t *begin, const siz
 size_t lc_lower_bound(const uint64_t *a, size_t n, uint64_t v);
 /* Splits k runs so that exactly `rank` elements lie before the split; pos[r] receives the split in run r. */
 void lc_merge_split(const uint64_t *const *runs, const size_t *counts, size_t k, size_t rank, size_t *pos);
+
+/* ---- the sort of k threads' entries (sort.c) ---- */
+/* k runs whose concatenation is in order of the low index_bits within
+ * equal high bits (as lc_radix_sort's input): thread t's run of objects
+ * below thread t+1's, each run in object order. The runs' memory is
+ * scratch once they are read. */
+typedef struct lc_psort_in {
+    uint32_t k; /* runs; the pool runs k tasks (k <= its size) */
+    uint32_t index_bits;
+    uint64_t *run[LC_MAX_THREADS];
+    size_t count[LC_MAX_THREADS];
+} lc_psort_in;
+/* Sorts the runs into out (all their entries; it must not overlap a run)
+ * on the pool, the same result as lc_radix_sort of the concatenation.
+ * scratch holds as many entries and may be the runs' own memory. Fails
+ * only on the allocation of the counts (changing nothing the caller
+ * reads). */
+locd_status lc_psort(lc_pool *pool, const locd_allocator *alloc, const lc_psort_in *in, uint64_t *out,
+                     uint64_t *scratch);
 
 /* ---- sweep (sweep.c) ---- */
 typedef struct lc_sweep_out {

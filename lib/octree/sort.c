@@ -7,8 +7,13 @@
  * Why: the engine's threads used to radix sort their own runs (four
  * passes over their entries, each scattering to 2,048 places out of the
  * cache) and then merge the runs (one more pass over everything). Here one
- * pass leaves the cache; the buckets' passes stay in it. */
-#include "core/core.h"
+ * pass leaves the cache; the buckets' passes stay in it.
+ *
+ * A scene whose entries nearly all share their top bits (a cluster and a
+ * few boxes far away: the grid spans both) would put them in one bucket,
+ * sorted by one thread. When a bucket holds more than a thread's share,
+ * the threads sort their own runs and merge them instead, as before. */
+#include "octree/octree.h"
 
 /* Buckets hold about 2^17 entries at most (1 MiB, the second cache
  * level), and there are at least 8 per thread so that the threads' ranges
@@ -82,15 +87,44 @@ static void sort_buckets(psort_ctx *c, uint32_t t)
     }
 }
 
+/* The skewed case: thread t radix sorts its own run in place (out, free
+ * until the merge, is its scratch), then merges its slice of the output. */
+static void sort_own_run(psort_ctx *c, uint32_t t)
+{
+    size_t off = 0;
+    uint32_t u;
+    uint64_t *r;
+    for (u = 0; u < t; u++)
+        off += c->in->count[u];
+    r = lc_radix_sort(c->in->run[t], c->out + off, c->in->count[t], c->in->index_bits);
+    if (r != c->in->run[t])
+        memcpy(c->in->run[t], r, c->in->count[t] * sizeof *r);
+}
+
+static void merge_slice(psort_ctx *c, uint32_t t, uint32_t k)
+{
+    const uint64_t *runs[LC_MAX_THREADS];
+    size_t lo[LC_MAX_THREADS], hi[LC_MAX_THREADS], total = 0, r0, r1;
+    uint32_t u;
+    for (u = 0; u < k; u++)
+        runs[u] = c->in->run[u], total += c->in->count[u];
+    r0 = total / k * t + (t < total % k ? t : total % k);
+    r1 = total / k * (t + 1) + (t + 1 < total % k ? t + 1 : total % k);
+    lc_merge_split(runs, c->in->count, k, r0, lo);
+    lc_merge_split(runs, c->in->count, k, r1, hi);
+    lc_merge_ranges(runs, lo, hi, k, c->out + r0);
+}
+
 static void task_psort(void *arg, uint32_t t, uint32_t k)
 {
     psort_ctx *c = arg;
-    (void)k;
     switch (c->pass) {
     case 0: or_and_count(c, t); break;
     case 1: count_digit(c->in->run[t], c->in->count[t], c->shift, c->digit, c->count + ((size_t)t << c->digit)); break;
     case 2: scatter(c, t); break;
-    default: sort_buckets(c, t); break;
+    case 3: sort_buckets(c, t); break;
+    case 4: sort_own_run(c, t); break;
+    default: merge_slice(c, t, k); break;
     }
 }
 
@@ -129,6 +163,20 @@ static int top_varying(const psort_ctx *c, uint32_t *d, uint32_t *shift)
         *d = hb - lb + 1;
     *shift = hb + 1 - *d;
     return 1;
+}
+
+/* The entries of the largest bucket. */
+static size_t largest_bucket(const psort_ctx *c)
+{
+    size_t most = 0;
+    uint32_t b, t;
+    for (b = 0; b < (1u << c->digit); b++) {
+        size_t n = 0;
+        for (t = 0; t < c->in->k; t++)
+            n += c->count[((size_t)t << c->digit) + b];
+        most = n > most ? n : most;
+    }
+    return most;
 }
 
 /* Each bucket's start, each thread's offsets in it, and each thread's
@@ -181,9 +229,14 @@ locd_status lc_psort(lc_pool *pool, const locd_allocator *alloc, const lc_psort_
             c.digit = d, c.shift = shift;
             run_pass(pool, &c, 1);
         }
-        plan_buckets(&c, total);
-        run_pass(pool, &c, 2);
-        run_pass(pool, &c, 3);
+        if (in->k > 1 && largest_bucket(&c) > total / in->k) {
+            run_pass(pool, &c, 4);
+            run_pass(pool, &c, 5);
+        } else {
+            plan_buckets(&c, total);
+            run_pass(pool, &c, 2);
+            run_pass(pool, &c, 3);
+        }
     }
     lc_free(alloc, c.count, words * sizeof(size_t));
     return LOCD_OK;
