@@ -76,7 +76,6 @@ static void task_encode(void *arg, uint32_t t, uint32_t k)
     }
     c->overflow[t] = 0;
     c->plan.cnt[t] = w;
-    c->plan.runs[t] = ent;
 }
 
 static locd_status sweep_part(lc_job_ctx *c, size_t b, size_t e, lc_sweep_out *o)
