@@ -1280,6 +1280,15 @@ static void large_moves_on_the_pool(void)
     bad_move_both(s1, s2, mv, b, n, LOCD_ERR_INVERTED_BOX, 45000);
     /* put right, the same batch moves (and changes the pairs) */
     b[6 * 45000 + 0] = m.o[45000].box[0];
+    /* The batch's ids ascend, which lets the pool skip the repeat check
+       (move.c): one repeat breaks that, at the threads' split or inside a
+       range. */
+    mv[half] = mv[half - 1];
+    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_DUPLICATE_ID, half);
+    mv[half] = ids1[half];
+    mv[1001] = mv[1000];
+    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_DUPLICATE_ID, 1001);
+    mv[1001] = ids1[1001];
     for (k = 0; k < n; k++)
         memcpy(m.o[k].box, b + 6 * k, 6 * sizeof *b);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s1, mv, b, n));

@@ -1,9 +1,11 @@
 /* A large move on the pool. A move of most of the scene (every body of a
  * simulation, each frame) is three passes over the batch, each one split
  * over the threads: check the ids and boxes, check for repeated ids, then
- * write the boxes and the dirty list. The result is the serial loop's
- * (scene.c): the same boxes, flags and dirty list in batch order; a bad
- * batch changes nothing and its error is the serial checks' own. */
+ * write the boxes and the dirty list. A batch whose ids ascend (a caller
+ * walking its bodies in order) cannot repeat one, and skips the second.
+ * The result is the serial loop's (scene.c): the same boxes, flags and
+ * dirty list in batch order; a bad batch changes nothing and its error is
+ * the serial checks' own. */
 #include "scene/scene.h"
 
 /* Below this many objects a move runs on the calling thread. */
@@ -17,6 +19,7 @@ typedef struct move_ctx {
     size_t n;
     uint32_t base;                 /* stamp of position k: base + k */
     int bad[LC_MAX_THREADS];       /* a stale or repeated id, or a bad box, in the thread's range */
+    int ascend[LC_MAX_THREADS];    /* pass 1: the range's ids ascend */
     size_t fresh[LC_MAX_THREADS];  /* slots not dirty yet, then the dirty list's offset */
     int64_t inexact[LC_MAX_THREADS]; /* change of ninexact */
     int pass;
@@ -38,7 +41,9 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
     locd_scene *s = c->s;
     size_t i = c->n * t / k, e = c->n * (t + 1) / k;
     if (c->pass == 1) { /* ids live, boxes valid; each slot stamped with its position */
-        int bad = 0;
+        const size_t first = i;
+        size_t fresh = 0;
+        int bad = 0, ascend = 1;
         for (; i < e; i++) {
             int64_t slot = lc_scene_slot(s, c->ids[i]);
             if (slot < 0 || !box_ok(c, i)) {
@@ -47,8 +52,12 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
             }
             /* a repeated id stamps one slot from two threads: relaxed atomics, no race */
             __atomic_store_n(&s->stamp[slot], c->base + (uint32_t)i, __ATOMIC_RELAXED);
+            ascend &= i == first || c->ids[i] > c->ids[i - 1];
+            fresh += !(s->flags[slot] & LC_SLOT_DIRTY); /* right when no id repeats */
         }
         c->bad[t] = bad;
+        c->ascend[t] = ascend;
+        c->fresh[t] = fresh;
     } else if (c->pass == 2) { /* a slot whose stamp is not its own position's is repeated */
         size_t fresh = 0;
         int bad = 0;
@@ -75,6 +84,19 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
         }
         c->inexact[t] = inexact;
     }
+}
+
+/* 1 when the whole batch's ids ascend (pass 1's ranges, and across their
+ * ends): then no id repeats. */
+static int batch_ascends(const move_ctx *c, uint32_t k)
+{
+    uint32_t t;
+    for (t = 0; t < k; t++) {
+        const size_t first = c->n * t / k;
+        if (!c->ascend[t] || (t && first && first < c->n && c->ids[first] <= c->ids[first - 1]))
+            return 0;
+    }
+    return 1;
 }
 
 /* 1 when any thread's range failed the pass just run. */
@@ -107,7 +129,7 @@ static locd_status move_on_pool(locd_scene *s, const locd_id *ids, const void *b
     s->stamp_now += (uint32_t)n;
     c.pass = 1;
     lc_pool_run(s->pool, k, task_move, &c);
-    if (!any_bad(&c, k)) {
+    if (!any_bad(&c, k) && !batch_ascends(&c, k)) {
         c.pass = 2;
         lc_pool_run(s->pool, k, task_move, &c);
     }
