@@ -109,8 +109,7 @@ static void merge_slice(psort_ctx *c, uint32_t t, uint32_t k)
     uint32_t u;
     for (u = 0; u < k; u++)
         runs[u] = c->in->run[u], total += c->in->count[u];
-    r0 = total / k * t + (t < total % k ? t : total % k);
-    r1 = total / k * (t + 1) + (t + 1 < total % k ? t + 1 : total % k);
+    r0 = total * t / k, r1 = total * (t + 1) / k;
     lc_merge_split(runs, c->in->count, k, r0, lo);
     lc_merge_split(runs, c->in->count, k, r1, hi);
     lc_merge_ranges(runs, lo, hi, k, c->out + r0);

@@ -20,7 +20,8 @@ typedef struct move_ctx {
     uint32_t base;                 /* stamp of position k: base + k */
     int bad[LC_MAX_THREADS];       /* a stale or repeated id, or a bad box, in the thread's range */
     int ascend[LC_MAX_THREADS];    /* pass 1: the range's ids ascend */
-    size_t fresh[LC_MAX_THREADS];  /* slots not dirty yet, then the dirty list's offset */
+    size_t fresh[LC_MAX_THREADS];  /* pass 1: slots not dirty yet (right once no id repeats), then
+                                      the dirty list's offset */
     int64_t inexact[LC_MAX_THREADS]; /* change of ninexact */
     int pass;
 } move_ctx;
@@ -53,13 +54,12 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
             /* a repeated id stamps one slot from two threads: relaxed atomics, no race */
             __atomic_store_n(&s->stamp[slot], c->base + (uint32_t)i, __ATOMIC_RELAXED);
             ascend &= i == first || c->ids[i] > c->ids[i - 1];
-            fresh += !(s->flags[slot] & LC_SLOT_DIRTY); /* right when no id repeats */
+            fresh += !(s->flags[slot] & LC_SLOT_DIRTY);
         }
         c->bad[t] = bad;
         c->ascend[t] = ascend;
         c->fresh[t] = fresh;
     } else if (c->pass == 2) { /* a slot whose stamp is not its own position's is repeated */
-        size_t fresh = 0;
         int bad = 0;
         for (; i < e; i++) {
             uint32_t slot = LC_ID_SLOT(c->ids[i]);
@@ -67,10 +67,8 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
                 bad = 1;
                 break;
             }
-            fresh += !(s->flags[slot] & LC_SLOT_DIRTY);
         }
         c->bad[t] = bad;
-        c->fresh[t] = fresh;
     } else { /* the boxes, and the slots new to the dirty list at the thread's offset */
         uint32_t *dirty = (uint32_t *)s->dirty.data + c->fresh[t];
         int64_t inexact = 0;
@@ -87,13 +85,14 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
 }
 
 /* 1 when the whole batch's ids ascend (pass 1's ranges, and across their
- * ends): then no id repeats. */
+ * ends: every range holds ids, n >= LC_MOVE_PARALLEL_MIN): then no id
+ * repeats. */
 static int batch_ascends(const move_ctx *c, uint32_t k)
 {
     uint32_t t;
     for (t = 0; t < k; t++) {
         const size_t first = c->n * t / k;
-        if (!c->ascend[t] || (t && first && first < c->n && c->ids[first] <= c->ids[first - 1]))
+        if (!c->ascend[t] || (t && c->ids[first] <= c->ids[first - 1]))
             return 0;
     }
     return 1;
