@@ -5,7 +5,8 @@
  * These scenes force such cells (a shallow max_depth puts thousands of
  * boxes in one cell) with what could break the window: integer coordinates
  * (ends equal to other ends and to slab edges), zero-size boxes, duplicates,
- * boxes reaching out of their cell, and huge boxes next to tiny ones. Each
+ * boxes reaching out of their cell, huge boxes next to tiny ones, and
+ * dense cells under many narrower ancestors (scanned by x slab). Each
  * must give the brute-force set with the scalar kernel, and the scalar
  * kernel's bytes with every SIMD kernel, 1 and 3 threads, both precisions.
  * A failure names the scene, kernel and thread count. */
@@ -202,6 +203,42 @@ static void huge_next_to_tiny(void)
     free(b);
 }
 
+/* Medium boxes (level 1 under depth 2: extents 4 to 8 on a 64-wide
+ * scene) over small ones (the depth-2 cells, about 125 each): each dense
+ * cell has about 80 ancestor records, the most narrower than half its edge
+ * and some exactly half (wide), so its entries scan the narrow ones by x
+ * slab (lc_anc in lib/octree/sweep.c). Every coordinate is a multiple of
+ * 1/8, so window ends fall on slab edges and on other boxes' ends; some
+ * medium boxes start left of the cells they reach. Under depth 3 the same
+ * boxes are two levels apart. */
+static float *medium_over_small(size_t n, size_t medium, uint64_t seed)
+{
+    float *b = malloc(n * 6 * sizeof *b);
+    ts_rng r;
+    size_t i;
+    TEST_ASSERT_NOT_NULL(b);
+    ts_seed(&r, seed);
+    for (i = 0; i < n; i++) {
+        const double x = (double)(ts_next(&r) % 480) / 8, y = (double)(ts_next(&r) % 480) / 8,
+                     z = (double)(ts_next(&r) % 480) / 8;
+        if (i < medium) /* extents 4.125 .. 8 */
+            put(b + 6 * i, x, y, z, 4 + 0.125 * (double)(1 + ts_next(&r) % 32), 4 + 0.125 * (double)(ts_next(&r) % 33),
+                4 + 0.125 * (double)(ts_next(&r) % 33));
+        else /* extents 0 .. 1 */
+            put(b + 6 * i, x, y, z, 0.125 * (double)(ts_next(&r) % 9), 0.125 * (double)(ts_next(&r) % 9),
+                0.125 * (double)(ts_next(&r) % 9));
+    }
+    return b;
+}
+
+static void narrow_ancestors_by_slab(void)
+{
+    float *b = medium_over_small(10000, 2000, 15);
+    check_scene(b, 10000, 2, "medium over small, depth 2");
+    check_scene(b, 10000, 3, "medium over small, depth 3");
+    free(b);
+}
+
 /* Every box identical: one cell holds them all, every bucket run but one is
  * empty, and every pair ties on every end. */
 static void all_identical(void)
@@ -223,6 +260,7 @@ int main(void)
         LT_TEST(coarse_buckets_integer_boxes),
         LT_TEST(equal_boxes_touching),
         LT_TEST(huge_next_to_tiny),
+        LT_TEST(narrow_ancestors_by_slab),
         LT_TEST(all_identical),
     };
     return LT_RUN(tests);

@@ -161,6 +161,29 @@ LC_INLINE uint32_t bucket_of(const lc_slabs *sl, uint32_t bx, uint32_t by)
     return (bx << sl->bits[1]) | by;
 }
 
+/* A dense cell's ancestor records in x order. Every own entry of a dense
+ * cell meets all the records of its ancestors that overlap the cell; on
+ * boxes of mixed sizes these are most of the candidates (about 60% at 3.5
+ * pairs per box), and two thirds of them miss the entry on x. So when a
+ * cell has LC_ANC_OWN_MIN own entries and LC_ANC_MIN ancestor records,
+ * the records are copied past the cell's rows: the wide ones (x extent at
+ * least half the cell's edge) first, in order, then the narrow ones by the
+ * slab of the cell's x range (2^LC_ANC_SLAB_BITS slabs) where they start,
+ * stable. An entry then scans the wide ones and only the narrow ones that
+ * start in [lo_x - ext, hi_x] (ext: their largest x extent), one run.
+ * Thresholds from the mixed scene at 3.5 pairs per box: cells from 32 own
+ * entries hold 85% of these candidates. */
+#define LC_ANC_OWN_MIN 16
+#define LC_ANC_MIN 32
+#define LC_ANC_SLAB_BITS 6
+typedef struct lc_anc {
+    int on;              /* 0: the ancestors are scanned in place, in full */
+    size_t wide, narrow; /* the copy: wide rows [wide, narrow), then the narrow ones */
+    lc_slabs sl;         /* x slabs only (bits[1] = 0) */
+    int64_t ext;         /* the narrow records' largest x extent */
+    size_t start[(1u << LC_ANC_SLAB_BITS) + 1]; /* each slab's first narrow row */
+} lc_anc;
+
 /* Grows the pair buffer to `values` uint32 (two per pair), keeping the
  * `used` pairs found so far; a lent buffer is copied out, never freed. */
 static locd_status pairs_reserve(lc_sweep_out *o, size_t values, size_t used)
@@ -216,6 +239,48 @@ LC_INLINE void copy_row(const lc_cols *c, size_t from, size_t to)
     c->hi[1][to] = c->hi[1][from];
     c->hi[2][to] = c->hi[2][from];
     c->idx[to] = c->idx[from];
+}
+
+/* Copies the ancestor records [first, own) of the cell with integer
+ * coordinates cell at shift s to rows at.. in lc_anc's order (above). */
+static locd_status anc_order(lc_sweep_out *o, lc_anc *an, const int32_t cell[3], uint32_t s, size_t first,
+                             size_t own, size_t at)
+{
+    enum { NS = 1u << LC_ANC_SLAB_BITS };
+    const int64_t half = (int64_t)1 << (s ? s - 1 : 0);
+    size_t fill[NS], r, wide = 0;
+    int64_t ext = 0;
+    uint32_t b;
+    lc_cols c;
+    locd_status st = cand_reserve(o, at, at + (own - first));
+    if (st)
+        return st;
+    cols_of(o, &c);
+    an->sl.bits[0] = LC_ANC_SLAB_BITS, an->sl.bits[1] = 0;
+    an->sl.origin[0] = (int64_t)cell[0] << s, an->sl.origin[1] = 0;
+    an->sl.shift[0] = s > LC_ANC_SLAB_BITS ? s - LC_ANC_SLAB_BITS : 0, an->sl.shift[1] = 0;
+    memset(an->start, 0, sizeof an->start);
+    for (r = first; r < own; r++) {
+        const int64_t w = (int64_t)c.hi[0][r] - c.lo[0][r];
+        if (w >= half) {
+            wide++;
+        } else {
+            an->start[slab_of(&an->sl, 0, c.lo[0][r]) + 1]++;
+            ext = w > ext ? w : ext;
+        }
+    }
+    an->wide = at, an->narrow = at + wide, an->ext = ext;
+    an->start[0] = an->narrow;
+    for (b = 0; b < NS; b++)
+        an->start[b + 1] += an->start[b];
+    for (b = 0; b < NS; b++)
+        fill[b] = an->start[b];
+    for (r = first; r < own; r++) {
+        const int64_t w = (int64_t)c.hi[0][r] - c.lo[0][r];
+        copy_row(&c, r, w >= half ? at++ : fill[slab_of(&an->sl, 0, c.lo[0][r])]++);
+    }
+    an->on = 1;
+    return LOCD_OK;
 }
 
 typedef size_t (*lc_filter_fn)(const lc_cols *c, size_t from, size_t to, const int32_t lo[3], const int32_t hi[3],
@@ -649,6 +714,7 @@ typedef struct lc_sweep_state {
     lc_slabs sl;  /* the bucket order of the last cell loaded with one */
     size_t slab[LC_BUCKETS + 1]; /* its buckets' first rows */
     int64_t ext[2];              /* its largest x and y extents */
+    lc_anc an;                   /* the open dense cell's ancestors in x order, if on */
 } lc_sweep_state;
 
 static void sweep_ctx_init(lc_sweep_ctx *cx, lc_sweep_state *ss, const locd_grid *g, const void *boxes, int f64,
@@ -665,6 +731,7 @@ static void sweep_ctx_init(lc_sweep_ctx *cx, lc_sweep_state *ss, const locd_grid
     cx->candidates = cx->exact = 0;
     ss->nseg = 0;
     ss->ncand = 0;
+    ss->an.on = 0;
     ss->sc.boxes = boxes;
     ss->sc.f64 = f64;
     ss->sc.split = o->split;

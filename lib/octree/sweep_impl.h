@@ -191,6 +191,32 @@ LC_TARGET LC_INLINE locd_status LC_FN(sweep_lone_)(lc_sweep_ctx *cx, lc_sweep_st
     return LOCD_OK;
 }
 
+/* Scans the ancestor records [first, own) that can meet the entry under
+ * test: all of them, or (lc_anc on) the wide ones and the narrow ones that
+ * start in [lo_x - ext, hi_x]. A narrow record j that overlaps the entry
+ * ends at or after lo_x and is at most ext wide, so it starts at or after
+ * lo_x - ext, and at or before hi_x; the slab map is monotone, so j lies in
+ * the slabs of those two ends. Returns the candidates scanned. */
+LC_TARGET LC_INLINE size_t LC_FN(scan_ancestors_)(lc_sweep_ctx *cx, lc_sweep_state *ss, size_t first, size_t own)
+{
+    const lc_anc *an = &ss->an;
+    size_t a, e, n = 0;
+    if (!an->on) {
+        if (own > first)
+            LC_FN(scan_)(cx, ss, first, own);
+        return own - first;
+    }
+    a = an->start[slab_of(&an->sl, 0, (int64_t)ss->sc.lo[0] - an->ext)];
+    e = an->start[slab_of(&an->sl, 0, ss->sc.hi[0]) + 1];
+    if (a == an->narrow) /* the window starts at the first narrow row: one run */
+        a = an->wide;
+    else if (an->narrow > an->wide)
+        LC_FN(scan_)(cx, ss, an->wide, an->narrow), n += an->narrow - an->wide;
+    if (e > a)
+        LC_FN(scan_)(cx, ss, a, e), n += e - a;
+    return n;
+}
+
 /* Entry own+t meets the ancestors' records that overlap the cell ([first,
  * own)) and the cell's earlier rows that can overlap it. With bucket order
  * (slabbed 1), an earlier row j that overlaps entry r starts, on x, at or
@@ -224,21 +250,16 @@ LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, lc_sweep_sta
         }
         bx0 = slab_of(sl, 0, (int64_t)ss->sc.lo[0] - ss->ext[0]);
         win = ss->slab[bucket_of(sl, bx0, 0)]; /* the x window's first row */
+        /* At most the ancestors and the x window: room for that many pairs. */
+        if ((st = reserve_room(cx, (own - first) + (r - win))) != LOCD_OK)
+            return st;
+        cx->candidates += LC_FN(scan_ancestors_)(cx, ss, first, own);
         if (!sl->bits[1]) { /* one y slab: the x window is one run */
-            if ((st = reserve_pairs(cx, (own - first) + (r - win))) != LOCD_OK)
-                return st;
-            if (own > first)
-                LC_FN(scan_)(cx, ss, first, own);
+            cx->candidates += r - win;
             if (r > win)
                 LC_FN(scan_)(cx, ss, win, r);
             continue;
         }
-        /* The runs lie inside the x window: room for that many pairs. */
-        if ((st = reserve_room(cx, (own - first) + (r - win))) != LOCD_OK)
-            return st;
-        cx->candidates += own - first;
-        if (own > first)
-            LC_FN(scan_)(cx, ss, first, own);
         sx = slab_of(sl, 0, ss->sc.lo[0]);
         by0 = slab_of(sl, 1, (int64_t)ss->sc.lo[1] - ss->ext[1]);
         by1 = slab_of(sl, 1, ss->sc.hi[1]);
@@ -287,8 +308,15 @@ LC_TARGET LC_INLINE locd_status LC_FN(sweep_dense_)(lc_sweep_ctx *cx, lc_sweep_s
                                     ss->ext);
         if (slabbed < 0)
             return slabbed;
+        if (slabbed && m >= LC_ANC_OWN_MIN && own - first >= LC_ANC_MIN) {
+            if ((st = anc_order(cx->o, &ss->an, ss->sc.cell, ss->sc.s, first, own, own + m)) != LOCD_OK)
+                return st;
+            cols_of(cx->o, &ss->sc.c); /* the columns may have moved */
+        }
     }
-    if ((st = LC_FN(scan_cell_)(cx, ss, first, own, m, slabbed)) != LOCD_OK)
+    st = LC_FN(scan_cell_)(cx, ss, first, own, m, slabbed);
+    ss->an.on = 0; /* the copy past the cell's rows is dropped with it */
+    if (st != LOCD_OK)
         return st;
     ss->ncand = own + m;
     return LOCD_OK;
