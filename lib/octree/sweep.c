@@ -577,33 +577,10 @@ LC_AVX2 LC_INLINE size_t store_pairs_avx2(uint32_t *pairs, size_t np, __m256i J,
     return np + (size_t)__builtin_popcount(m1);
 }
 
-/* The entry's side of the AVX2 scan: its box, cell and index in every
- * lane. A dense cell's entry scans several short runs (its windows); made
- * once per entry (scanv_of), the vectors are not rebuilt for each run,
- * which the compiler cannot do by itself, since the pair stores may alias
- * the lc_scan they come from. */
-typedef struct lc_scanv {
-    __m256i lo0, lo1, lo2, hi0, hi1, hi2, cx, cy, cz, mev;
-    __m128i sh;
-} lc_scanv;
-
-LC_AVX2 LC_INLINE void scanv_of(const lc_scan *sc, lc_scanv *v)
-{
-    v->lo0 = _mm256_set1_epi32(sc->lo[0]), v->lo1 = _mm256_set1_epi32(sc->lo[1]);
-    v->lo2 = _mm256_set1_epi32(sc->lo[2]);
-    v->hi0 = _mm256_set1_epi32(sc->hi[0]), v->hi1 = _mm256_set1_epi32(sc->hi[1]);
-    v->hi2 = _mm256_set1_epi32(sc->hi[2]);
-    v->cx = _mm256_set1_epi32(sc->cell[0]), v->cy = _mm256_set1_epi32(sc->cell[1]);
-    v->cz = _mm256_set1_epi32(sc->cell[2]);
-    v->sh = _mm_cvtsi32_si128((int)sc->s);
-    v->mev = _mm256_set1_epi32((int)sc->idx);
-}
-
-/* The scan of records [first, end) for the entry of sc, whose vectors v
- * holds. Inlined into the AVX2 main loop (sweep_range_*_avx2), whose runs
- * of candidates are short. */
-LC_AVX2 LC_INLINE size_t scan_avx2_v(const lc_scan *sc, const lc_scanv *v, size_t first, size_t end,
-                                     uint32_t *pairs, size_t np, uint64_t *exact)
+/* Inlined into the AVX2 main loop (sweep_range_*_avx2), whose runs of
+ * candidates are short; pick_scan takes its address for nothing else. */
+LC_AVX2 LC_INLINE size_t scan_avx2(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np,
+                                   uint64_t *exact)
 {
     /* The columns in locals: read through sc in the loop, they would be
        reloaded from memory on every step. */
@@ -611,9 +588,14 @@ LC_AVX2 LC_INLINE size_t scan_avx2_v(const lc_scan *sc, const lc_scanv *v, size_
     const int32_t *const X1 = sc->c.hi[0], *const Y1 = sc->c.hi[1], *const Z1 = sc->c.hi[2];
     const uint32_t *const J = sc->c.idx;
     const uint32_t me = sc->idx, split = sc->split;
-    const __m256i lo0 = v->lo0, lo1 = v->lo1, lo2 = v->lo2, hi0 = v->hi0, hi1 = v->hi1, hi2 = v->hi2;
-    const __m256i cx = v->cx, cy = v->cy, cz = v->cz, mev = v->mev;
-    const __m128i sh = v->sh;
+    const __m256i lo0 = _mm256_set1_epi32(sc->lo[0]), lo1 = _mm256_set1_epi32(sc->lo[1]),
+                  lo2 = _mm256_set1_epi32(sc->lo[2]);
+    const __m256i hi0 = _mm256_set1_epi32(sc->hi[0]), hi1 = _mm256_set1_epi32(sc->hi[1]),
+                  hi2 = _mm256_set1_epi32(sc->hi[2]);
+    const __m256i cx = _mm256_set1_epi32(sc->cell[0]), cy = _mm256_set1_epi32(sc->cell[1]),
+                  cz = _mm256_set1_epi32(sc->cell[2]);
+    const __m128i sh = _mm_cvtsi32_si128((int)sc->s);
+    const __m256i mev = _mm256_set1_epi32((int)me);
     size_t r;
     for (r = first; r < end; r += 8) {
         const __m256i L0 = _mm256_loadu_si256((const __m256i *)(X0 + r)),
@@ -672,16 +654,6 @@ LC_AVX2 LC_INLINE size_t scan_avx2_v(const lc_scan *sc, const lc_scanv *v, size_
         }
     }
     return np;
-}
-
-/* One run for an entry (its vectors made here): the scan pick_scan hands
- * the generic loop, which takes its address for nothing else. */
-LC_AVX2 LC_INLINE size_t scan_avx2(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np,
-                                   uint64_t *exact)
-{
-    lc_scanv v;
-    scanv_of(sc, &v);
-    return scan_avx2_v(sc, &v, first, end, pairs, np, exact);
 }
 #endif
 
@@ -838,10 +810,6 @@ LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
  * loop compiled for that target. */
 #define LC_TARGET
 #define LC_SCAN(cx, sc, first, end, pairs, np, exact) (cx)->scan(sc, first, end, pairs, np, exact)
-/* The generic loop has no per-entry vectors: each run is one call. */
-#define LC_SCANV char
-#define LC_SCANV_OF(sc, v) (void)(v)
-#define LC_SCAN_V(cx, sc, v, first, end, pairs, np, exact) LC_SCAN(cx, sc, first, end, pairs, np, exact)
 #define LC_T float
 #define LC_SUFFIX f32_generic
 #include "sweep_impl.h"
@@ -850,16 +818,10 @@ LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
 #include "sweep_impl.h"
 #undef LC_TARGET
 #undef LC_SCAN
-#undef LC_SCANV
-#undef LC_SCANV_OF
-#undef LC_SCAN_V
 
 #ifdef LC_HAVE_AVX2_KERNEL
 #define LC_TARGET LC_AVX2
 #define LC_SCAN(cx, sc, first, end, pairs, np, exact) scan_avx2(sc, first, end, pairs, np, exact)
-#define LC_SCANV lc_scanv
-#define LC_SCANV_OF(sc, v) scanv_of(sc, v)
-#define LC_SCAN_V(cx, sc, v, first, end, pairs, np, exact) scan_avx2_v(sc, v, first, end, pairs, np, exact)
 #define LC_T float
 #define LC_SUFFIX f32_avx2
 #include "sweep_impl.h"
@@ -868,9 +830,6 @@ LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
 #include "sweep_impl.h"
 #undef LC_TARGET
 #undef LC_SCAN
-#undef LC_SCANV
-#undef LC_SCANV_OF
-#undef LC_SCAN_V
 #endif
 
 #ifdef LC_HAVE_AVX512_KERNEL
@@ -895,9 +854,6 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
  * (bench/results/kernels_notes.md); not measured on an Intel CPU. */
 #define LC_TARGET LC_AVX512
 #define LC_SCAN(cx, sc, first, end, pairs, np, exact) scan_avx2(sc, first, end, pairs, np, exact)
-#define LC_SCANV lc_scanv
-#define LC_SCANV_OF(sc, v) scanv_of(sc, v)
-#define LC_SCAN_V(cx, sc, v, first, end, pairs, np, exact) scan_avx2_v(sc, v, first, end, pairs, np, exact)
 #define LC_T float
 #define LC_SUFFIX f32_avx512
 #define LC_QUANTIZE6(g, b, q) quantize6(g, _mm512_cvtps_pd(_mm256_maskz_loadu_ps(0x3f, b)), q)
@@ -911,9 +867,6 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
 #undef LC_QUANTIZE6
 #undef LC_TARGET
 #undef LC_SCAN
-#undef LC_SCANV
-#undef LC_SCANV_OF
-#undef LC_SCAN_V
 #endif
 
 /* The kernel o was made for picks the loop. */

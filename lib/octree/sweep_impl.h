@@ -166,16 +166,6 @@ LC_TARGET LC_INLINE void LC_FN(scan_)(lc_sweep_ctx *cx, lc_sweep_state *ss, size
     cx->exact = exact;
 }
 
-/* The same with the entry's vectors v made once for its runs (LC_SCANV_OF). */
-LC_TARGET LC_INLINE void LC_FN(scan_v_)(lc_sweep_ctx *cx, lc_sweep_state *ss, const LC_SCANV *v, size_t first,
-                                        size_t end)
-{
-    uint64_t exact = cx->exact;
-    (void)v;
-    cx->npairs = LC_SCAN_V(cx, &ss->sc, v, first, end, (uint32_t *)cx->o->pairs.data, cx->npairs, &exact);
-    cx->exact = exact;
-}
-
 /* A lone entry (box me, object idx) with no descendants after it: a
  * segment of its own would serve nobody else, so it meets the enclosing
  * segment's records directly (those that miss its cell fail the canonical
@@ -207,14 +197,13 @@ LC_TARGET LC_INLINE locd_status LC_FN(sweep_lone_)(lc_sweep_ctx *cx, lc_sweep_st
  * ends at or after lo_x and is at most ext wide, so it starts at or after
  * lo_x - ext, and at or before hi_x; the slab map is monotone, so j lies in
  * the slabs of those two ends. Returns the candidates scanned. */
-LC_TARGET LC_INLINE size_t LC_FN(scan_ancestors_)(lc_sweep_ctx *cx, lc_sweep_state *ss, const LC_SCANV *v,
-                                                   size_t first, size_t own)
+LC_TARGET LC_INLINE size_t LC_FN(scan_ancestors_)(lc_sweep_ctx *cx, lc_sweep_state *ss, size_t first, size_t own)
 {
     const lc_anc *an = &ss->an;
     size_t a, e, n = 0;
     if (!an->on) {
         if (own > first)
-            LC_FN(scan_v_)(cx, ss, v, first, own);
+            LC_FN(scan_)(cx, ss, first, own);
         return own - first;
     }
     a = an->start[slab_of(&an->sl, 0, (int64_t)ss->sc.lo[0] - an->ext)];
@@ -222,9 +211,9 @@ LC_TARGET LC_INLINE size_t LC_FN(scan_ancestors_)(lc_sweep_ctx *cx, lc_sweep_sta
     if (a == an->narrow) /* the window starts at the first narrow row: one run */
         a = an->wide;
     else if (an->narrow > an->wide)
-        LC_FN(scan_v_)(cx, ss, v, an->wide, an->narrow), n += an->narrow - an->wide;
+        LC_FN(scan_)(cx, ss, an->wide, an->narrow), n += an->narrow - an->wide;
     if (e > a)
-        LC_FN(scan_v_)(cx, ss, v, a, e), n += e - a;
+        LC_FN(scan_)(cx, ss, a, e), n += e - a;
     return n;
 }
 
@@ -249,16 +238,14 @@ LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, lc_sweep_sta
         const size_t r = own + t;
         size_t win;
         uint32_t bx, bx0, sx, by0, by1;
-        LC_SCANV v;
         if (cx->o->stop && t % LC_SWEEP_POLL == LC_SWEEP_POLL - 1 && __atomic_load_n(cx->o->stop, __ATOMIC_RELAXED))
             return LOCD_ERR_CANCELLED; /* a dense cell may be seconds of work */
         entry_from_row(&ss->sc, r);
-        LC_SCANV_OF(&ss->sc, &v);
         if (!slabbed) { /* one contiguous run of candidates */
             if ((st = reserve_pairs(cx, r - first)) != LOCD_OK)
                 return st;
             if (r > first)
-                LC_FN(scan_v_)(cx, ss, &v, first, r);
+                LC_FN(scan_)(cx, ss, first, r);
             continue;
         }
         bx0 = slab_of(sl, 0, (int64_t)ss->sc.lo[0] - ss->ext[0]);
@@ -266,11 +253,11 @@ LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, lc_sweep_sta
         /* At most the ancestors and the x window: room for that many pairs. */
         if ((st = reserve_room(cx, (own - first) + (r - win))) != LOCD_OK)
             return st;
-        cx->candidates += LC_FN(scan_ancestors_)(cx, ss, &v, first, own);
+        cx->candidates += LC_FN(scan_ancestors_)(cx, ss, first, own);
         if (!sl->bits[1]) { /* one y slab: the x window is one run */
             cx->candidates += r - win;
             if (r > win)
-                LC_FN(scan_v_)(cx, ss, &v, win, r);
+                LC_FN(scan_)(cx, ss, win, r);
             continue;
         }
         sx = slab_of(sl, 0, ss->sc.lo[0]);
@@ -284,7 +271,7 @@ LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, lc_sweep_sta
                 if (ra != e) { /* a gap: scan the run so far */
                     if (e > a) {
                         cx->candidates += e - a;
-                        LC_FN(scan_v_)(cx, ss, &v, a, e);
+                        LC_FN(scan_)(cx, ss, a, e);
                     }
                     a = ra;
                 }
@@ -292,7 +279,7 @@ LC_TARGET LC_INLINE locd_status LC_FN(scan_cell_)(lc_sweep_ctx *cx, lc_sweep_sta
             }
             if (e > a) {
                 cx->candidates += e - a;
-                LC_FN(scan_v_)(cx, ss, &v, a, e);
+                LC_FN(scan_)(cx, ss, a, e);
             }
         }
     }
