@@ -371,12 +371,14 @@ static const struct {
      "**Default: 0 (automatic)**: at most as deep as the 64-bit key allows beside the object index (13 levels "
      "at 1M objects, 14 at 100k), and from 16,384 objects on, the shallowest depth at which a fixed sample of "
      "1,024 boxes, each at the level its size picks under that depth, estimates at most 16 other boxes in a "
-     "box's own cell. Each box still stops at the level its own size picks, so a limit only matters for boxes "
+     "box's own cell, or, where even the deepest cells hold more (dense scenes), no more than the deepest "
+     "cells hold: deeper cells would not be emptier there, only cost more key bits and cells. Each box still "
+     "stops at the level its own size picks, so a limit only matters for boxes "
      "smaller than its cells: a small box that stops higher crosses fewer cells and shares its cell with a few "
      "neighbours, which the slab-ordered sweep handles well, instead of opening a cell of its own; too shallow, "
      "and a cell's candidates grow as the square of its population, which the sample guards against. On the "
-     "mixed scene the automatic depth is 6 at 1M objects and 5 at 100k; on the others it stays at the key's "
-     "limit, since their boxes stop above it anyway."},
+     "mixed scene the automatic depth is 6 at 1M objects and 5 at 100k; on scenes whose boxes all stop above "
+     "the key's limit it is about the level where they stop, which changes only the key's length."},
     {"cell_bias", "2. Level-choice bias (`cell_bias`)", "cell_bias",
      "A box goes to the deepest level whose cell edge is at least 2^bias times its largest extent. Bias 0 gives "
      "the smallest cells (up to 8 cells per box, fewest candidates per cell); each step up halves the entries per "
