@@ -124,10 +124,14 @@ static void order_count(order_ctx *c, uint32_t t)
 
 static void order_scatter(order_ctx *c, uint32_t t)
 {
+    /* in locals: the stores through key may alias c's fields, which the
+       loop would then read again on every step */
     size_t x, *off = c->cnt[t];
-    const uint32_t *p = c->p;
-    for (x = c->pb[t]; x < c->pb[t] + c->kept[t]; x++)
-        c->key[off[p[2 * x] >> c->shift]++] = (uint64_t)p[2 * x] << 32 | p[2 * x + 1];
+    const size_t end = c->pb[t] + c->kept[t];
+    const uint32_t *p = c->p, shift = c->shift;
+    uint64_t *key = c->key;
+    for (x = c->pb[t]; x < end; x++)
+        key[off[p[2 * x] >> shift]++] = (uint64_t)p[2 * x] << 32 | p[2 * x + 1];
 }
 
 /* Sorts v[0, n): an object's partners, a few as a rule (insertion sort),
@@ -147,6 +151,8 @@ static void sort_run(uint64_t *v, size_t n)
         v[y] = e;
     }
 }
+
+#define LC_ORDER_RUN 32
 
 /* Bucket b: key[start[b], start[b+1]) to tmp by i (counting sort), each
  * i's run sorted by j, then the rows at the same positions. */
@@ -168,17 +174,26 @@ static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
         }
         for (x = lo; x < hi; x++)
             v[lo + cnt[(uint32_t)(k[x] >> 32) - base]++] = k[x];
-        /* each i's run by j: run u ends where the scatter left cnt[u]
-           and starts where run u - 1 ended */
-        for (u = 0, x = lo; u < span; u++) {
-            y = lo + cnt[u];
-            if (y - x == 2) { /* the common case past one: no loop */
-                const uint64_t a = v[x], d = v[x + 1];
-                v[x] = a < d ? a : d, v[x + 1] = a < d ? d : a;
-            } else if (y - x > 2) {
-                sort_run(v + x, y - x);
+        /* Each i's run by j: v is in i order, so one insertion pass over
+           the whole bucket moves each key back within its own run only
+           (a few places: an object has a few partners), with one
+           well-predicted compare a key; a walk over the 2^shift runs took
+           a branch per i whatever its run's length. A run longer than
+           LC_ORDER_RUN (a box over much of the scene) is sorted on its own
+           (no quadratic case). */
+        for (x = lo + 1; x < hi; x++) {
+            const uint64_t e = v[x];
+            if (v[x - 1] <= e)
+                continue;
+            for (y = x; y > lo && v[y - 1] > e && x - y < LC_ORDER_RUN; y--)
+                v[y] = v[y - 1];
+            v[y] = e;
+            if (x - y == LC_ORDER_RUN && y > lo && v[y - 1] > e) { /* a long run: sort all of it */
+                const uint32_t i = (uint32_t)(e >> 32);
+                size_t a = lo + (i - base ? cnt[i - base - 1] : 0), z = lo + cnt[i - base];
+                sort_run(v + a, z - a);
+                x = z - 1;
             }
-            x = y;
         }
     } else if (hi > lo) {
         v[lo] = k[lo];
