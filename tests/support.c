@@ -1,6 +1,7 @@
 #include "support.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -34,6 +35,17 @@ static void put(float *b, double x, double y, double z, double sx, double sy, do
     b[3] = (float)(x + sx);
     b[4] = (float)(y + sy);
     b[5] = (float)(z + sz);
+}
+
+float *ts_boxes(size_t n, ts_rng *r, uint64_t seed)
+{
+    float *b = malloc((n ? n : 1) * 6 * sizeof(float));
+    if (!b) {
+        fprintf(stderr, "ts_boxes: no memory for %zu boxes\n", n);
+        exit(1);
+    }
+    ts_seed(r, seed);
+    return b;
 }
 
 float *ts_scene(int kind, size_t n, uint64_t seed)

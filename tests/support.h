@@ -14,6 +14,10 @@ void ts_seed(ts_rng *r, uint64_t seed);
 uint64_t ts_next(ts_rng *r);
 double ts_uniform(ts_rng *r); /* [0, 1) */
 
+/* Room for n boxes (6 floats each, malloc'd; the process stops with a
+ * message if there is none) and r seeded to fill them. */
+float *ts_boxes(size_t n, ts_rng *r, uint64_t seed);
+
 /* Random scene of n boxes: kind 0 uniform, 1 clustered, 2 mixed sizes,
  * 3 touching lattice, 4 degenerate (points, planes, duplicates). malloc'd. */
 float *ts_scene(int kind, size_t n, uint64_t seed);

@@ -128,8 +128,23 @@ static void touching_boxes_count_and_ulp_gaps_do_not(void)
     locd_engine_destroy(e);
 }
 
-/* A job released while it runs, then its engine destroyed: destroy must
- * wait for the job's thread (the sanitizer build catches a use after free). */
+/* The stats of a 2-thread engine (automatic depth) on boxes b[0, n), whose
+ * pairs must be the brute-force set. */
+static locd_stats automatic_depth_stats(const float *b, size_t n)
+{
+    locd_engine *e = engine_with(2);
+    locd_pairs *p;
+    locd_stats st;
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, n, 0, p));
+    TEST_ASSERT_TRUE(ts_same_as_brute_f32(b, n, p));
+    locd_stats_init(&st);
+    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_stats(e, &st));
+    locd_pairs_destroy(p);
+    locd_engine_destroy(e);
+    return st;
+}
+
 /* The automatic depth lowers the octree's depth when small boxes would sit
  * alone in their cells, but must not when they are packed together: 20,000
  * small cubes in 5% of the world, beside a few world-sized boxes. A depth
@@ -138,13 +153,10 @@ static void touching_boxes_count_and_ulp_gaps_do_not(void)
 static void automatic_depth_keeps_packed_boxes_apart(void)
 {
     const size_t n = 20000;
-    float *b = malloc(n * 6 * sizeof(float));
     ts_rng r;
-    locd_engine *e = engine_with(2);
-    locd_pairs *p;
+    float *b = ts_boxes(n, &r, 4242);
     locd_stats st;
     size_t i;
-    ts_seed(&r, 4242);
     for (i = 0; i < n; i++) {
         float *o = b + 6 * i;
         if (i % 1000 == 0) { /* a world-sized box now and then */
@@ -159,18 +171,39 @@ static void automatic_depth_keeps_packed_boxes_apart(void)
         o[4] = o[1] + 0.0004f;
         o[5] = o[2] + 0.0004f;
     }
-    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
-    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, b, n, 0, p));
-    TEST_ASSERT_TRUE(ts_same_as_brute_f32(b, n, p));
-    locd_stats_init(&st);
-    TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_stats(e, &st));
+    st = automatic_depth_stats(b, n);
     if (st.depth < 8 || st.candidates > 64 * (uint64_t)n)
         LT_FAIL("automatic depth %u: %llu candidates for %zu boxes", st.depth, (unsigned long long)st.candidates, n);
-    locd_pairs_destroy(p);
-    locd_engine_destroy(e);
     free(b);
 }
 
+/* A scene so dense that even the deepest cells hold more than the bound
+ * of 16 (equal cubes of edge 1/64 packed into a sixty-fourth of a unit
+ * world, about 300 to a cell at the level they stop at): deeper cells are
+ * not emptier, so the automatic depth is the level where the cubes stop,
+ * not the key's limit (14 here), where no depth met the bound. */
+static void automatic_depth_stops_where_dense_cubes_do(void)
+{
+    const size_t n = 20000;
+    ts_rng r;
+    float *b = ts_boxes(n, &r, 4343), *o;
+    locd_stats st;
+    int a;
+    for (o = b; o < b + 6 * n; o += 6)
+        for (a = 0; a < 3; a++) {
+            o[a] = (float)(0.25 * ts_uniform(&r));
+            o[a + 3] = o[a] + 1.0f / 64.0f;
+        }
+    for (a = 0; a < 3; a++) /* a small box at the far corner stretches the world to the unit cube */
+        b[a] = 0.99f, b[a + 3] = 1.0f;
+    st = automatic_depth_stats(b, n);
+    if (st.depth > 6)
+        LT_FAIL("automatic depth %u for cubes that stop at level 4 or 5", st.depth);
+    free(b);
+}
+
+/* A job released while it runs, then its engine destroyed: destroy must
+ * wait for the job's thread (the sanitizer build catches a use after free). */
 static void destroy_waits_for_a_released_running_job(void)
 {
     size_t n = heavy() ? 200000 : 50000;
@@ -194,6 +227,7 @@ int main(void)
         LT_TEST(f32_and_f64_agree),
         LT_TEST(touching_boxes_count_and_ulp_gaps_do_not),
         LT_TEST(automatic_depth_keeps_packed_boxes_apart),
+        LT_TEST(automatic_depth_stops_where_dense_cubes_do),
         LT_TEST(destroy_waits_for_a_released_running_job),
     };
     return LT_RUN(tests);

@@ -30,21 +30,12 @@ static void put(float *b, double x, double y, double z, double ex, double ey, do
     b[5] = (float)(z + ez);
 }
 
-/* Room for n boxes, and the generator seeded for them. */
-static float *new_boxes(size_t n, ts_rng *r, uint64_t seed)
-{
-    float *b = malloc(n * 6 * sizeof *b);
-    TEST_ASSERT_NOT_NULL(b);
-    ts_seed(r, seed);
-    return b;
-}
-
 /* Integer boxes (Terdiman's box-pruning scene, smaller): centres in
  * [-c, c)^3, half-extents 0..h per axis. Many equal ends, zero-size boxes. */
 static float *integer_boxes(size_t n, int c, int h, uint64_t seed)
 {
     ts_rng r;
-    float *b = new_boxes(n, &r, seed);
+    float *b = ts_boxes(n, &r, seed);
     size_t i;
     for (i = 0; i < n; i++) {
         double p[3], e[3];
@@ -64,7 +55,7 @@ static float *integer_boxes(size_t n, int c, int h, uint64_t seed)
 static float *huge_and_tiny(size_t n, uint64_t seed)
 {
     ts_rng r;
-    float *b = new_boxes(n, &r, seed);
+    float *b = ts_boxes(n, &r, seed);
     size_t i;
     put(b, 0, 0, 0, 64, 64, 64);     /* the whole scene */
     put(b + 6, 0, 0, 0, 16, 64, 8);  /* a slab-shaped giant */
@@ -219,7 +210,7 @@ static void huge_next_to_tiny(void)
 static float *medium_over_small(size_t n, size_t medium, uint64_t seed)
 {
     ts_rng r;
-    float *b = new_boxes(n, &r, seed);
+    float *b = ts_boxes(n, &r, seed);
     size_t i;
     for (i = 0; i < n; i++) {
         const double x = (double)(ts_next(&r) % 480) / 8, y = (double)(ts_next(&r) % 480) / 8,
