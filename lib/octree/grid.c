@@ -113,8 +113,8 @@ locd_status lc_grid_from_bounds(const lc_bounds *b, size_t n, uint32_t max_depth
  * under that depth, estimates at most LC_TUNE_NEIGHBOURS other boxes in an
  * object's own cell, or, in a scene so dense that even the deepest cells
  * hold more, no more than those hold (the mixed scene at 3.5 pairs per box
- * estimates about 51 from depth 6 to 13: it then takes 6, not 13, in 0.8x
- * the time). The sample is fixed (every n/LC_TUNE_SAMPLE-th box),
+ * takes 6, not 13, in about 0.8x the time: docs/encoding.md section 3).
+ * The sample is fixed (every n/LC_TUNE_SAMPLE-th box),
  * so every path (engine, building blocks, workers, MPI) picks the same. Its
  * arrays take 32 KiB of the calling thread's stack, the radix sort of the
  * sample 48 KiB more (as any lc_radix_sort call). */

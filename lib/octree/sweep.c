@@ -163,17 +163,16 @@ LC_INLINE uint32_t bucket_of(const lc_slabs *sl, uint32_t bx, uint32_t by)
 
 /* A dense cell's ancestor records in x order. Every own entry of a dense
  * cell meets all the records of its ancestors that overlap the cell; on
- * boxes of mixed sizes these are most of the candidates (86% at 3.5 pairs
- * per box), and two thirds of them miss the entry on x. So when a
+ * boxes of mixed sizes these are most of the candidates, and many of them
+ * miss the entry on x alone. So when a
  * cell has LC_ANC_OWN_MIN own entries and LC_ANC_MIN ancestor records,
  * the records are copied past the cell's rows: the wide ones (x extent at
  * least half the cell's edge) first, in order, then the narrow ones by the
  * slab of the cell's x range (2^LC_ANC_SLAB_BITS slabs) where they start,
  * stable. An entry then scans the wide ones and only the narrow ones that
  * start in [lo_x - ext, hi_x] (ext: their largest x extent), one run.
- * Thresholds from the mixed scene at 3.5 pairs per box, where cells of 32
- * own entries or more hold 85% of these candidates; 8/16 and 32/32 change
- * its candidates by under 1%. */
+ * Thresholds from the mixed scene at 3.5 pairs per box: 8/16 and 32/32
+ * change its candidates by under 1% (`locd pairs`). */
 #define LC_ANC_OWN_MIN 16
 #define LC_ANC_MIN 32
 #define LC_ANC_SLAB_BITS 6
