@@ -67,41 +67,32 @@ static int cell_holds(const locd_grid *g, uint64_t pm, uint32_t level, const uin
 
 #define FIELD(w, a) ((uint32_t)(((w) >> ((a)*LC_SBITS)) & LC_SMASK))
 
-/* The first test of the candidate entry eo against the query entry eq
- * (object m, hot record hm), from 16 bytes of o (four to a line): the
- * quantized boxes (conservative: they overlap whenever the boxes do), then
- * the canonical cell pair. Returns 0 when it fails, else 1 + whether the
- * quantized boxes tie (equal quantized ends). */
-static uint32_t consider_q(const find_ctx *c, find_out *fo, uint64_t eq, const lc_hot *hm, uint64_t eo)
+/* Whether the quantized boxes of m (record hm) and o (packed box qo)
+ * miss each other: each axis's fields compared in place (masked, not
+ * shifted), the three axes' results or-ed. */
+LC_INLINE uint32_t boxes_miss(const lc_hot *hm, const uint64_t *qo)
 {
-    const locd_scene *s = c->s;
-    const locd_grid *g = &s->grid;
-    const uint32_t ib = g->index_bits;
-    const uint64_t imask = ((uint64_t)1 << ib) - 1;
-    uint32_t m = (uint32_t)(eq & imask), o = (uint32_t)(eo & imask);
-    uint32_t lm = (uint32_t)(eq >> ib) & 31u, lo = (uint32_t)(eo >> ib) & 31u, p[3], a, tie = 0;
-    const uint64_t *qo;
-    if (o == m || o == (uint32_t)imask) /* itself, or a tombstone */
-        return 0;
-    qo = s->hq + 2 * (size_t)o;
-    fo->cand++;
-    /* Each axis's field compared in place (masked, not shifted), and the
-       three axes' results or-ed before one branch: a branch per axis
-       mispredicts on about every candidate (most miss on one axis or
-       another, which one at random). */
-    {
-        uint32_t miss = 0;
-        for (a = 0; a < 3; a++) {
-            const uint64_t fm = LC_SMASK << (a * LC_SBITS);
-            const uint64_t ml = hm->qlo & fm, mh = hm->qhi & fm, ol = qo[0] & fm, oh = qo[1] & fm;
-            miss |= (uint32_t)(ml > oh) | (uint32_t)(ol > mh);
-            tie |= (uint32_t)(ml == oh) | (uint32_t)(ol == mh);
-        }
-        if (miss)
-            return 0;
-    }
+    uint32_t miss = 0, a;
     for (a = 0; a < 3; a++) {
+        const uint64_t fm = LC_SMASK << (a * LC_SBITS);
+        miss |= (uint32_t)((hm->qlo & fm) > (qo[1] & fm)) | (uint32_t)((qo[0] & fm) > (hm->qhi & fm));
+    }
+    return miss;
+}
+
+/* The second test of a candidate entry eo whose quantized box meets the
+ * query entry eq's (object m, record hm): the canonical cell pair. Returns
+ * 0 when it fails, else 1 + whether the quantized boxes tie (equal
+ * quantized ends). */
+static uint32_t consider_cell(const find_ctx *c, uint64_t eq, const lc_hot *hm, uint64_t eo, const uint64_t *qo)
+{
+    const locd_grid *g = &c->s->grid;
+    const uint32_t ib = g->index_bits;
+    uint32_t lm = (uint32_t)(eq >> ib) & 31u, lo = (uint32_t)(eo >> ib) & 31u, p[3], a, tie = 0;
+    for (a = 0; a < 3; a++) {
+        const uint64_t fm = LC_SMASK << (a * LC_SBITS);
         uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(qo[0], a);
+        tie |= (uint32_t)((hm->qlo & fm) == (qo[1] & fm)) | (uint32_t)((qo[0] & fm) == (hm->qhi & fm));
         p[a] = ml > ol ? ml : ol;
     }
     if (lm >= lo ? !cell_holds(g, eq >> (ib + LC_LEVEL_BITS), lm, p)
@@ -142,19 +133,35 @@ static void consider_rest(const find_ctx *c, find_out *fo, const lc_hot *hm, con
     row[1] = hm->id < ho->id ? ho->id : hm->id;
 }
 
-/* Tests the gathered candidates in two rounds: the first on their packed
- * boxes (prefetched by gather); the survivors' records are prefetched
- * and tested in the second, so those misses overlap too. */
+/* Tests the gathered candidates in three rounds. The first drops, with no
+ * branch on the data, the candidates that are the query object itself, a
+ * tombstone or a box its quantized box misses (most of them, which ones at
+ * random: a branch there mispredicted on a good share of the candidates);
+ * their packed boxes were prefetched by gather. The second tests the
+ * canonical cell pair of the few left and prefetches their records, which
+ * the third tests (so those misses overlap too). */
 static void flush(const find_ctx *c, find_out *fo)
 {
     const lc_hot *hot = c->s->hot;
+    const uint64_t *hq = c->s->hq;
     const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
-    uint32_t k, ns = 0, r;
-    uint32_t sm[LC_GATHER], so[LC_GATHER];
+    uint32_t k, nk = 0, ns = 0, r, cand = 0;
+    uint32_t sk[LC_GATHER], sm[LC_GATHER], so[LC_GATHER];
     uint8_t st[LC_GATHER];
     for (k = 0; k < fo->ng; k++) {
-        uint32_t m = (uint32_t)(fo->gq[k] & imask), o = (uint32_t)(fo->go[k] & imask);
-        if ((r = consider_q(c, fo, fo->gq[k], &hot[m], fo->go[k])) != 0) {
+        const uint32_t m = (uint32_t)(fo->gq[k] & imask), o = (uint32_t)(fo->go[k] & imask);
+        const uint32_t real = (uint32_t)(o != m) & (uint32_t)(o != (uint32_t)imask);
+        /* a tombstone's index names no record: m's box stands in, unused */
+        const uint64_t *qo = hq + 2 * (size_t)(real ? o : m);
+        cand += real;
+        sk[nk] = k;
+        nk += real & !boxes_miss(&hot[m], qo);
+    }
+    fo->cand += cand;
+    for (k = 0; k < nk; k++) {
+        const uint64_t eq = fo->gq[sk[k]], eo = fo->go[sk[k]];
+        const uint32_t m = (uint32_t)(eq & imask), o = (uint32_t)(eo & imask);
+        if ((r = consider_cell(c, eq, &hot[m], eo, hq + 2 * (size_t)o)) != 0) {
             __builtin_prefetch(&hot[o]);
             __builtin_prefetch((const char *)&hot[o] + sizeof(lc_hot) - 1);
             sm[ns] = m, so[ns] = o, st[ns++] = (uint8_t)(r - 1);
