@@ -297,7 +297,7 @@ static locd_status sort_entries(locd_engine *e, lc_job_ctx *c, locd_stats *stats
         stats->ms_sort = lap(c);
         return st;
     }
-    in.k = c->plan.k, in.index_bits = c->grid.index_bits;
+    in.k = c->plan.k, in.index_bits = c->grid.index_bits, in.key_bits = LC_LEVEL_BITS + 3 * c->grid.depth;
     for (t = 0; t < c->plan.k; t++)
         in.run[t] = (uint64_t *)c->ip->ent.data + c->plan.off[t], in.count[t] = c->plan.cnt[t];
     st = lc_psort(c->ip->pool, &e->alloc, &in, c->ip->scr.data, c->ip->ent.data);

@@ -133,6 +133,7 @@ void lc_merge_split(const uint64_t *const *runs, const size_t *counts, size_t k,
 typedef struct lc_psort_in {
     uint32_t k; /* runs; the pool runs k tasks (k <= its size) */
     uint32_t index_bits;
+    uint32_t key_bits; /* the bits above index_bits that can vary, or 0: unknown */
     uint64_t *run[LC_MAX_THREADS];
     size_t count[LC_MAX_THREADS];
 } lc_psort_in;

@@ -217,6 +217,11 @@ locd_status lc_psort(lc_pool *pool, const locd_allocator *alloc, const lc_psort_
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the sort's %zu counts", words);
     c.start = c.count + ((size_t)in->k << d);
     c.digit = d, c.shift = 64 - d;
+    if (in->key_bits && in->index_bits + in->key_bits <= 64) {
+        if (c.digit > in->key_bits)
+            c.digit = in->key_bits;
+        c.shift = in->index_bits + in->key_bits - c.digit;
+    }
     run_pass(pool, &c, 0);
     if (!top_varying(&c, &d, &shift)) { /* one key: the runs in order are sorted */
         uint64_t *o = out;

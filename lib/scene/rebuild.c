@@ -492,7 +492,7 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
         task_build(c, 0, 1);
     for (i = 0; i < 2; i++) {
         lc_psort_in in;
-        in.k = kk, in.index_bits = g->index_bits;
+        in.k = kk, in.index_bits = g->index_bits, in.key_bits = LC_LEVEL_BITS + 3 * g->depth;
         for (t = 0; t < kk; t++)
             in.run[t] = c->ent[i] + c->off[i][t], in.count[t] = c->cnt[i][t];
         if (lc_psort(s->pool, a, &in, ts[i]->ent.data, c->ent[i]) != LOCD_OK)
