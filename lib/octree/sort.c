@@ -23,6 +23,8 @@
  * while one thread also sorted this way: 2^10-entry buckets 15.5 ms,
  * 2^17-entry ones 9.1; one thread now radix sorts its region directly). */
 #define LC_PSORT_BUCKET_LOG2 17
+#define LC_LINE 64 /* bytes in a cache line */
+#define LC_LINE_WORDS (LC_LINE / sizeof(size_t))
 #define LC_PSORT_MAX_DIGIT 11
 
 typedef struct psort_ctx {
@@ -30,7 +32,9 @@ typedef struct psort_ctx {
     uint64_t *out, *scratch;
     uint64_t or_[LC_MAX_THREADS], and_[LC_MAX_THREADS];
     uint32_t shift, digit;
-    size_t *count; /* k rows of 2^digit: counts, then where thread t writes each bucket */
+    size_t *count; /* k rows of 2^digit (row t at count + t * stride): counts, then where thread t writes
+                      each bucket */
+    size_t stride; /* a row's words: whole cache lines, so no two threads' counters share one */
     size_t *start; /* 2^digit + 1: where each bucket starts in out */
     uint32_t first_bucket[LC_MAX_THREADS + 1];
     int pass;
@@ -54,7 +58,7 @@ static void or_and_count(psort_ctx *c, uint32_t t)
     const uint64_t mask = ((uint64_t)1 << c->digit) - 1;
     const uint32_t sh = c->shift;
     uint64_t o = 0, a = ~(uint64_t)0;
-    size_t *h = c->count + ((size_t)t << c->digit), i, n = c->in->count[t];
+    size_t *h = c->count + t * c->stride, i, n = c->in->count[t];
     memset(h, 0, sizeof(size_t) << c->digit);
     for (i = 0; i < n; i++) {
         const uint64_t v = r[i];
@@ -69,7 +73,7 @@ static void scatter(psort_ctx *c, uint32_t t)
     const uint64_t *r = c->in->run[t];
     const uint64_t mask = ((uint64_t)1 << c->digit) - 1;
     const uint32_t sh = c->shift;
-    size_t *w = c->count + ((size_t)t << c->digit), i, n = c->in->count[t];
+    size_t *w = c->count + t * c->stride, i, n = c->in->count[t];
     uint64_t *out = c->out;
     for (i = 0; i < n; i++) {
         const uint64_t v = r[i];
@@ -120,7 +124,7 @@ static void task_psort(void *arg, uint32_t t, uint32_t k)
     psort_ctx *c = arg;
     switch (c->pass) {
     case 0: or_and_count(c, t); break;
-    case 1: count_digit(c->in->run[t], c->in->count[t], c->shift, c->digit, c->count + ((size_t)t << c->digit)); break;
+    case 1: count_digit(c->in->run[t], c->in->count[t], c->shift, c->digit, c->count + t * c->stride); break;
     case 2: scatter(c, t); break;
     case 3: sort_buckets(c, t); break;
     case 4: sort_own_run(c, t); break;
@@ -173,7 +177,7 @@ static size_t largest_bucket(const psort_ctx *c)
     for (b = 0; b < (1u << c->digit); b++) {
         size_t n = 0;
         for (t = 0; t < c->in->k; t++)
-            n += c->count[((size_t)t << c->digit) + b];
+            n += c->count[t * c->stride + b];
         most = n > most ? n : most;
     }
     return most;
@@ -192,7 +196,7 @@ static void plan_buckets(psort_ctx *c, size_t total)
         while (next < k && s >= total / k * next)
             c->first_bucket[next++] = b;
         for (t = 0; t < k; t++) {
-            size_t *h = c->count + ((size_t)t << c->digit) + b, n = *h;
+            size_t *h = c->count + t * c->stride + b, n = *h;
             *h = s;
             s += n;
         }
@@ -206,16 +210,25 @@ locd_status lc_psort(lc_pool *pool, const locd_allocator *alloc, const lc_psort_
 {
     psort_ctx c;
     size_t total = 0, words;
+    void *raw;
     uint32_t t, d, shift = 0;
     memset(&c, 0, sizeof c);
     c.in = in, c.out = out, c.scratch = scratch;
     for (t = 0; t < in->k; t++)
         total += in->count[t];
     d = digit_width(total, in->k);
-    words = ((size_t)in->k << d) + ((size_t)1 << d) + 1;
-    if (!(c.count = lc_alloc(alloc, words * sizeof(size_t))))
+    /* Each thread's row of counters on cache lines of its own: rows that
+       shared a line (the allocator's 16-byte alignment put a row's end and
+       the next row's start in one) had every increment there bounce between
+       the cores; the passes that count and scatter took about three times as
+       long, and whether they did changed with the heap's layout from one
+       build to the next. */
+    c.stride = ((((size_t)1 << d) + LC_LINE_WORDS - 1) / LC_LINE_WORDS) * LC_LINE_WORDS;
+    words = in->k * c.stride + ((size_t)1 << d) + 1 + LC_LINE_WORDS;
+    if (!(raw = lc_alloc(alloc, words * sizeof(size_t))))
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the sort's %zu counts", words);
-    c.start = c.count + ((size_t)in->k << d);
+    c.count = (size_t *)(void *)(((uintptr_t)raw + LC_LINE - 1) & ~(uintptr_t)(LC_LINE - 1));
+    c.start = c.count + in->k * c.stride;
     c.digit = d, c.shift = 64 - d;
     if (in->key_bits && in->index_bits + in->key_bits <= 64) {
         if (c.digit > in->key_bits)
@@ -243,6 +256,6 @@ locd_status lc_psort(lc_pool *pool, const locd_allocator *alloc, const lc_psort_
             run_pass(pool, &c, 3);
         }
     }
-    lc_free(alloc, c.count, words * sizeof(size_t));
+    lc_free(alloc, raw, words * sizeof(size_t));
     return LOCD_OK;
 }
