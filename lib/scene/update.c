@@ -541,13 +541,18 @@ typedef struct enc_ctx {
     int pass;
 } enc_ctx;
 
-static void encode_count(upd *u, enc_part *pt)
+/* The counts go through a local copy of the part, stored back at the end:
+ * the parts of two threads lie side by side (one cache line may hold the
+ * end of one and the start of the next), and the loop stores its counts
+ * at every step (it cannot keep them in registers past its other stores). */
+static void encode_count(upd *u, enc_part *shared)
 {
     locd_scene *s = u->s;
     const locd_grid *g = &s->grid;
     const uint32_t *d = s->dirty.data;
     uint64_t tmp[8];
     size_t k;
+    enc_part part = *shared, *pt = &part;
     for (k = pt->b; k < pt->e; k++) {
         uint32_t slot = d[k], cnt;
         uint8_t f = s->flags[slot];
@@ -578,13 +583,15 @@ static void encode_count(upd *u, enc_part *pt)
             pt->ndel[l] += lc_cells_entries(g, &s->cell[slot], 0, tmp);
         pt->nadd[l] += cnt;
     }
+    *shared = part;
 }
 
-static void encode_write(upd *u, enc_part *pt)
+static void encode_write(upd *u, enc_part *shared)
 {
     locd_scene *s = u->s;
     const locd_grid *g = &s->grid;
     const uint32_t *d = s->dirty.data;
+    enc_part part = *shared, *pt = &part; /* as in encode_count */
     size_t k, w = pt->live, at_q = pt->nq, at_del[2] = {pt->ndel[0], pt->ndel[1]},
               at_add[2] = {pt->nadd[0], pt->nadd[1]};
     uint32_t fresh = (uint32_t)pt->fresh;
@@ -635,6 +642,7 @@ static void encode_write(upd *u, enc_part *pt)
         s->hq[2 * (size_t)di] = q[0], s->hq[2 * (size_t)di + 1] = q[1];
         s->flags[slot] |= LC_SLOT_INTREE;
     }
+    shared->reenc = pt->reenc;
 }
 
 static void task_encode(void *arg, uint32_t t, uint32_t k)
