@@ -220,9 +220,9 @@ locd_status lc_psort(lc_pool *pool, const locd_allocator *alloc, const lc_psort_
     /* Each thread's row of counters on cache lines of its own: rows that
        shared a line (the allocator's 16-byte alignment put a row's end and
        the next row's start in one) had every increment there bounce between
-       the cores; the passes that count and scatter slowed down several
-       times over, and whether they did changed with the heap's layout from
-       one build to the next. */
+       the cores; the passes that count and scatter ran much slower, and
+       whether they did changed with the heap's layout from one build to
+       the next. */
     c.stride = ((((size_t)1 << d) + LC_LINE_WORDS - 1) / LC_LINE_WORDS) * LC_LINE_WORDS;
     words = in->k * c.stride + ((size_t)1 << d) + 1 + LC_LINE_WORDS;
     if (!(raw = lc_alloc(alloc, words * sizeof(size_t))))
