@@ -43,9 +43,7 @@ typedef struct lc_job_ctx {
     const uint64_t *sorted;
     locd_status status[LC_MAX_THREADS];
     size_t pair_off[LC_MAX_THREADS];
-    size_t npairs;
     uint32_t *dst;
-    int adopted; /* dst is thread 0's buffer, its pairs already in place (adopt_first) */
     uint64_t swept; /* pairs found so far by all sweep threads (atomic; with a stop hook) */
     int stopped;    /* the stop hook's status (atomic), 0 while going on */
 } lc_job_ctx;
@@ -128,38 +126,20 @@ static void task_sweep(void *arg, uint32_t t, uint32_t k)
     c->status[t] = c->e->stop.check ? sweep_blocks(c, b, e, o) : sweep_part(c, b, e, o);
 }
 
-/* Fills the result's positions [lo, hi) from the threads' buffers (thread
- * 0's are in place when adopted: only the two-set adjustment runs there). */
-static void fill(lc_job_ctx *c, size_t lo, size_t hi)
-{
-    uint32_t u, *dst;
-    size_t p;
-    if (lo == hi)
-        return; /* c->dst is NULL when no task found a pair: no pointer arithmetic on it */
-    for (u = 0; u < c->plan.k; u++) {
-        const lc_sweep_out *o = &c->ip->sw[u];
-        const size_t a = c->pair_off[u] > lo ? c->pair_off[u] : lo,
-                     b = c->pair_off[u] + o->count < hi ? c->pair_off[u] + o->count : hi;
-        if (a >= b)
-            continue;
-        dst = c->dst + 2 * a;
-        if (!(u == 0 && c->adopted))
-            memcpy(dst, (const uint32_t *)o->pairs.data + 2 * (a - c->pair_off[u]), (b - a) * 2 * sizeof(uint32_t));
-        if (c->split) /* two sets: the sweep wrote (i, split + j) */
-            for (p = 0; p < b - a; p++)
-                dst[2 * p + 1] -= (uint32_t)c->split;
-    }
-}
-
-/* Task t copies the t-th k-th of the pairs to copy, whatever thread found
- * them: all of them, or those after thread 0's when adopted. */
 static void task_gather(void *arg, uint32_t t, uint32_t k)
 {
     lc_job_ctx *c = arg;
-    const size_t first = c->adopted ? c->ip->sw[0].count : 0, rest = c->npairs - first;
-    fill(c, first + lc_chunk_begin(rest, t, k), first + lc_chunk_begin(rest, t + 1, k));
-    if (c->split && first)
-        fill(c, lc_chunk_begin(first, t, k), lc_chunk_begin(first, t + 1, k));
+    const lc_sweep_out *o = &c->ip->sw[t];
+    uint32_t *dst;
+    size_t p;
+    (void)k;
+    if (!o->count)
+        return; /* c->dst is NULL when no task found a pair: no pointer arithmetic on it */
+    dst = c->dst + 2 * c->pair_off[t];
+    memcpy(dst, o->pairs.data, o->count * 2 * sizeof(uint32_t));
+    if (c->split) /* two sets: the sweep wrote (i, split + j) */
+        for (p = 0; p < o->count; p++)
+            dst[2 * p + 1] -= (uint32_t)c->split;
 }
 
 lc_pool *lc_inproc_pool(locd_engine *e, int *kernel)
@@ -364,39 +344,6 @@ static locd_status sweep(lc_job_ctx *c, locd_stats *stats, size_t *npairs)
     return st;
 }
 
-static int same_allocator(const locd_allocator *a, const locd_allocator *b)
-{
-    return a->alloc == b->alloc && a->free == b->free && a->user == b->user;
-}
-
-/* 1 when the result may take thread 0's pair buffer, its pairs left in
- * place, and the result's buffer becomes thread 0's: the gather then copies
- * only the other threads' pairs (a dense scene's copy of millions of pairs
- * was a few percent of its call). So when thread 0's buffer is its own (not
- * lent), from the allocator that frees the result's, and the result's
- * buffer already holds npairs: thread 0 then never gets a smaller buffer
- * than it gives, and a loop that passes one result every call copies
- * thread 0's pairs only until both buffers are large enough. (A result new
- * at every call keeps the plain gather.) A thread 0 buffer short of npairs
- * is replaced by one that holds them all, its pairs copied, as the gather
- * would; if that allocation fails, the plain gather runs. */
-static int adopt_first(lc_job_ctx *c, const locd_pairs *out, size_t npairs)
-{
-    lc_sweep_out *o = &c->ip->sw[0];
-    if (o->pairs_lent || !o->count || out->cap < npairs || !same_allocator(o->alloc, &out->alloc))
-        return 0;
-    /* an even capacity: the result counts whole pairs, and frees what was allocated */
-    if (o->pairs.cap < 2 * npairs || o->pairs.cap % 2) {
-        uint32_t *d = lc_alloc(o->alloc, 2 * npairs * sizeof *d);
-        if (!d)
-            return 0;
-        memcpy(d, o->pairs.data, o->count * 2 * sizeof *d);
-        lc_free(o->alloc, o->pairs.data, o->pairs.cap * sizeof *d);
-        o->pairs.data = d, o->pairs.cap = 2 * npairs;
-    }
-    return 1;
-}
-
 /* Copies every slice's pairs into *out (k ways) and orders them if asked.
  * Everything that can fail happens before *out is touched. */
 static locd_status hand_over(locd_engine *e, lc_job_ctx *c, uint32_t flags, size_t npairs, locd_pairs *out,
@@ -410,21 +357,12 @@ static locd_status hand_over(locd_engine *e, lc_job_ctx *c, uint32_t flags, size
             !(order_tmp = lc_alloc(&e->alloc, order_bytes)))
             return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the buffer to sort %zu pairs", npairs);
     }
-    c->adopted = adopt_first(c, out, npairs);
-    if (!c->adopted && (st = lc_pairs_reserve(out, npairs)) != LOCD_OK) {
+    if ((st = lc_pairs_reserve(out, npairs)) != LOCD_OK) {
         lc_free(&e->alloc, order_tmp, order_bytes);
         return st;
     }
-    c->npairs = npairs;
-    c->dst = c->adopted ? c->ip->sw[0].pairs.data : out->data;
+    c->dst = out->data;
     lc_pool_run(c->ip->pool, c->plan.k, task_gather, c);
-    if (c->adopted) { /* the buffers change hands: the result's old one is thread 0's next */
-        lc_buf *own = &c->ip->sw[0].pairs;
-        uint32_t *old = out->data;
-        const size_t old_cap = out->cap;
-        out->data = own->data, out->cap = own->cap / 2;
-        own->data = old, own->cap = 2 * old_cap;
-    }
     out->count = npairs;
     stats->pairs = npairs;
     stats->ms_sweep = lap(c);
