@@ -57,12 +57,12 @@ static int cmp_pair(const void *a, const void *b)
     return x[1] < y[1] ? -1 : x[1] > y[1];
 }
 
-static void scene_make(scene *s, int kind, size_t n, uint64_t seed)
+/* The doubles and the brute-force answer of s->f (n boxes). */
+static void scene_finish(scene *s, size_t n)
 {
     locd_pairs *p;
     size_t i;
     s->n = n;
-    s->f = ts_scene(kind, n, seed);
     s->d = malloc(6 * n * sizeof(double));
     TEST_ASSERT_NOT_NULL(s->d);
     for (i = 0; i < 6 * n; i++)
@@ -72,6 +72,29 @@ static void scene_make(scene *s, int kind, size_t n, uint64_t seed)
     s->ref = ts_sorted_copy(p, &s->m);
     TEST_ASSERT_TRUE(s->m > 0);
     locd_pairs_destroy(p);
+}
+
+static void scene_make(scene *s, int kind, size_t n, uint64_t seed)
+{
+    s->f = ts_scene(kind, n, seed);
+    scene_finish(s, n);
+}
+
+/* n cubes of edge 0.12 in the unit cube: about 80 partners each, so each
+ * sweep thread finds more pairs than the engine's spare entry memory holds
+ * and grows a pair buffer of its own (the one a result may take over). */
+static void scene_make_dense(scene *s, size_t n, uint64_t seed)
+{
+    ts_rng r;
+    size_t i;
+    int a;
+    s->f = ts_boxes(n, &r, seed);
+    for (i = 0; i < n; i++)
+        for (a = 0; a < 3; a++) {
+            s->f[6 * i + a] = (float)(ts_uniform(&r) * 0.88);
+            s->f[6 * i + a + 3] = s->f[6 * i + a] + 0.12f;
+        }
+    scene_finish(s, n);
 }
 
 static void scene_free(scene *s)
@@ -259,7 +282,7 @@ static void create_teardown(void *p)
 typedef struct find_ctx {
     int32_t level;
     uint32_t threads;
-    int f64, into, warm;
+    int f64, into, warm; /* warm 2: the output holds this scene's answer from another engine */
     uint32_t flags;
     const scene *s;     /* the scene of the call */
     const scene *small; /* what the output (and, when warm, the engine) held before */
@@ -283,7 +306,13 @@ static void find_prepare(void *p)
     TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &c->e));
     TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(fa_allocator(), &c->out));
     /* Output holding an earlier answer; a warm engine has sized its buffers for it. */
-    if (c->warm)
+    if (c->warm == 2) { /* the output already has room for the answer: the result may take the sweep's buffer */
+        locd_engine *other;
+        cfg.threads = 1;
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_create(&cfg, &other));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(other, c->s->f, c->s->n, 0, c->out));
+        locd_engine_destroy(other);
+    } else if (c->warm)
         TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(c->e, c->small->f, c->small->n, 0, c->out));
     else
         TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_brute_force_f32(c->small->f, c->small->n, c->out));
@@ -652,6 +681,7 @@ static void job_teardown(void *v)
 
 typedef struct scenes {
     scene big;   /* >= PARALLEL_N objects: the engine splits the work */
+    scene dense; /* as many, with many more pairs than entries */
     scene small; /* what an output buffer held before the call */
     scene tiny;  /* for the O(n^2) reference */
 } scenes;
@@ -675,6 +705,7 @@ static int setup(void)
     }
     scene_make(&sc->big, 2, n, 41);    /* mixed sizes: several octree levels */
     scene_make(&sc->small, 0, 300, 7); /* uniform */
+    scene_make_dense(&sc->dense, n, 43);
     scene_make(&sc->tiny, 1, heavy() ? 1500 : 600, 5);
     return 0;
 }
@@ -683,6 +714,7 @@ static void teardown(void)
 {
     scenes *sc = &g_scenes;
     scene_free(&sc->big);
+    scene_free(&sc->dense);
     scene_free(&sc->small);
     scene_free(&sc->tiny);
     memset(sc, 0, sizeof *sc);
@@ -725,7 +757,7 @@ typedef struct find_variant {
 /* Runs the variants; with LOCD_TEST_HEAVY=0 only those whose index is in
  * `light` (a bit mask): the sanitizer builds are slow, and under TSan every
  * level-2 engine start is two instrumented processes. */
-static void find_variants(const scenes *sc, const find_variant *v, size_t nv, unsigned light)
+static void find_variants(const scenes *sc, const scene *of, const find_variant *v, size_t nv, unsigned light)
 {
     size_t i;
     for (i = 0; i < nv; i++) {
@@ -741,10 +773,11 @@ static void find_variants(const scenes *sc, const find_variant *v, size_t nv, un
         c.into = v[i].into;
         c.warm = v[i].warm;
         c.flags = v[i].flags;
-        c.s = &sc->big;
+        c.s = of;
         c.small = &sc->small;
         snprintf(name, sizeof name, "find_pairs_%s%s level %d threads=%u%s%s", c.f64 ? "f64" : "f32",
-                 c.into ? "_into" : "", c.level ? (int)c.level : 1, c.threads, c.warm ? " warm" : "",
+                 c.into ? "_into" : "", c.level ? (int)c.level : 1, c.threads,
+                 c.warm == 2 ? " into a result sized for it" : c.warm ? " warm" : "",
                  c.flags ? " sorted" : "");
         s.name = name;
         report(name, drive(&s, &c));
@@ -759,7 +792,18 @@ static void find_fails_cleanly(void)
         {0, 2, 0, 0, 1, 0},                     /* warm engine, buffers sized for a smaller scene */
         {0, 2, 0, 1, 0, 0}, {0, 1, 1, 1, 1, 0}, /* into a caller buffer */
     };
-    find_variants(&g_scenes, v, sizeof v / sizeof v[0], 0x1u | 0x8u | 0x10u | 0x20u);
+    find_variants(&g_scenes, &g_scenes.big, v, sizeof v / sizeof v[0], 0x1u | 0x8u | 0x10u | 0x20u);
+}
+
+/* A find into a result that already holds its answer, on a fresh engine
+ * and a dense scene (its sweep threads outgrow the spare entry memory and
+ * allocate pair buffers of their own): each allocation failed in turn
+ * leaves *out as it was, and the drive's teardown finds every block freed
+ * with its own size. */
+static void find_into_a_sized_result_fails_cleanly(void)
+{
+    static const find_variant v[] = {{0, 2, 0, 0, 2, 0}, {0, 3, 1, 0, 2, 0}, {0, 2, 0, 0, 2, LOCD_FIND_SORTED}};
+    find_variants(&g_scenes, &g_scenes.dense, v, sizeof v / sizeof v[0], 0x1u);
 }
 
 /* The (i, j) ordering allocates after the pairs are found: a failure there
@@ -770,7 +814,7 @@ static void find_sorted_fails_cleanly(void)
         {0, 1, 0, 0, 0, LOCD_FIND_SORTED}, {0, 2, 1, 0, 1, LOCD_FIND_SORTED},
         {LOCD_LEVEL_WORKERS, 2, 0, 0, 0, LOCD_FIND_SORTED}, {LOCD_LEVEL_SERVICE, 0, 1, 0, 0, LOCD_FIND_SORTED},
     };
-    find_variants(&g_scenes, v, sizeof v / sizeof v[0], 0x2u | 0x8u);
+    find_variants(&g_scenes, &g_scenes.big, v, sizeof v / sizeof v[0], 0x2u | 0x8u);
 }
 
 /* Levels 2 and 3: the caller's side of the call (requests, shared memory
@@ -783,7 +827,7 @@ static void find_other_levels_fail_cleanly(void)
         {LOCD_LEVEL_WORKERS, 1, 0, 1, 0, 0}, {LOCD_LEVEL_SERVICE, 0, 0, 0, 0, 0},
         {LOCD_LEVEL_SERVICE, 0, 1, 1, 1, 0},
     };
-    find_variants(&g_scenes, v, sizeof v / sizeof v[0], 0x1u | 0x10u);
+    find_variants(&g_scenes, &g_scenes.big, v, sizeof v / sizeof v[0], 0x1u | 0x10u);
 }
 
 static void pairs_fail_cleanly(void)
@@ -960,6 +1004,7 @@ int main(void)
         LT_TEST(engine_create_fails_cleanly),
         LT_TEST(find_fails_cleanly),
         LT_TEST(find_sorted_fails_cleanly),
+        LT_TEST(find_into_a_sized_result_fails_cleanly),
         LT_TEST(find_other_levels_fail_cleanly),
         LT_TEST(pairs_fail_cleanly),
         LT_TEST(brute_force_fails_cleanly),

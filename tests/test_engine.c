@@ -77,6 +77,67 @@ static void order_is_the_same_for_every_thread_count(void)
     }
 }
 
+/* n cubes of the given edge in the unit cube (seeded). */
+static float *cubes(size_t n, float edge, uint64_t seed)
+{
+    ts_rng r;
+    float *b = ts_boxes(n, &r, seed);
+    size_t i;
+    int a;
+    for (i = 0; i < n; i++)
+        for (a = 0; a < 3; a++) {
+            b[6 * i + a] = (float)(ts_uniform(&r) * (1.0 - edge));
+            b[6 * i + a + 3] = b[6 * i + a] + edge;
+        }
+    return b;
+}
+
+/* One result passed to call after call, on scenes of different pair counts
+ * in turn: the dense ones have more pairs than the engine's spare entry
+ * memory (lib/levels/inproc.c, lend_dead_entries), so the sweep threads
+ * grow buffers of their own and keep them; the sparse one then writes to
+ * those instead of the spare memory. Every answer is the one-thread answer
+ * byte for byte. */
+static void a_result_reused_across_scenes_keeps_every_answer(void)
+{
+    static const int order[] = {0, 1, 0, 2, 1, 1, 0, 2, 0, 1};
+    const size_t n = heavy() ? 12000 : 5000;
+    float *scene[3];
+    locd_pairs *ref[3], *p;
+    locd_engine *one = engine_with(1);
+    uint32_t threads;
+    int k;
+    scene[0] = cubes(n, heavy() ? 0.1f : 0.13f, 5);
+    scene[1] = cubes(n, heavy() ? 0.13f : 0.17f, 6);
+    scene[2] = ts_scene(0, n, 7);
+    for (k = 0; k < 3; k++) {
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &ref[k]));
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(one, scene[k], n, 0, ref[k]));
+    }
+    if (locd_pairs_count(ref[0]) < 20 * n || locd_pairs_count(ref[1]) < locd_pairs_count(ref[0]) * 3 / 2)
+        LT_FAIL("the dense scenes have %zu and %zu pairs: too few to fill the threads' own buffers",
+                locd_pairs_count(ref[0]), locd_pairs_count(ref[1]));
+    for (threads = 2; threads <= 3; threads++) {
+        locd_engine *e = engine_with(threads);
+        TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_pairs_create(NULL, &p));
+        for (k = 0; k < (int)(sizeof order / sizeof order[0]); k++) {
+            const int sc = order[k];
+            TEST_ASSERT_EQUAL_INT64(LOCD_OK, locd_engine_find_pairs_f32(e, scene[sc], n, 0, p));
+            if (locd_pairs_count(p) != locd_pairs_count(ref[sc]) ||
+                memcmp(locd_pairs_data(p), locd_pairs_data(ref[sc]), locd_pairs_count(p) * 8) != 0)
+                LT_FAIL("threads %u, call %d (scene %d): %zu pairs, not the one-thread answer (%zu)", threads, k, sc,
+                        locd_pairs_count(p), locd_pairs_count(ref[sc]));
+        }
+        locd_pairs_destroy(p);
+        locd_engine_destroy(e);
+    }
+    for (k = 0; k < 3; k++) {
+        locd_pairs_destroy(ref[k]);
+        free(scene[k]);
+    }
+    locd_engine_destroy(one);
+}
+
 /* The same values as float32 and float64 give the same pairs in the same order. */
 static void f32_and_f64_agree(void)
 {
@@ -224,6 +285,7 @@ int main(void)
     static const lt_test tests[] = {
         LT_TEST(random_scenes_match_brute_force),
         LT_TEST(order_is_the_same_for_every_thread_count),
+        LT_TEST(a_result_reused_across_scenes_keeps_every_answer),
         LT_TEST(f32_and_f64_agree),
         LT_TEST(touching_boxes_count_and_ulp_gaps_do_not),
         LT_TEST(automatic_depth_keeps_packed_boxes_apart),
