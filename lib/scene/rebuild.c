@@ -112,6 +112,12 @@ static void order_count(order_ctx *c, uint32_t t)
     size_t x, w = c->pb[t], *cnt = c->cnt[t];
     uint32_t *p = c->p;
     memset(cnt, 0, c->nb * sizeof *cnt);
+    if (c->all) { /* every pair kept: counts only, no store of each pair back in place */
+        for (x = c->pb[t]; x < c->pb[t + 1]; x++)
+            cnt[p[2 * x] >> c->shift]++;
+        c->kept[t] = c->pb[t + 1] - c->pb[t];
+        return;
+    }
     for (x = c->pb[t]; x < c->pb[t + 1]; x++) {
         uint32_t i = p[2 * x], j = p[2 * x + 1];
         if (!c->all && !lc_scene_may_pair(c->s, slot_of(c->live, i), slot_of(c->live, j)))
