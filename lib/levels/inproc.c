@@ -1,7 +1,8 @@
 /* Integration level 1: the whole pipeline in the caller's process, on a
  * fork-join pool of k threads. Each stage is split k ways: bounds, then
  * encode+sort of n/k objects per thread (the paper's slaves), then a merge
- * split by rank, then a sweep split by position. The result does not depend
+ * split by rank, then a sweep in slices by position that the threads take
+ * in turn (task_sweep). The result does not depend
  * on k: runs hold contiguous object ranges, entries are unique, and each
  * sweep slice rebuilds the exact state a serial sweep would have. */
 #include "levels/levels.h"
@@ -17,6 +18,16 @@
  * polls lc_stop.flag itself). */
 #define LC_STOP_BLOCK ((size_t)1 << 15)
 #define LC_STOP_BLOCKS 16
+/* The sweep is cut into slices that the threads take in turn, each about
+ * 1/(2k) of the entries left (at least LC_SLICE_MIN): large ones first,
+ * smaller ones towards the end, so that a thread that falls behind (a
+ * slower core of a hybrid CPU, a core another process takes, a virtual CPU
+ * its host stops) leaves the rest to the others and no thread is left
+ * with a large slice while the others wait. The pairs keep the order of
+ * one serial sweep: each slice's go to their place in the result. */
+#define LC_SLICE_MIN ((size_t)1 << 13)
+#define LC_MAX_SLICES 512
+#define LC_SLICE_POS_BITS 40 /* the cursor: slices taken above, next entry below */
 
 typedef struct lc_inproc {
     lc_pool *pool;
@@ -42,7 +53,15 @@ typedef struct lc_job_ctx {
     int overflow[LC_MAX_THREADS];
     const uint64_t *sorted;
     locd_status status[LC_MAX_THREADS];
-    size_t pair_off[LC_MAX_THREADS];
+    uint64_t cursor;  /* slices taken << LC_SLICE_POS_BITS | next entry (atomic) */
+    uint32_t nslices; /* taken, once the sweep is over */
+    int failed;       /* a slice failed: the others stop taking slices (atomic) */
+    struct {
+        uint32_t thread;     /* the thread that swept it */
+        size_t first, count; /* its pairs in that thread's buffer */
+        size_t at;           /* and their place in the result */
+    } slice[LC_MAX_SLICES];
+    size_t npairs;
     uint32_t *dst;
     uint64_t swept; /* pairs found so far by all sweep threads (atomic; with a stop hook) */
     int stopped;    /* the stop hook's status (atomic), 0 while going on */
@@ -116,30 +135,75 @@ static locd_status sweep_blocks(lc_job_ctx *c, size_t b, size_t e, lc_sweep_out 
     return LOCD_OK;
 }
 
+/* Takes the next slice [*b, *e) of the entries for a pool of k threads,
+ * its number in *s; 0 when none is left. */
+static int take_slice(lc_job_ctx *c, uint32_t k, uint32_t *s, size_t *b, size_t *e)
+{
+    const uint64_t pos_mask = ((uint64_t)1 << LC_SLICE_POS_BITS) - 1;
+    uint64_t cur = __atomic_load_n(&c->cursor, __ATOMIC_RELAXED), next;
+    size_t pos, n;
+    uint32_t idx;
+    do {
+        pos = (size_t)(cur & pos_mask), idx = (uint32_t)(cur >> LC_SLICE_POS_BITS);
+        if (pos >= c->plan.total)
+            return 0;
+        n = (c->plan.total - pos) / (2 * (size_t)k);
+        if (n < LC_SLICE_MIN)
+            n = LC_SLICE_MIN;
+        if (k == 1 || n > c->plan.total - pos || idx == LC_MAX_SLICES - 1) /* one thread, or the last slice: the rest */
+            n = c->plan.total - pos;
+        next = ((uint64_t)(idx + 1) << LC_SLICE_POS_BITS) | (uint64_t)(pos + n);
+    } while (!__atomic_compare_exchange_n(&c->cursor, &cur, next, 0, __ATOMIC_RELAXED, __ATOMIC_RELAXED));
+    *s = idx, *b = pos, *e = pos + n;
+    return 1;
+}
+
+/* Thread t takes slices until none is left (or one failed, or the stop hook
+ * said stop), appending each one's pairs to its buffer. */
 static void task_sweep(void *arg, uint32_t t, uint32_t k)
 {
     lc_job_ctx *c = arg;
-    size_t b = lc_chunk_begin(c->plan.total, t, k), e = lc_chunk_begin(c->plan.total, t + 1, k);
     lc_sweep_out *o = &c->ip->sw[t];
+    uint32_t s;
+    size_t b, e;
     o->count = 0;
     o->candidates = o->exact_tests = 0;
-    c->status[t] = c->e->stop.check ? sweep_blocks(c, b, e, o) : sweep_part(c, b, e, o);
+    c->status[t] = LOCD_OK;
+    while (!__atomic_load_n(&c->failed, __ATOMIC_RELAXED) && !__atomic_load_n(&c->stopped, __ATOMIC_RELAXED) &&
+           take_slice(c, k, &s, &b, &e)) {
+        const size_t before = o->count;
+        const locd_status st = c->e->stop.check ? sweep_blocks(c, b, e, o) : sweep_part(c, b, e, o);
+        c->slice[s].thread = t, c->slice[s].first = before, c->slice[s].count = o->count - before;
+        if (st != LOCD_OK) {
+            c->status[t] = st;
+            __atomic_store_n(&c->failed, 1, __ATOMIC_RELAXED);
+        }
+    }
 }
 
+/* Task t copies the pairs of the result's positions [npairs t / k,
+ * npairs (t + 1) / k), from the slices that hold them: an even share of
+ * the copy whatever each thread found. */
 static void task_gather(void *arg, uint32_t t, uint32_t k)
 {
     lc_job_ctx *c = arg;
-    const lc_sweep_out *o = &c->ip->sw[t];
-    uint32_t *dst;
+    const size_t lo = lc_chunk_begin(c->npairs, t, k), hi = lc_chunk_begin(c->npairs, t + 1, k);
+    uint32_t s, *dst;
     size_t p;
-    (void)k;
-    if (!o->count)
+    if (lo == hi)
         return; /* c->dst is NULL when no task found a pair: no pointer arithmetic on it */
-    dst = c->dst + 2 * c->pair_off[t];
-    memcpy(dst, o->pairs.data, o->count * 2 * sizeof(uint32_t));
-    if (c->split) /* two sets: the sweep wrote (i, split + j) */
-        for (p = 0; p < o->count; p++)
-            dst[2 * p + 1] -= (uint32_t)c->split;
+    for (s = 0; s < c->nslices; s++) {
+        const size_t a = c->slice[s].at > lo ? c->slice[s].at : lo,
+                     e = c->slice[s].at + c->slice[s].count < hi ? c->slice[s].at + c->slice[s].count : hi;
+        if (a >= e)
+            continue;
+        dst = c->dst + 2 * a;
+        memcpy(dst, (const uint32_t *)c->ip->sw[c->slice[s].thread].pairs.data + 2 * (c->slice[s].first + (a - c->slice[s].at)),
+               (e - a) * 2 * sizeof(uint32_t));
+        if (c->split) /* two sets: the sweep wrote (i, split + j) */
+            for (p = 0; p < e - a; p++)
+                dst[2 * p + 1] -= (uint32_t)c->split;
+    }
 }
 
 lc_pool *lc_inproc_pool(locd_engine *e, int *kernel)
@@ -319,27 +383,31 @@ static void lend_dead_entries(lc_job_ctx *c)
         lc_sweep_out_lend(&ip->sw[t], (uint32_t *)(dead + t * slice), 2 * slice);
 }
 
-/* Sweeps k slices of the merged entries; *npairs gets the pairs found, each
- * slice's place in the result goes to c->pair_off. */
+/* Sweeps the merged entries in slices on k threads; *npairs gets the pairs
+ * found, each slice's place in the result goes to c->slice[].at. */
 static locd_status sweep(lc_job_ctx *c, locd_stats *stats, size_t *npairs)
 {
     locd_status st = LOCD_OK;
-    uint32_t t;
+    uint32_t t, s;
     lend_dead_entries(c);
     for (t = 0; t < c->plan.k; t++) {
         c->ip->sw[t].split = (uint32_t)c->split;
         c->ip->sw[t].stop = c->e->stop.flag;
     }
+    c->cursor = 0;
     lc_pool_run(c->ip->pool, c->plan.k, task_sweep, c);
-    *npairs = 0;
+    c->nslices = (uint32_t)(c->cursor >> LC_SLICE_POS_BITS);
     for (t = 0; t < c->plan.k; t++) {
         const lc_sweep_out *o = &c->ip->sw[t];
         if (c->status[t] && !st)
             st = c->status[t];
-        c->pair_off[t] = *npairs;
-        *npairs += o->count;
         stats->candidates += o->candidates;
         stats->exact_tests += o->exact_tests;
+    }
+    *npairs = 0;
+    for (s = 0; s < c->nslices; s++) {
+        c->slice[s].at = *npairs;
+        *npairs += c->slice[s].count;
     }
     return st;
 }
@@ -362,6 +430,7 @@ static locd_status hand_over(locd_engine *e, lc_job_ctx *c, uint32_t flags, size
         return st;
     }
     c->dst = out->data;
+    c->npairs = npairs;
     lc_pool_run(c->ip->pool, c->plan.k, task_gather, c);
     out->count = npairs;
     stats->pairs = npairs;
