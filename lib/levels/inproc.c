@@ -19,7 +19,9 @@
 #define LC_STOP_BLOCK ((size_t)1 << 15)
 #define LC_STOP_BLOCKS 16
 /* The sweep is cut into slices that the threads take in turn, each about
- * 1/(2k) of the entries left (at least LC_SLICE_MIN): large ones first,
+ * 1/(2k) of the entries left (at least LC_SLICE_MIN, and at least a
+ * LC_MAX_SLICES / 2-th of all, which keeps the slices of 64 threads below
+ * LC_MAX_SLICES; the last one possible takes the rest): large ones first,
  * smaller ones towards the end, so that a thread that falls behind (a
  * slower core of a hybrid CPU, a core another process takes, a virtual CPU
  * its host stops) leaves the rest to the others and no thread is left
@@ -150,6 +152,8 @@ static int take_slice(lc_job_ctx *c, uint32_t k, uint32_t *s, size_t *b, size_t 
         n = (c->plan.total - pos) / (2 * (size_t)k);
         if (n < LC_SLICE_MIN)
             n = LC_SLICE_MIN;
+        if (n < c->plan.total / (LC_MAX_SLICES / 2))
+            n = c->plan.total / (LC_MAX_SLICES / 2);
         if (k == 1 || n > c->plan.total - pos || idx == LC_MAX_SLICES - 1) /* one thread, or the last slice: the rest */
             n = c->plan.total - pos;
         next = ((uint64_t)(idx + 1) << LC_SLICE_POS_BITS) | (uint64_t)(pos + n);
