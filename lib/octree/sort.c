@@ -1,8 +1,9 @@
 /* Sorts k runs of 64-bit entries into one array on the pool, with no merge
  * pass: every thread scatters its run into 2^d buckets of the top bits
  * that vary (thread t's share of a bucket after thread t-1's, so entries
- * with equal high bits keep the runs' order), then sorts a range of the
- * buckets, each small enough for the cache, with lc_radix_sort.
+ * with equal high bits keep the runs' order), then the threads take the
+ * buckets in turn and sort each, small enough for the cache, with
+ * lc_radix_sort (a thread on a slower core takes fewer).
  *
  * Why: the engine's threads used to radix sort their own runs (four
  * passes over their entries, each scattering to 2,048 places out of the
@@ -16,8 +17,8 @@
 #include "octree/octree.h"
 
 /* Buckets hold about 2^17 entries at most (1 MiB, the second cache
- * level), and there are at least 8 per thread so that the threads' ranges
- * of buckets come out about even. Smaller buckets cost more than they
+ * level), and there are at least 8 per thread so that the threads, taking
+ * them in turn, end about together. Smaller buckets cost more than they
  * save: below about 2^13 entries the counts of each pass (2^bits of them)
  * weigh as much as the entries (measured on mixed35's 1.5 million entries
  * while one thread also sorted this way: 2^10-entry buckets 15.5 ms,
@@ -36,7 +37,7 @@ typedef struct psort_ctx {
                       each bucket */
     size_t stride; /* a row's words: whole cache lines, so no two threads' counters share one */
     size_t *start; /* 2^digit + 1: where each bucket starts in out */
-    uint32_t first_bucket[LC_MAX_THREADS + 1];
+    uint32_t next_bucket; /* the next bucket to sort (atomic) */
     int pass;
 } psort_ctx;
 
@@ -84,7 +85,8 @@ static void scatter(psort_ctx *c, uint32_t t)
 static void sort_buckets(psort_ctx *c, uint32_t t)
 {
     uint32_t b;
-    for (b = c->first_bucket[t]; b < c->first_bucket[t + 1]; b++) {
+    (void)t;
+    while ((b = __atomic_fetch_add(&c->next_bucket, 1, __ATOMIC_RELAXED)) < (1u << c->digit)) {
         const size_t s = c->start[b], n = c->start[b + 1] - s;
         const uint64_t *r = lc_radix_sort(c->out + s, c->scratch + s, n, c->in->index_bits);
         if (r != c->out + s)
@@ -183,18 +185,14 @@ static size_t largest_bucket(const psort_ctx *c)
     return most;
 }
 
-/* Each bucket's start, each thread's offsets in it, and each thread's
- * range of buckets to sort (about total / k entries each). */
-static void plan_buckets(psort_ctx *c, size_t total)
+/* Each bucket's start and each thread's offsets in it. */
+static void plan_buckets(psort_ctx *c)
 {
     const uint32_t k = c->in->k, nb = 1u << c->digit;
-    uint32_t b, t, next = 1;
+    uint32_t b, t;
     size_t s = 0;
-    c->first_bucket[0] = 0;
     for (b = 0; b < nb; b++) {
         c->start[b] = s;
-        while (next < k && s >= total / k * next)
-            c->first_bucket[next++] = b;
         for (t = 0; t < k; t++) {
             size_t *h = c->count + t * c->stride + b, n = *h;
             *h = s;
@@ -202,8 +200,7 @@ static void plan_buckets(psort_ctx *c, size_t total)
         }
     }
     c->start[nb] = s;
-    while (next <= k)
-        c->first_bucket[next++] = nb;
+    c->next_bucket = 0;
 }
 
 locd_status lc_psort(lc_pool *pool, const locd_allocator *alloc, const lc_psort_in *in, uint64_t *out, uint64_t *scratch)
@@ -251,7 +248,7 @@ locd_status lc_psort(lc_pool *pool, const locd_allocator *alloc, const lc_psort_
             run_pass(pool, &c, 4);
             run_pass(pool, &c, 5);
         } else {
-            plan_buckets(&c, total);
+            plan_buckets(&c);
             run_pass(pool, &c, 2);
             run_pass(pool, &c, 3);
         }
