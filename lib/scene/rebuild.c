@@ -120,7 +120,7 @@ static void order_count(order_ctx *c, uint32_t t)
     }
     for (x = c->pb[t]; x < c->pb[t + 1]; x++) {
         uint32_t i = p[2 * x], j = p[2 * x + 1];
-        if (!c->all && !lc_scene_may_pair(c->s, slot_of(c->live, i), slot_of(c->live, j)))
+        if (!lc_scene_may_pair(c->s, slot_of(c->live, i), slot_of(c->live, j)))
             continue;
         p[2 * w] = i, p[2 * w + 1] = j, w++;
         cnt[i >> c->shift]++;
