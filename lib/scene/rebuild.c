@@ -180,11 +180,27 @@ static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
         }
         for (x = lo; x < hi; x++)
             v[lo + cnt[(uint32_t)(k[x] >> 32) - base]++] = k[x];
+        /* One compare-exchange pass first, with no branch: it carries the
+           largest key so far and leaves each i's run with its largest j
+           last, which sorts every run of one or two keys (most runs: an
+           object has about one partner of higher index in a sparse scene). Keys
+           of different i keep their order (v is in i order). The
+           insertion pass below then finds few keys out of place; run alone,
+           its test mispredicted on about half the keys of the runs of two. */
+        {
+            uint64_t cur = v[lo];
+            for (x = lo + 1; x < hi; x++) {
+                const uint64_t e = v[x];
+                v[x - 1] = cur < e ? cur : e;
+                cur = cur < e ? e : cur;
+            }
+            v[hi - 1] = cur;
+        }
         /* Each i's run by j: v is in i order, so one insertion pass over
            the whole bucket moves each key back within its own run only
-           (a few places: an object has a few partners), with one
-           well-predicted compare a key; a walk over the 2^shift runs took
-           a branch per i whatever its run's length. A run longer than
+           (a few places: an object has a few partners), with one compare a
+           key, well predicted after the pass above; a walk over the 2^shift
+           runs took a branch per i whatever its run's length. A run longer than
            LC_ORDER_RUN (a box over much of the scene) is sorted on its own
            (no quadratic case). */
         for (x = lo + 1; x < hi; x++) {
