@@ -1413,6 +1413,67 @@ static void from_scratch_follows_adds_removes_and_filters(void)
     free(b), free(ids), free(grp), free(m.o), free(m.pairs);
 }
 
+/* An update reads a dirty list of an eighth of the slots or more as the
+ * flags of every slot (update.c, dirty_dense); a shorter one as the list.
+ * Either way stats.moved counts the live objects of the list, and every
+ * DIRTY flag is cleared: one left set would keep the next move of its
+ * object off the list, and that object's new pairs out of the set. A dense
+ * update with moved, removed, added and re-filtered objects, then sparse
+ * ones that move objects of each kind again, each checked against the
+ * model. */
+static void dense_and_sparse_dirty_lists(void)
+{
+    locd_engine *e = new_engine(2, NULL);
+    locd_scene *s = NULL;
+    const size_t n = 2000;
+    double *b = malloc(n * 6 * sizeof *b);
+    locd_id *ids = malloc(n * sizeof *ids), gone[100], added[50], refiltered[10];
+    uint64_t cat[10];
+    model m;
+    world w;
+    size_t k, round;
+    locd_scene_stats st;
+    memset(&m, 0, sizeof m);
+    w = world_make(4242, 50.0, 3.0, 0);
+    for (k = 0; k < n; k++)
+        random_box(&w, b + 6 * k);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    add_boxes(s, &m, b, n, 0, ids);
+    check_update(s, &m);
+    for (k = 0; k < 600; k++) { /* 600 moved, the first 100 of them then removed */
+        random_box(&w, b);
+        move_box(s, &m, ids[3 * k], b);
+    }
+    for (k = 0; k < 100; k++)
+        gone[k] = ids[3 * k];
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, gone, 100));
+    for (k = 0; k < 100; k++)
+        m_remove(&m, gone[k]);
+    for (k = 0; k < 50; k++)
+        random_box(&w, b + 6 * k);
+    add_boxes(s, &m, b, 50, 0, added);
+    for (k = 0; k < 10; k++) /* unmoved, re-filtered to what they had: dirty all the same */
+        refiltered[k] = ids[3 * k + 1], cat[k] = 1;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_filter(s, refiltered, 10, cat, NULL, NULL));
+    check_update(s, &m);
+    locd_scene_stats_init(&st);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
+    TEST_ASSERT_EQUAL_UINT64(500 + 50 + 10, st.moved);
+    for (round = 0; round < 3; round++) { /* sparse: one moved, one added and one re-filtered object each */
+        const locd_id again[3] = {ids[3 * (100 + round * 150)], added[round * 20], refiltered[round * 4]};
+        for (k = 0; k < 3; k++) {
+            random_box(&w, b);
+            move_box(s, &m, again[k], b);
+        }
+        check_update(s, &m);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
+        TEST_ASSERT_EQUAL_UINT64(3, st.moved);
+    }
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    free(b), free(ids), free(m.o), free(m.pairs);
+}
+
 static void float_copies_follow_the_boxes(void)
 {
     locd_engine *e = new_engine(2, NULL);
@@ -1765,6 +1826,7 @@ static const lt_test tests[] = {
     LT_TEST(hard_cases),
     LT_TEST(a_box_over_everything),
     LT_TEST(float_copies_follow_the_boxes),
+    LT_TEST(dense_and_sparse_dirty_lists),
     LT_TEST(large_scene_threads_and_fresh),
     LT_TEST(large_moves_on_the_pool),
     LT_TEST(from_scratch_follows_adds_removes_and_filters),
