@@ -81,12 +81,17 @@ LC_AVX512 LC_INLINE size_t store_cells8(const __m512i code[8], const uint32_t dd
 #define LC_HAVE_AVX2_ENCODE 1
 #define LC_AVX2_ENCODE __attribute__((target("avx2")))
 
-/* split3 on four 21-bit values at once (lc_morton_split3's magic bits). */
-LC_AVX2_ENCODE LC_INLINE __m256i spread3x4(__m128i v)
+/* split3 on four values below 2^depth at once (lc_morton_split3's magic
+ * bits, depth <= 21). A value below 2^16 is unchanged by the first step, one
+ * below 2^8 by the second too: a grid of depth 16 or less skips them (the
+ * branches are the same for a whole call). */
+LC_AVX2_ENCODE LC_INLINE __m256i spread3x4(__m128i v, uint32_t depth)
 {
     __m256i x = _mm256_cvtepu32_epi64(v);
-    x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 32)), _mm256_set1_epi64x(0x1f00000000ffffLL));
-    x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 16)), _mm256_set1_epi64x(0x1f0000ff0000ffLL));
+    if (depth > 16)
+        x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 32)), _mm256_set1_epi64x(0x1f00000000ffffLL));
+    if (depth > 8)
+        x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 16)), _mm256_set1_epi64x(0x1f0000ff0000ffLL));
     x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 8)), _mm256_set1_epi64x(0x100f00f00f00f00fLL));
     x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 4)), _mm256_set1_epi64x(0x10c30c30c30c30c3LL));
     x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 2)), _mm256_set1_epi64x(0x1249249249249249LL));
@@ -110,22 +115,87 @@ LC_AVX2_ENCODE LC_INLINE void pack_qbox4(const __m128i q[6], uint64_t *qbox)
     _mm256_storeu_si256((__m256i *)(qbox + 4), _mm256_permute2x128_si256(lo, hi, 0x31));
 }
 
-/* The cells k (bit 0: second x cell, bit 1: y, bit 2: z) an object has when
- * its second cells are the bits of d, ascending ((z, y, x) order: the
- * scalar body's), padded; and how many. */
-static const uint8_t cells_of_d[8][8] = {
-    {0, 0, 0, 0, 0, 0, 0, 0}, {0, 1, 0, 0, 0, 0, 0, 0}, {0, 2, 0, 0, 0, 0, 0, 0}, {0, 1, 2, 3, 0, 0, 0, 0},
-    {0, 4, 0, 0, 0, 0, 0, 0}, {0, 1, 4, 5, 0, 0, 0, 0}, {0, 2, 4, 6, 0, 0, 0, 0}, {0, 1, 2, 3, 4, 5, 6, 7}};
-static const uint8_t ncells_of_d[8] = {1, 2, 2, 4, 2, 4, 4, 8};
+/* Writes the real cells of four objects at out + w, object by object:
+ * code[k] holds cell k (bit 0: second x cell, bit 1: y, bit 2: z) of each
+ * object in lane j, dd[j] says which second cells object j has. Two 4x4
+ * transposes of 64-bit lanes make object j's cells 0-3 one vector and its
+ * cells 4-7 another. An object's real cells in a half are k with no bit
+ * outside dd[j]: 0; 0, 1; 0, 2; or all four, in (z, y, x) order (the scalar
+ * body's); one permute brings them to the front (only 0, 2 moves a lane),
+ * one store writes the half, and w advances by their number (by none for
+ * the z half of an object with no second z cell: the next store writes over
+ * it). At most eight entries are written past w per object, as before. */
+LC_AVX2_ENCODE LC_INLINE size_t store_cells4(const __m256i code[8], const uint32_t dd[4], uint64_t *out, size_t w)
+{
+    static const int32_t front[4][8] = {
+        {0, 1, 2, 3, 4, 5, 6, 7}, {0, 1, 2, 3, 4, 5, 6, 7}, {0, 1, 4, 5, 2, 3, 6, 7}, {0, 1, 2, 3, 4, 5, 6, 7}};
+    static const uint8_t count[4] = {1, 2, 2, 4};
+    __m256i row[2][4];
+    int h, j;
+    for (h = 0; h < 2; h++) {
+        const __m256i *c = code + 4 * h;
+        const __m256i t0 = _mm256_unpacklo_epi64(c[0], c[1]), t1 = _mm256_unpackhi_epi64(c[0], c[1]);
+        const __m256i t2 = _mm256_unpacklo_epi64(c[2], c[3]), t3 = _mm256_unpackhi_epi64(c[2], c[3]);
+        row[h][0] = _mm256_permute2x128_si256(t0, t2, 0x20);
+        row[h][1] = _mm256_permute2x128_si256(t1, t3, 0x20);
+        row[h][2] = _mm256_permute2x128_si256(t0, t2, 0x31);
+        row[h][3] = _mm256_permute2x128_si256(t1, t3, 0x31);
+    }
+    for (j = 0; j < 4; j++) {
+        const uint32_t xy = dd[j] & 3u;
+        const __m256i p = _mm256_loadu_si256((const __m256i *)front[xy]);
+        _mm256_storeu_si256((__m256i *)(out + w), _mm256_permutevar8x32_epi32(row[0][j], p));
+        w += count[xy];
+        _mm256_storeu_si256((__m256i *)(out + w), _mm256_permutevar8x32_epi32(row[1][j], p));
+        w += (dd[j] & 4u) ? count[xy] : 0u;
+    }
+    return w;
+}
+
+/* Coordinate a (lo x y z, hi x y z) of the four boxes at b, as doubles,
+ * in x[a]: per box one load of its first four coordinates and one of its
+ * last two, then a 4x4 transpose and two shuffles (four scalar loads and
+ * inserts per coordinate before). */
+LC_AVX2_ENCODE LC_INLINE void load4_f32(const float *b, __m256d x[6])
+{
+    __m128 r0 = _mm_loadu_ps(b), r1 = _mm_loadu_ps(b + 6), r2 = _mm_loadu_ps(b + 12), r3 = _mm_loadu_ps(b + 18);
+    const __m128 s01 = _mm_loadh_pi(_mm_loadl_pi(_mm_setzero_ps(), (const __m64 *)(b + 4)), (const __m64 *)(b + 10));
+    const __m128 s23 = _mm_loadh_pi(_mm_loadl_pi(_mm_setzero_ps(), (const __m64 *)(b + 16)), (const __m64 *)(b + 22));
+    _MM_TRANSPOSE4_PS(r0, r1, r2, r3);
+    x[0] = _mm256_cvtps_pd(r0);
+    x[1] = _mm256_cvtps_pd(r1);
+    x[2] = _mm256_cvtps_pd(r2);
+    x[3] = _mm256_cvtps_pd(r3);
+    x[4] = _mm256_cvtps_pd(_mm_shuffle_ps(s01, s23, _MM_SHUFFLE(2, 0, 2, 0)));
+    x[5] = _mm256_cvtps_pd(_mm_shuffle_ps(s01, s23, _MM_SHUFFLE(3, 1, 3, 1)));
+}
+
+LC_AVX2_ENCODE LC_INLINE void load4_f64(const double *b, __m256d x[6])
+{
+    const __m256d r0 = _mm256_loadu_pd(b), r1 = _mm256_loadu_pd(b + 6), r2 = _mm256_loadu_pd(b + 12),
+                  r3 = _mm256_loadu_pd(b + 18);
+    /* lx0 lx1 lz0 lz1, ly0 ly1 hx0 hx1, and the same for boxes 2 and 3 */
+    const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
+    const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
+    /* hy0 hz0 hy2 hz2, hy1 hz1 hy3 hz3 */
+    const __m256d s0 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(b + 4)), _mm_loadu_pd(b + 16), 1);
+    const __m256d s1 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(b + 10)), _mm_loadu_pd(b + 22), 1);
+    x[0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+    x[1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+    x[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+    x[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+    x[4] = _mm256_unpacklo_pd(s0, s1);
+    x[5] = _mm256_unpackhi_pd(s0, s1);
+}
 #endif
 
 /* The variants (octree.h): the scalar body and, where the compiler has it,
  * the AVX2 and AVX-512 ones, per precision; LC_GATHER loads coordinate a of
- * eight boxes as doubles, LC_LOAD4 of four. */
+ * eight boxes as doubles, LC_LOAD4 all six of four. */
 #define LC_T float
 #define LC_SUFFIX f32
 #define LC_GATHER(a) _mm512_cvtps_pd(_mm256_i32gather_ps(b + (a), lane6, 4))
-#define LC_LOAD4(a) _mm256_cvtps_pd(_mm_setr_ps(b[a], b[(a) + 6], b[(a) + 12], b[(a) + 18]))
+#define LC_LOAD4(b, x) load4_f32(b, x)
 #include "encode_impl.h"
 #undef LC_GATHER
 #undef LC_LOAD4
@@ -133,7 +203,7 @@ static const uint8_t ncells_of_d[8] = {1, 2, 2, 4, 2, 4, 4, 8};
 #define LC_T double
 #define LC_SUFFIX f64
 #define LC_GATHER(a) _mm512_i32gather_pd(lane6, b + (a), 8)
-#define LC_LOAD4(a) _mm256_setr_pd(b[a], b[(a) + 6], b[(a) + 12], b[(a) + 18])
+#define LC_LOAD4(b, x) load4_f64(b, x)
 #include "encode_impl.h"
 #undef LC_GATHER
 #undef LC_LOAD4

@@ -165,9 +165,11 @@ LC_AVX512 static size_t LC_FN(encode_avx512_)(const locd_grid *g, const LC_T *bo
 /* Four objects per step, with the scalar body's arithmetic (the same IEEE
  * operations as lc_quantize, so the same integers; the level from the
  * extent as the scalar lc_level_for) and its entries in its order. The
- * eight candidate cells of the four objects are computed as vectors and
- * stored; each object's real ones are then copied out through a table, so
- * no branch depends on how many cells an object has. */
+ * eight candidate cells of the four objects are computed as vectors; each
+ * object's real ones leave through store_cells4, with no branch on how many
+ * cells an object has. A second cell's Morton bits are the first's plus one
+ * on its axis (lc_morton_next3's carry through the other axes' bits, taken
+ * where the box has a second cell), not a second spread. */
 LC_AVX2_ENCODE static size_t LC_FN(encode_avx2_)(const locd_grid *g, const LC_T *boxes, size_t first, size_t count,
                                                  uint64_t *out, size_t capacity, size_t *needed, uint64_t *qbox)
 {
@@ -177,19 +179,20 @@ LC_AVX2_ENCODE static size_t LC_FN(encode_avx2_)(const locd_grid *g, const LC_T 
     const __m256d half = _mm256_set1_pd(0.5), zero = _mm256_setzero_pd(), qmax = _mm256_set1_pd(LC_QMAX);
     const __m256d sa = _mm256_set1_pd(g->scale_a), sb = _mm256_set1_pd(g->scale_b);
     const __m256i lane4 = _mm256_setr_epi64x(0, 1, 2, 3);
+    const __m256i axis = _mm256_set1_epi64x(0x1249249249249249LL), others = _mm256_set1_epi64x(~0x1249249249249249LL);
     const size_t end = first + count;
     size_t i = first, w = 0;
     for (; i + 4 <= end && w + 32 <= capacity; i += 4) {
         const LC_T *b = boxes + 6 * i;
+        __m256d x[6];
         __m128i q[6], ext, sh, lv, c0[3], d[3];
-        __m256i m0[3], m1[3], shl, base;
-        uint64_t code[8][4];
+        __m256i m0[3], m1[3], shl, base, code[8];
         uint32_t dd[4];
-        int a, k, j;
+        int a, k;
+        LC_LOAD4(b, x);
         for (a = 0; a < 6; a++) {
             const __m256d o = _mm256_set1_pd(g->origin[a % 3]);
-            const __m256d x = LC_LOAD4(a);
-            const __m256d t = _mm256_mul_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_mul_pd(x, half), o), sa), sb);
+            const __m256d t = _mm256_mul_pd(_mm256_mul_pd(_mm256_sub_pd(_mm256_mul_pd(x[a], half), o), sa), sb);
             q[a] = _mm256_cvttpd_epi32(_mm256_min_pd(_mm256_max_pd(t, zero), qmax));
         }
         if (qbox)
@@ -210,10 +213,14 @@ LC_AVX2_ENCODE static size_t LC_FN(encode_avx2_)(const locd_grid *g, const LC_T 
         }
         sh = _mm_sub_epi32(_mm_set1_epi32(LC_QBITS), lv);
         for (a = 0; a < 3; a++) { /* d is 0 or 1: lc_grid_check keeps the bias >= 0 */
+            __m256i sp, next, has;
             c0[a] = _mm_srlv_epi32(q[a], sh);
             d[a] = _mm_sub_epi32(_mm_srlv_epi32(q[a + 3], sh), c0[a]);
-            m0[a] = _mm256_slli_epi64(spread3x4(c0[a]), a);
-            m1[a] = _mm256_slli_epi64(spread3x4(_mm_add_epi32(c0[a], d[a])), a);
+            sp = spread3x4(c0[a], depth); /* a cell's coordinates are below 2^level <= 2^depth */
+            next = _mm256_and_si256(_mm256_add_epi64(_mm256_or_si256(sp, others), _mm256_set1_epi64x(1)), axis);
+            has = _mm256_sub_epi64(_mm256_setzero_si256(), _mm256_cvtepu32_epi64(d[a])); /* all ones where d = 1 */
+            m0[a] = _mm256_slli_epi64(sp, a);
+            m1[a] = _mm256_slli_epi64(_mm256_blendv_epi8(sp, next, has), a);
         }
         _mm_storeu_si128((__m128i *)dd, _mm_or_si128(d[0], _mm_or_si128(_mm_slli_epi32(d[1], 1), _mm_slli_epi32(d[2], 2))));
         shl = _mm256_cvtepu32_epi64(_mm_add_epi32(_mm_mullo_epi32(_mm_sub_epi32(_mm_set1_epi32((int)depth), lv), _mm_set1_epi32(3)),
@@ -223,14 +230,9 @@ LC_AVX2_ENCODE static size_t LC_FN(encode_avx2_)(const locd_grid *g, const LC_T 
         for (k = 0; k < 8; k++) {
             const __m256i c = _mm256_or_si256(_mm256_or_si256((k & 1) ? m1[0] : m0[0], (k & 2) ? m1[1] : m0[1]),
                                               (k & 4) ? m1[2] : m0[2]);
-            _mm256_storeu_si256((__m256i *)code[k], _mm256_or_si256(_mm256_sllv_epi64(c, shl), base));
+            code[k] = _mm256_or_si256(_mm256_sllv_epi64(c, shl), base);
         }
-        for (j = 0; j < 4; j++) { /* eight stores each, the real cells first */
-            const uint8_t *cell = cells_of_d[dd[j]];
-            for (k = 0; k < 8; k++)
-                out[w + (size_t)k] = code[cell[k]][j];
-            w += ncells_of_d[dd[j]];
-        }
+        w = store_cells4(code, dd, out, w);
     }
     return LC_FN(encode_rest_)(g, boxes, i, end, out, capacity, needed, qbox, w);
 }
