@@ -183,10 +183,11 @@ static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
         /* One compare-exchange pass first, with no branch: it carries the
            largest key so far and leaves each i's run with its largest j
            last, which sorts every run of one or two keys (most runs: an
-           object has about one partner of higher index in a sparse scene). Keys
-           of different i keep their order (v is in i order). The
-           insertion pass below then finds few keys out of place; run alone,
-           its test mispredicted on about half the keys of the runs of two. */
+           object has about one partner of higher index in a sparse
+           scene). Keys of different i keep their order (v is in i order).
+           The insertion pass below then finds few keys out of place; run
+           alone, its test mispredicted on about half the keys of the runs
+           of two. */
         {
             uint64_t cur = v[lo];
             for (x = lo + 1; x < hi; x++) {

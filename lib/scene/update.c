@@ -806,8 +806,8 @@ static locd_status relist(upd *u)
 /* A slot is on the dirty list iff its DIRTY flag is set (REFILTER is set
  * only with it). A list of an eighth of the slots or more is walked as the
  * flags of every slot, in order: a pass over one byte a slot, in vector
- * steps, instead of a read at each listed slot (at 10^6 objects all moved,
- * about 0.3 ms each for the count and the clearing below, on one thread). */
+ * steps, instead of a read at each listed slot, for the count and for the
+ * clearing below (docs/scene.md, step 5, has the measurement). */
 LC_INLINE int dirty_dense(const locd_scene *s)
 {
     return s->ndirty >= s->nslots / 8;
