@@ -1,6 +1,6 @@
 /* Encode's bodies for one precision: scalar, AVX2 (four objects a step),
  * AVX-512 (eight) and the dispatch between them. Included by encode.c once per precision
- * with LC_T, LC_SUFFIX and LC_GATHER defined (the include-template of
+ * with LC_T, LC_SUFFIX, LC_LOAD8 and LC_LOAD4 defined (the include-template of
  * octree.h). */
 
 static size_t LC_FN(encode_scalar_)(const locd_grid *g, const LC_T *boxes, size_t first, size_t count, uint64_t *out,
@@ -95,8 +95,9 @@ static size_t LC_FN(encode_rest_)(const locd_grid *g, const LC_T *boxes, size_t 
 /* Eight objects per step, with the same arithmetic as the scalar body (the
  * same IEEE operations in the same order as lc_quantize, so the same
  * integers) and the same entries in the same order: each object's cells in
- * (z, y, x) order, objects ascending. The coordinates are gathered into one
- * vector per axis and end, the sweep boxes packed for qbox,
+ * (z, y, x) order, objects ascending. The coordinates are loaded (LC_LOAD8:
+ * whole vectors and permutes, no gather) into one vector per axis and end,
+ * the sweep boxes packed for qbox,
  * and the up-to-8 cells of the eight objects transposed so that each
  * object's real cells leave in one compress and one store. */
 LC_AVX512 static size_t LC_FN(encode_avx512_)(const locd_grid *g, const LC_T *boxes, size_t first, size_t count,
@@ -106,7 +107,6 @@ LC_AVX512 static size_t LC_FN(encode_avx512_)(const locd_grid *g, const LC_T *bo
     const int cubes = (g->flags & LOCD_CONFIG_CUBES) != 0;
     const __m512d half = _mm512_set1_pd(0.5), zero = _mm512_setzero_pd(), qmax = _mm512_set1_pd(LC_QMAX);
     const __m512d sa = _mm512_set1_pd(g->scale_a), sb = _mm512_set1_pd(g->scale_b);
-    const __m256i lane6 = _mm256_setr_epi32(0, 6, 12, 18, 24, 30, 36, 42);
     const __m256i top = _mm256_set1_epi32(31 - g->cell_bias), dmax = _mm256_set1_epi32((int)depth);
     const __m512i lane8 = _mm512_setr_epi64(0, 1, 2, 3, 4, 5, 6, 7);
     const size_t end = first + count;
@@ -115,12 +115,13 @@ LC_AVX512 static size_t LC_FN(encode_avx512_)(const locd_grid *g, const LC_T *bo
         const LC_T *b = boxes + 6 * i;
         __m256i q[6], lv, sh, c0[3], d[3];
         __m512i m0[3], m1[3], code[8], shl, base;
+        __m512d x[6];
         uint32_t dd[8];
         int a, k;
+        LC_LOAD8(b, x);
         for (a = 0; a < 6; a++) {
             const __m512d o = _mm512_set1_pd(g->origin[a % 3]);
-            const __m512d x = LC_GATHER(a);
-            const __m512d t = _mm512_mul_pd(_mm512_mul_pd(_mm512_sub_pd(_mm512_mul_pd(x, half), o), sa), sb);
+            const __m512d t = _mm512_mul_pd(_mm512_mul_pd(_mm512_sub_pd(_mm512_mul_pd(x[a], half), o), sa), sb);
             q[a] = _mm512_cvttpd_epi32(_mm512_min_pd(_mm512_max_pd(t, zero), qmax));
         }
         if (qbox)
