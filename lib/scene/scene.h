@@ -301,6 +301,11 @@ void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t qbox
 int lc_cells_same(const lc_cells *a, const lc_cells *b);
 /* Writes the object's entries (1 to 8) from its cells; returns how many. */
 uint32_t lc_cells_entries(const locd_grid *g, const lc_cells *c, uint32_t slot, uint64_t *out);
+/* How many entries lc_cells_entries writes for c (two cells on each axis it spans), without writing them. */
+LC_INLINE uint32_t lc_cells_count(const lc_cells *c)
+{
+    return 1u << (((c->span >> 0) & 1u) + ((c->span >> 1) & 1u) + ((c->span >> 2) & 1u));
+}
 void lc_sort_u64(uint64_t *v, size_t n);
 /* The same with a radix sort past a few hundred values (scratch allocated). */
 locd_status lc_sort_u64_radix(const locd_allocator *a, uint64_t *v, size_t n);

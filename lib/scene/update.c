@@ -550,7 +550,6 @@ static void encode_count(upd *u, enc_part *shared)
     locd_scene *s = u->s;
     const locd_grid *g = &s->grid;
     const uint32_t *d = s->dirty.data;
-    uint64_t tmp[8];
     size_t k;
     enc_part part = *shared, *pt = &part;
     for (k = pt->b; k < pt->e; k++) {
@@ -575,12 +574,12 @@ static void encode_count(upd *u, enc_part *shared)
             lc_cells_of(g, lc_scene_box(s, slot, box), &c, q);
         }
         u->new_cells[k] = c;
-        cnt = lc_cells_entries(g, &c, 0, tmp);
+        cnt = lc_cells_count(&c);
         pt->nq += cnt;
         if ((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))
             continue;
         if (f & LC_SLOT_INTREE)
-            pt->ndel[l] += lc_cells_entries(g, &s->cell[slot], 0, tmp);
+            pt->ndel[l] += lc_cells_count(&s->cell[slot]);
         pt->nadd[l] += cnt;
     }
     *shared = part;
@@ -673,7 +672,6 @@ static locd_status incremental(upd *u)
     size_t k, ndel[2] = {0, 0}, nadd[2] = {0, 0}, nrem[2], nq = 0, off_del[2], off_add[2], off_q;
     locd_status st;
     double t0 = lc_now_ms(), t1;
-    uint64_t tmp[8];
     enc_ctx ec;
     uint32_t nk, t;
     /* undo room: one per dirty slot */
@@ -700,7 +698,7 @@ static locd_status incremental(upd *u)
     encode_run(&ec, nk, 1);
     for (k = 0; k < s->nremoved; k++)
         if (s->flags[r[k]] & LC_SLOT_INTREE)
-            ndel[(s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0] += lc_cells_entries(g, &s->cell[r[k]], 0, tmp);
+            ndel[(s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0] += lc_cells_count(&s->cell[r[k]]);
     nrem[0] = ndel[0], nrem[1] = ndel[1];
     for (t = 0; t < nk; t++) {
         ndel[0] += ec.part[t].ndel[0], ndel[1] += ec.part[t].ndel[1];
