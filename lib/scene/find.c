@@ -41,6 +41,8 @@ typedef struct anc_cache {
 typedef struct find_out {
     lc_buf rows; /* locd_id, two a row */
     size_t count;
+    lc_buf fat; /* uint32 dense index pairs: the fat partners found */
+    size_t nfat;
     uint64_t cand;
     locd_status st;
     uint32_t ng;
@@ -51,8 +53,11 @@ typedef struct find_out {
 typedef struct find_ctx {
     const locd_scene *s;
     const lc_tree *dyn, *sta;
-    const uint64_t *q; /* sorted entries of the moved objects */
+    const uint64_t *q; /* sorted entries of the moved objects that search */
     size_t nq;
+    const uint32_t *coast; /* the moved objects that take their partner lists */
+    size_t ncoast;
+    int want_fat;
     find_out out[LC_MAX_THREADS];
 } find_ctx;
 
@@ -67,70 +72,88 @@ static int cell_holds(const locd_grid *g, uint64_t pm, uint32_t level, const uin
 
 #define FIELD(w, a) ((uint32_t)(((w) >> ((a)*LC_SBITS)) & LC_SMASK))
 
-/* Whether the quantized boxes of m (record hm) and o (packed box qo)
- * miss each other: each axis's fields compared in place (masked, not
- * shifted), the three axes' results or-ed. */
-LC_INLINE uint32_t boxes_miss(const lc_hot *hm, const uint64_t *qo)
+/* Whether packed boxes qm and qo miss each other: each axis's fields
+ * compared in place (masked, not shifted), the three axes' results or-ed. */
+LC_INLINE uint32_t boxes_miss(const uint64_t *qm, const uint64_t *qo)
 {
     uint32_t miss = 0, a;
     for (a = 0; a < 3; a++) {
         const uint64_t fm = LC_SMASK << (a * LC_SBITS);
-        miss |= (uint32_t)((hm->qlo & fm) > (qo[1] & fm)) | (uint32_t)((qo[0] & fm) > (hm->qhi & fm));
+        miss |= (uint32_t)((qm[0] & fm) > (qo[1] & fm)) | (uint32_t)((qo[0] & fm) > (qm[1] & fm));
     }
     return miss;
 }
 
-/* The second test of a candidate entry eo whose quantized box meets the
- * query entry eq's (object m, record hm): the canonical cell pair. Returns
- * 0 when it fails, else 1 + whether the quantized boxes tie (equal
- * quantized ends). */
-static uint32_t consider_cell(const find_ctx *c, uint64_t eq, const lc_hot *hm, uint64_t eo, const uint64_t *qo)
+/* Whether the boxes of dense indices m and o overlap: their packed boxes
+ * first. Strictly overlapping packed boxes need no exact test: the
+ * quantization is monotone, so q(x) < q(y) implies x < y. Only a tie
+ * (equal packed ends) may hide boxes that do not overlap. */
+static int boxes_meet(const locd_scene *s, const lc_hot *hm, const lc_hot *ho)
 {
-    const locd_grid *g = &c->s->grid;
-    const uint32_t ib = g->index_bits;
-    uint32_t lm = (uint32_t)(eq >> ib) & 31u, lo = (uint32_t)(eo >> ib) & 31u, p[3], a, tie = 0;
+    const uint64_t *xm = s->hq + LC_HQ * (size_t)(hm - s->hot) + 2, *xo = s->hq + LC_HQ * (size_t)(ho - s->hot) + 2;
+    uint32_t tie = 0, a;
+    double tm[6], to[6];
+    if (boxes_miss(xm, xo))
+        return 0;
     for (a = 0; a < 3; a++) {
         const uint64_t fm = LC_SMASK << (a * LC_SBITS);
-        uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(qo[0], a);
-        tie |= (uint32_t)((hm->qlo & fm) == (qo[1] & fm)) | (uint32_t)((qo[0] & fm) == (hm->qhi & fm));
-        p[a] = ml > ol ? ml : ol;
+        tie |= (uint32_t)((xm[0] & fm) == (xo[1] & fm)) | (uint32_t)((xo[0] & fm) == (xm[1] & fm));
     }
-    if (lm >= lo ? !cell_holds(g, eq >> (ib + LC_LEVEL_BITS), lm, p)
-                 : !cell_holds(g, eo >> (ib + LC_LEVEL_BITS), lo, p))
-        return 0;
-    return 1 + tie;
+    return !tie || lc_box_overlap(lc_scene_box(s, hm->slot, tm), lc_scene_box(s, ho->slot, to));
 }
 
-/* The rest, from o's record ho: both moved and not m < o, the filter,
- * the exact test on a tie; then the row. */
-static void consider_rest(const find_ctx *c, find_out *fo, const lc_hot *hm, const lc_hot *ho, uint32_t tie)
+/* The row of the pair of records hm and ho. */
+static void put_row(const locd_scene *s, find_out *fo, const lc_hot *hm, const lc_hot *ho)
 {
-    const locd_scene *s = c->s;
     locd_id *row;
-    /* both moved: the one with the smaller id reports the pair */
-    if ((ho->flags & LC_SLOT_DIRTY) && ho->id < hm->id)
-        return;
-    /* the filter, before the box test */
-    if ((hm->flags & ho->flags & LC_SLOT_STATIC) || !(hm->cat & ho->mask) || !(ho->cat & hm->mask) ||
-        (hm->group == ho->group && hm->group != 0))
-        return;
-    /* Strictly overlapping quantized boxes need no exact test: the
-       quantization is monotone, so q(x) < q(y) implies x < y. Only a tie
-       (equal quantized ends) may hide boxes that do not overlap. */
-    if (tie) {
-        double tm[6], to[6];
-        if (!lc_box_overlap(lc_scene_box(s, hm->slot, tm), lc_scene_box(s, ho->slot, to)))
-            return;
-    }
-    if (fo->st == LOCD_OK && lc_buf_reserve(s->alloc, &fo->rows, 2 * sizeof(locd_id), fo->count + 1) != LOCD_OK) {
+    if (fo->st == LOCD_OK && lc_buf_reserve(s->alloc, &fo->rows, 2 * sizeof(locd_id), fo->count + 1) != LOCD_OK)
         fo->st = LOCD_ERR_NO_MEMORY;
-        return;
-    }
     if (fo->st != LOCD_OK)
         return;
     row = (locd_id *)fo->rows.data + 2 * fo->count++;
     row[0] = hm->id < ho->id ? hm->id : ho->id;
     row[1] = hm->id < ho->id ? ho->id : hm->id;
+}
+
+/* The second test of a candidate entry eo whose packed fat box meets the
+ * query entry eq's (object m, record hm): the canonical cell pair. */
+static int consider_cell(const find_ctx *c, uint64_t eq, const lc_hot *hm, uint64_t eo, const uint64_t *qo)
+{
+    const locd_grid *g = &c->s->grid;
+    const uint32_t ib = g->index_bits;
+    uint32_t lm = (uint32_t)(eq >> ib) & 31u, lo = (uint32_t)(eo >> ib) & 31u, p[3], a;
+    for (a = 0; a < 3; a++) {
+        uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(qo[0], a);
+        p[a] = ml > ol ? ml : ol;
+    }
+    return lm >= lo ? cell_holds(g, eq >> (ib + LC_LEVEL_BITS), lm, p)
+                    : cell_holds(g, eo >> (ib + LC_LEVEL_BITS), lo, p);
+}
+
+/* The rest, from o's record ho: both searched and not m < o, the filter
+ * (a fat partner from here on), the boxes; then the row. */
+static void consider_rest(const find_ctx *c, find_out *fo, const lc_hot *hm, const lc_hot *ho)
+{
+    const locd_scene *s = c->s;
+    /* both searched: the one with the smaller id reports the pair (one
+       that moved without searching has it reported by this one) */
+    if ((ho->flags & LC_HOT_SEARCH) && ho->id < hm->id)
+        return;
+    /* the filter, before the box test */
+    if ((hm->flags & ho->flags & LC_SLOT_STATIC) || !(hm->cat & ho->mask) || !(ho->cat & hm->mask) ||
+        (hm->group == ho->group && hm->group != 0))
+        return;
+    if (c->want_fat) {
+        uint32_t *f;
+        if (fo->st == LOCD_OK && lc_buf_reserve(s->alloc, &fo->fat, 2 * sizeof(uint32_t), fo->nfat + 1) != LOCD_OK)
+            fo->st = LOCD_ERR_NO_MEMORY;
+        if (fo->st != LOCD_OK)
+            return;
+        f = (uint32_t *)fo->fat.data + 2 * fo->nfat++;
+        f[0] = (uint32_t)(hm - s->hot), f[1] = (uint32_t)(ho - s->hot);
+    }
+    if (boxes_meet(s, hm, ho))
+        put_row(s, fo, hm, ho);
 }
 
 /* Tests the gathered candidates in three rounds. The first drops, with no
@@ -145,37 +168,36 @@ static void flush(const find_ctx *c, find_out *fo)
     const lc_hot *hot = c->s->hot;
     const uint64_t *hq = c->s->hq;
     const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
-    uint32_t k, nk = 0, ns = 0, r, cand = 0;
+    uint32_t k, nk = 0, ns = 0, cand = 0;
     uint32_t sk[LC_GATHER], sm[LC_GATHER], so[LC_GATHER];
-    uint8_t st[LC_GATHER];
     for (k = 0; k < fo->ng; k++) {
         const uint32_t m = (uint32_t)(fo->gq[k] & imask), o = (uint32_t)(fo->go[k] & imask);
         const uint32_t real = (uint32_t)(o != m) & (uint32_t)(o != (uint32_t)imask);
         /* a tombstone's index names no record: m's box stands in, unused */
-        const uint64_t *qo = hq + 2 * (size_t)(real ? o : m);
+        const uint64_t *qo = hq + LC_HQ * (size_t)(real ? o : m);
         cand += real;
         sk[nk] = k;
-        nk += real & !boxes_miss(&hot[m], qo);
+        nk += real & !boxes_miss(&hot[m].qlo, qo);
     }
     fo->cand += cand;
     for (k = 0; k < nk; k++) {
         const uint64_t eq = fo->gq[sk[k]], eo = fo->go[sk[k]];
         const uint32_t m = (uint32_t)(eq & imask), o = (uint32_t)(eo & imask);
-        if ((r = consider_cell(c, eq, &hot[m], eo, hq + 2 * (size_t)o)) != 0) {
+        if (consider_cell(c, eq, &hot[m], eo, hq + LC_HQ * (size_t)o)) {
             __builtin_prefetch(&hot[o]);
             __builtin_prefetch((const char *)&hot[o] + sizeof(lc_hot) - 1);
-            sm[ns] = m, so[ns] = o, st[ns++] = (uint8_t)(r - 1);
+            sm[ns] = m, so[ns++] = o;
         }
     }
     for (k = 0; k < ns; k++)
-        consider_rest(c, fo, &hot[sm[k]], &hot[so[k]], st[k]);
+        consider_rest(c, fo, &hot[sm[k]], &hot[so[k]]);
     fo->ng = 0;
 }
 
 LC_INLINE void gather(const find_ctx *c, find_out *fo, uint64_t eq, uint64_t eo)
 {
     const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
-    __builtin_prefetch(c->s->hq + 2 * (size_t)(eo & imask));
+    __builtin_prefetch(c->s->hq + LC_HQ * (size_t)(eo & imask));
     fo->gq[fo->ng] = eq;
     fo->go[fo->ng++] = eo;
     if (fo->ng == LC_GATHER)
@@ -301,6 +323,63 @@ LC_INLINE void prefetch_query(const find_ctx *c, uint64_t eq)
         prefetch_lookup(c, c->sta, eq);
 }
 
+/* How many moved objects ahead the partner-list pass starts loading a
+ * list's header, then its entries and the object's own record and boxes,
+ * then its partners' records and boxes: three rounds of misses, each
+ * overlapped with the work on the objects before. */
+#define LC_COAST_HEAD 24
+#define LC_COAST_LIST 12
+#define LC_COAST_PART 4
+
+/* The pairs of moved object m from its partner list: a partner that
+ * searched reports the pair itself; of two that both took their lists, the
+ * one with the smaller id does. */
+static void coast_one(const find_ctx *c, find_out *fo, uint32_t m)
+{
+    const locd_scene *s = c->s;
+    const lc_adj *h = &s->adj[m];
+    const uint32_t *v = s->adj_pool + h->off;
+    const lc_hot *hm = &s->hot[m];
+    uint32_t k;
+    for (k = 0; k < h->n; k++) {
+        const lc_hot *ho = &s->hot[v[k]];
+        if ((ho->flags & (LC_HOT_SEARCH | LC_HOT_GONE)) || ((ho->flags & LC_SLOT_DIRTY) && ho->id < hm->id))
+            continue;
+        fo->cand++;
+        if (boxes_meet(s, hm, ho))
+            put_row(s, fo, hm, ho);
+    }
+}
+
+LC_INLINE void prefetch_record(const locd_scene *s, uint32_t d)
+{
+    __builtin_prefetch(&s->hot[d]);
+    __builtin_prefetch((const char *)&s->hot[d] + sizeof(lc_hot) - 1);
+    __builtin_prefetch(s->hq + LC_HQ * (size_t)d + 2);
+}
+
+static void coast_range(const find_ctx *c, find_out *fo, size_t b, size_t e)
+{
+    const locd_scene *s = c->s;
+    const uint32_t *m = c->coast;
+    size_t i;
+    for (i = b; i < e; i++) {
+        if (i + LC_COAST_HEAD < e)
+            __builtin_prefetch(&s->adj[m[i + LC_COAST_HEAD]]);
+        if (i + LC_COAST_LIST < e) {
+            __builtin_prefetch(s->adj_pool + s->adj[m[i + LC_COAST_LIST]].off);
+            prefetch_record(s, m[i + LC_COAST_LIST]);
+        }
+        if (i + LC_COAST_PART < e) {
+            const lc_adj *h = &s->adj[m[i + LC_COAST_PART]];
+            uint32_t k;
+            for (k = 0; k < h->n; k++)
+                prefetch_record(s, s->adj_pool[h->off + k]);
+        }
+        coast_one(c, fo, m[i]);
+    }
+}
+
 static void task_find(void *arg, uint32_t t, uint32_t k)
 {
     find_ctx *c = arg;
@@ -324,23 +403,26 @@ static void task_find(void *arg, uint32_t t, uint32_t k)
             search(c, &fo, c->sta, c->q[i], fo.anc + 2);
     }
     flush(c, &fo);
+    coast_range(c, &fo, c->ncoast * t / k, c->ncoast * (t + 1) / k);
     c->out[t] = fo;
 }
 
 locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q,
-                                size_t nq, lc_plist *out, uint64_t *candidates)
+                                size_t nq, const uint32_t *coast, size_t ncoast, lc_plist *out, lc_buf *fat,
+                                size_t *nfat, uint64_t *candidates)
 {
     find_ctx *c = lc_alloc(s->alloc, sizeof *c);
     uint32_t k = s->threads, t;
-    size_t total = 0;
+    size_t total = 0, nf = 0;
     locd_status st = LOCD_OK;
     if (!c)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the search state");
     memset(c, 0, sizeof *c);
     c->s = s, c->dyn = dyn, c->sta = sta, c->q = q, c->nq = nq;
+    c->coast = coast, c->ncoast = ncoast, c->want_fat = fat != NULL;
     if (k < 1)
         k = 1;
-    if (nq < 2048)
+    if (nq + ncoast < 2048)
         k = 1;
     if (k > 1)
         lc_pool_run(s->pool, k, task_find, c);
@@ -350,7 +432,18 @@ locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const l
         if (c->out[t].st != LOCD_OK)
             st = lc_error(LOCD_ERR_NO_MEMORY, "could not grow the new pairs");
         total += c->out[t].count;
+        nf += c->out[t].nfat;
         *candidates += c->out[t].cand;
+    }
+    *nfat = 0;
+    if (st == LOCD_OK && fat) {
+        if (lc_buf_reserve(s->alloc, fat, 2 * sizeof(uint32_t), nf ? nf : 1) != LOCD_OK)
+            st = lc_error(LOCD_ERR_NO_MEMORY, "could not grow the fat partners");
+        for (t = 0; t < k && st == LOCD_OK; t++) {
+            if (c->out[t].nfat)
+                memcpy((uint32_t *)fat->data + 2 * *nfat, c->out[t].fat.data, 2 * c->out[t].nfat * sizeof(uint32_t));
+            *nfat += c->out[t].nfat;
+        }
     }
     if (st == LOCD_OK)
         st = lc_plist_reserve(s->alloc, out, total ? total : 1);
@@ -364,8 +457,10 @@ locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const l
         out->count = w;
         st = lc_pairs_sort_rows(s->alloc, out->rows.data, w);
     }
-    for (t = 0; t < k; t++)
+    for (t = 0; t < k; t++) {
         lc_buf_release(s->alloc, &c->out[t].rows, 2 * sizeof(locd_id));
+        lc_buf_release(s->alloc, &c->out[t].fat, 2 * sizeof(uint32_t));
+    }
     lc_free(s->alloc, c, sizeof *c);
     return st;
 }

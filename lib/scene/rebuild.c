@@ -446,7 +446,7 @@ static void task_build(void *arg, uint32_t t, uint32_t k)
             if (!(s->flags[j] & LC_SLOT_LIVE))
                 continue;
             double tmp[6];
-            lc_cells_of(c->g, lc_scene_box(s, j, tmp), &c->cells[j], c->qb + 2 * j);
+            lc_cells_of(c->g, lc_scene_box(s, j, tmp), &c->cells[j], c->qb + LC_HQ * j);
             n[(s->flags[j] & LC_SLOT_STATIC) ? 1 : 0] +=
                 (1u + (cl->span & 1u)) * (1u + ((cl->span >> 1) & 1u)) * (1u + ((cl->span >> 2) & 1u));
         }
@@ -472,7 +472,7 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
 {
     const locd_allocator *a = s->alloc;
     const uint64_t imask = ((uint64_t)1 << g->index_bits) - 1;
-    size_t k, nk, n[2] = {0, 0}, qcap = 2 * (s->nslots ? s->nslots : 1), next = 0, j;
+    size_t k, nk, n[2] = {0, 0}, qcap = LC_HQ * (s->nslots ? s->nslots : 1), next = 0, j;
     uint64_t *qb = lc_alloc(a, qcap * sizeof *qb), *scr = NULL;
     build_ctx *c = lc_alloc(a, sizeof *c);
     lc_tree *ts[2];
@@ -533,8 +533,8 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
             uint32_t slot = (uint32_t)(e[j] & imask);
             if (dense[slot] == UINT32_MAX) {
                 dense[slot] = (uint32_t)next;
-                lc_hot_fill(s, slot, qb + 2 * (size_t)slot, &hot[next]);
-                hq[2 * next] = hot[next].qlo, hq[2 * next + 1] = hot[next].qhi;
+                lc_hot_fill(s, slot, qb + LC_HQ * (size_t)slot, &hot[next]);
+                memcpy(hq + LC_HQ * next, qb + LC_HQ * (size_t)slot, LC_HQ * sizeof *hq);
                 next++;
             }
             e[j] = (e[j] & ~imask) | dense[slot];

@@ -27,6 +27,15 @@
 #define LC_SLOT_INTREE 0x10u /* has entries in a tree list (its cells are in slot->cell) */
 #define LC_SLOT_REFILTER 0x20u /* its filter changed since the last update (its record is written again) */
 #define LC_SLOT_INEXACT 0x40u  /* live, and its box is not floats exactly (fbox holds it rounded) */
+/* A record flag only (lc_hot.flags), while an update runs: the object's
+ * pairs are searched in the entry lists this update (it is new, re-filtered,
+ * or left its fat box); a moved object without it takes its pairs from its
+ * partner list (adj.c). */
+#define LC_HOT_SEARCH 0x100u
+/* A record flag only: the object was removed (set by the update that takes
+ * the removal in; its dense index is never given again before a rebuild of
+ * the lists). Its partners skip it. */
+#define LC_HOT_GONE 0x200u
 
 /* An id: the serial number of the add (1, 2, ...: never reused) in the high
  * 32 bits, the slot in the low 32. Serials grow with every add, so sorting
@@ -44,8 +53,8 @@ typedef struct lc_cells {
     uint8_t level, span, pad[2];
 } lc_cells;
 
-/* What the search reads of a candidate, 56 bytes: the packed sweep box
- * (lc_pack_qbox), the filter, the id (a found pair's row needs no read of
+/* What the search reads of a candidate, 56 bytes: the packed sweep box of
+ * the object's fat box (lc_cells_of), the filter, the id (a found pair's row needs no read of
  * the per-slot ids, a cache miss each), the slot and the flags. The records are
  * indexed by a dense index that the entries carry instead of the slot:
  * a rebuild numbers the objects in the order of the sorted entry lists,
@@ -56,8 +65,19 @@ typedef struct lc_hot {
     uint64_t cat, mask, group;
     locd_id id;
     uint32_t slot;
-    uint32_t flags; /* LC_SLOT_STATIC; LC_SLOT_DIRTY while an update runs */
+    uint32_t flags; /* LC_SLOT_STATIC; LC_SLOT_DIRTY and LC_HOT_SEARCH while an update runs */
 } lc_hot;
+
+/* An object's partner list (adj.c): off and n of its run in the scene's
+ * partner pool, cap the room there. */
+typedef struct lc_adj {
+    uint32_t off, n, cap;
+} lc_adj;
+
+/* The packed boxes of dense index d: hq[LC_HQ * d] holds the fat box's
+ * (the one its cells and entries are made from, its record's copy), the
+ * two after it the box's own. */
+#define LC_HQ 4
 
 /* An entry list: a main array sorted by entry, in which a deleted entry is
  * a tombstone (its slot bits all set: the key, hence the order of keys,
@@ -121,9 +141,16 @@ struct locd_scene {
     lc_cells *cell;      /* per slot, valid with LC_SLOT_INTREE */
     uint32_t *dense;     /* per slot: its dense index, valid with LC_SLOT_INTREE */
     lc_hot *hot;         /* per dense index (hot_cap of them; ndense issued since the last rebuild) */
-    uint64_t *hq;        /* per dense index, 2: the packed sweep box again, 16 bytes (4 a cache line)
-                            for the search's first test */
+    uint64_t *hq;        /* per dense index, LC_HQ: the packed fat box again and the packed box, 32
+                            bytes (2 a cache line) for the search's first test and the exact one */
     size_t hot_cap, ndense;
+    /* partner lists (adj.c): per dense index (hot_cap), the objects whose fat
+       boxes meet its fat box and that may pair with it; valid with have_adj */
+    lc_adj *adj;
+    size_t adj_heads;    /* headers allocated (the hot_cap of the build) */
+    uint32_t *adj_pool;
+    size_t adj_used, adj_cap, adj_live; /* pool positions used, allocated; list entries held */
+    int have_adj;
     lc_buf free_slots;   /* uint32 stack */
     size_t nfree;
     uint32_t serial;     /* serials issued */
@@ -296,8 +323,23 @@ void lc_plist_diff(const locd_id *a, size_t na, const locd_id *b, size_t nb, loc
 
 /* ---- broad phase (rebuild.c, tree.c, find.c) ---- */
 void lc_scene_tree_fini(locd_scene *s);
-/* An object's cells on grid g, and its packed sweep box (lc_pack_qbox). */
-void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t qbox[2]);
+/* The fat box's margin on each side: its largest edge >> LC_FAT_SHIFT (in
+ * quantized units). An object that moves inside its fat box keeps its
+ * cells and its partner list (docs/scene.md). */
+#define LC_FAT_SHIFT 4
+/* An object's cells on grid g (those of its fat box), and the packed sweep
+ * boxes (lc_pack_qbox) of its fat box (q[0], q[1]) and of its box (q[2], q[3]). */
+void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t q[4]);
+/* 1 when packed box x lies inside packed box f (each axis's fields). */
+LC_INLINE int lc_qbox_inside(const uint64_t *x, const uint64_t *f)
+{
+    uint32_t out = 0, a;
+    for (a = 0; a < 3; a++) {
+        const uint64_t m = LC_SMASK << (a * LC_SBITS);
+        out |= (uint32_t)((x[0] & m) < (f[0] & m)) | (uint32_t)((x[1] & m) > (f[1] & m));
+    }
+    return !out;
+}
 int lc_cells_same(const lc_cells *a, const lc_cells *b);
 /* Writes the object's entries (1 to 8) from its cells; returns how many. */
 uint32_t lc_cells_entries(const locd_grid *g, const lc_cells *c, uint32_t slot, uint64_t *out);
@@ -343,10 +385,14 @@ void lc_tree_edit_free(const locd_allocator *a, lc_tree_edit *e);
 locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g);
 /* 1 if box b quantizes inside the root cube without clamping. */
 int lc_grid_holds(const locd_grid *g, const double *b);
-/* The pairs of the objects whose entries are q (sorted), against the
- * lists dyn and sta, into *out (sorted); adds to *candidates. */
+/* The pairs of the moved objects into *out (sorted): those of the objects
+ * whose entries are q (sorted), searched in the lists dyn and sta, and
+ * those of the objects coast[0, ncoast) (dense indices), from their partner
+ * lists. Adds to *candidates. When fat is not NULL, the search's fat
+ * partners (dense index pairs, each pair once) go to it, *nfat of them. */
 locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q,
-                                size_t nq, lc_plist *out, uint64_t *candidates);
+                                size_t nq, const uint32_t *coast, size_t ncoast, lc_plist *out, lc_buf *fat,
+                                size_t *nfat, uint64_t *candidates);
 /* Every live object's cells on g into cells, its dense index into dense
  * and its record into hot (numbered in entry order; *ndense receives the
  * count), and both entry lists, sorted by key. */
@@ -358,6 +404,19 @@ size_t lc_scene_dense_room(size_t nslots);
 void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *h);
 /* Computes the pairs of the live objects from scratch into *out (sorted). */
 locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates);
+
+/* ---- partner lists (adj.c) ---- */
+/* Builds every live object's list from scratch (after lc_scene_build_trees):
+ * the engine's find over the packed fat boxes, then the filter. Sets
+ * have_adj; on failure (NO_MEMORY) leaves the scene without lists. */
+locd_status lc_adj_build(locd_scene *s);
+/* Drops the lists (have_adj 0). */
+void lc_adj_drop(locd_scene *s);
+/* Takes dense index d off the lists of its partners and empties its own. */
+void lc_adj_unlink(locd_scene *s, uint32_t d);
+/* Makes a and b partners (neither in the other's list before). On no
+ * memory the lists are dropped (the scene then searches every moved object). */
+void lc_adj_link(locd_scene *s, uint32_t a, uint32_t b);
 
 /* ---- queries (query.c) ---- */
 /* The ray-box slab test (docs/scene.md); 1 and *t_enter on a hit. */

@@ -195,7 +195,8 @@ void lc_scene_slots_fini(locd_scene *s)
     lc_free(s->alloc, s->cell, c * sizeof(lc_cells));
     lc_free(s->alloc, s->dense, c * sizeof(uint32_t));
     lc_free(s->alloc, s->hot, s->hot_cap * sizeof(lc_hot));
-    lc_free(s->alloc, s->hq, s->hot_cap * 2 * sizeof(uint64_t));
+    lc_free(s->alloc, s->hq, s->hot_cap * LC_HQ * sizeof(uint64_t));
+    lc_adj_drop(s);
     lc_buf_release(s->alloc, &s->free_slots, sizeof(uint32_t));
     lc_buf_release(s->alloc, &s->dirty, sizeof(uint32_t));
     lc_buf_release(s->alloc, &s->removed, sizeof(uint32_t));

@@ -33,17 +33,30 @@ void lc_scene_tree_fini(locd_scene *s)
     lc_tree_release(s->alloc, &s->sta);
 }
 
-void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t qbox[2])
+void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t q[4])
 {
     int32_t lo[3], hi[3];
-    uint32_t ext = 0, sh, a;
+    uint32_t ext = 0, sh, a, m;
     for (a = 0; a < 3; a++) {
         lo[a] = lc_quantize(g, (int)a, b[a]);
         hi[a] = lc_quantize(g, (int)a, b[a + 3]);
         if ((uint32_t)(hi[a] - lo[a]) > ext)
             ext = (uint32_t)(hi[a] - lo[a]);
     }
-    lc_pack_qbox(lo, hi, qbox);
+    lc_pack_qbox(lo, hi, q + 2);
+    /* the fat box: a margin of the largest edge >> LC_FAT_SHIFT on every
+       side, kept in the quantized range (it still holds the box) */
+    m = ext >> LC_FAT_SHIFT;
+    for (a = 0; a < 3; a++) {
+        int64_t l = (int64_t)lo[a] - m, h = (int64_t)hi[a] + m;
+        lo[a] = l < 0 ? 0 : (int32_t)l;
+        hi[a] = h > 2147483647 ? 2147483647 : (int32_t)h;
+    }
+    ext = 0;
+    for (a = 0; a < 3; a++)
+        if ((uint32_t)(hi[a] - lo[a]) > ext)
+            ext = (uint32_t)(hi[a] - lo[a]);
+    lc_pack_qbox(lo, hi, q);
     if (g->flags & LOCD_CONFIG_CUBES)
         for (a = 0; a < 3; a++) {
             int64_t h = (int64_t)lo[a] + ext;

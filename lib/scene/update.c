@@ -27,7 +27,7 @@ typedef struct upd {
     lc_plist next, cr, lo;
     lc_cells *cells;    /* rebuild: new per-slot cells (slot_cap) */
     lc_hot *hot;        /* rebuild: new records (hot_cap) */
-    uint64_t *hq;       /* rebuild: their packed boxes (2 * hot_cap) */
+    uint64_t *hq;       /* rebuild: their packed boxes (LC_HQ * hot_cap) */
     size_t hot_cap, ndense;
     uint32_t *dense;    /* rebuild: new per-slot dense indices (slot_cap) */
     locd_grid grid;     /* rebuild: the new grid */
@@ -35,9 +35,17 @@ typedef struct upd {
     uint32_t *undo_slot;
     lc_cells *undo_cells;
     lc_hot *undo_hot;
+    uint64_t *undo_hq;  /* LC_HQ a row */
     uint32_t *undo_dense;
-    lc_cells *new_cells; /* pass 1's cells and packed boxes of the dirty objects, for pass 2 */
+    lc_cells *new_cells; /* pass 1's cells and packed boxes (LC_HQ) of the dirty objects, for pass 2;
+                            pad[0] of the cells is 1 for an object that stays in its fat box */
     uint64_t *new_q;
+    /* the moved objects that take their pairs from their partner lists
+       (coast) and those that search the entry lists (srch): dense indices */
+    uint32_t *coast, *srch;
+    size_t ncoast, nsrch;
+    lc_buf fat; /* the search's fat partners: uint32 pairs */
+    size_t nfat;
     size_t ndense_before;
     uint8_t *undo_flags;
     size_t nundo, undo_cap;
@@ -94,14 +102,18 @@ static void upd_free(upd *u)
     lc_plist_fini(a, &u->lo);
     lc_free(a, u->cells, u->s->slot_cap * sizeof *u->cells);
     lc_free(a, u->hot, u->hot_cap * sizeof *u->hot);
-    lc_free(a, u->hq, u->hot_cap * 2 * sizeof *u->hq);
+    lc_free(a, u->hq, u->hot_cap * LC_HQ * sizeof *u->hq);
     lc_free(a, u->dense, u->s->slot_cap * sizeof *u->dense);
     lc_free(a, u->undo_slot, u->undo_cap * sizeof *u->undo_slot);
     lc_free(a, u->undo_cells, u->undo_cap * sizeof *u->undo_cells);
     lc_free(a, u->undo_hot, u->undo_cap * sizeof *u->undo_hot);
+    lc_free(a, u->undo_hq, u->undo_cap * LC_HQ * sizeof *u->undo_hq);
+    lc_free(a, u->coast, u->undo_cap * sizeof *u->coast);
+    lc_free(a, u->srch, u->undo_cap * sizeof *u->srch);
+    lc_buf_release(a, &u->fat, 2 * sizeof(uint32_t));
     lc_free(a, u->undo_dense, u->undo_cap * sizeof *u->undo_dense);
     lc_free(a, u->new_cells, u->undo_cap * sizeof *u->new_cells);
-    lc_free(a, u->new_q, u->undo_cap * 2 * sizeof *u->new_q);
+    lc_free(a, u->new_q, u->undo_cap * LC_HQ * sizeof *u->new_q);
     lc_free(a, u->undo_flags, u->undo_cap * sizeof *u->undo_flags);
     lc_free(a, u->buf, u->buf_cap * sizeof *u->buf);
 }
@@ -116,7 +128,7 @@ static void undo(upd *u)
         uint32_t slot = u->undo_slot[k];
         uint32_t di = (u->undo_flags[k] & LC_SLOT_INTREE) ? u->undo_dense[k] : s->dense[slot];
         s->hot[di] = u->undo_hot[k];
-        s->hq[2 * (size_t)di] = u->undo_hot[k].qlo, s->hq[2 * (size_t)di + 1] = u->undo_hot[k].qhi;
+        memcpy(s->hq + LC_HQ * (size_t)di, u->undo_hq + LC_HQ * k, LC_HQ * sizeof *s->hq);
         s->cell[slot] = u->undo_cells[k];
         s->dense[slot] = u->undo_dense[k];
         s->flags[slot] = u->undo_flags[k];
@@ -124,6 +136,12 @@ static void undo(upd *u)
     if (u->nundo)
         s->ndense = u->ndense_before;
     u->nundo = 0;
+    if (!u->rebuilt && !u->relisted)
+        for (k = 0; k < s->nremoved; k++) {
+            const uint32_t slot = ((const uint32_t *)s->removed.data)[k];
+            if (s->flags[slot] & LC_SLOT_INTREE)
+                s->hot[s->dense[slot]].flags &= ~(uint32_t)LC_HOT_GONE;
+        }
     lc_tree_edit_undo(&s->dyn, &u->edit[0]);
     lc_tree_edit_undo(&s->sta, &u->edit[1]);
 }
@@ -198,7 +216,7 @@ static locd_status build_lists(upd *u)
     u->cells = lc_alloc(a, s->slot_cap * sizeof *u->cells);
     u->hot_cap = lc_scene_dense_room(s->nslots);
     u->hot = lc_alloc(a, u->hot_cap * sizeof *u->hot);
-    u->hq = lc_alloc(a, u->hot_cap * 2 * sizeof *u->hq);
+    u->hq = lc_alloc(a, u->hot_cap * LC_HQ * sizeof *u->hq);
     u->dense = lc_alloc(a, s->slot_cap * sizeof *u->dense);
     if (!u->cells || !u->hot || !u->hq || !u->dense)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's cells");
@@ -284,33 +302,48 @@ LC_INLINE int row_changed(const uint64_t *bits, const locd_id *r)
     return (int)(((bits[a >> 6] >> (a & 63)) | (bits[b >> 6] >> (b & 63))) & 1u);
 }
 
+/* The loops below keep everything in locals (restrict pointers, the next
+ * new row's key): through the context, each row reloaded the pointers and
+ * bounds after every store, as they may alias. */
+LC_INLINE uint64_t carry_key(const locd_id *r, size_t j, size_t end, uint64_t none)
+{
+    return j < end ? lc_pair_key(r + 2 * j) : none; /* none: UINT64_MAX, above every key (first < second) */
+}
+
 static void task_carry(void *arg, uint32_t t, uint32_t k)
 {
     carry_ctx *c = arg;
+    const uint64_t *restrict bits = c->changed;
+    const locd_id *restrict p = c->p, *restrict n = c->n;
+    locd_id *restrict out = c->out, *restrict drop = c->drop;
+    const size_t pe = c->pb[t + 1], ne = c->nb[t + 1];
     size_t i, j = c->nb[t], w = c->out_off[t], dw = c->drop_off[t];
+    uint64_t nkey;
     (void)k;
     if (c->pass == 1) {
         size_t nd = 0;
-        for (i = c->pb[t]; i < c->pb[t + 1]; i++)
-            nd += (size_t)row_changed(c->changed, c->p + 2 * i);
+        for (i = c->pb[t]; i < pe; i++)
+            nd += (size_t)row_changed(bits, p + 2 * i);
         c->ndrop[t] = nd;
         return;
     }
-    for (i = c->pb[t]; i < c->pb[t + 1]; i++) {
-        const locd_id *r = c->p + 2 * i;
+    nkey = carry_key(n, j, ne, UINT64_MAX);
+    for (i = c->pb[t]; i < pe; i++) {
+        const locd_id r0 = p[2 * i], r1 = p[2 * i + 1];
         uint64_t key;
-        if (row_changed(c->changed, r)) {
-            c->drop[2 * dw] = r[0], c->drop[2 * dw + 1] = r[1], dw++;
+        if (row_changed(bits, p + 2 * i)) {
+            drop[2 * dw] = r0, drop[2 * dw + 1] = r1, dw++;
             continue;
         }
-        key = lc_pair_key(r);
-        while (j < c->nb[t + 1] && lc_pair_key(c->n + 2 * j) < key) {
-            c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1], w++, j++;
+        key = lc_pair_key(p + 2 * i);
+        while (nkey < key) {
+            out[2 * w] = n[2 * j], out[2 * w + 1] = n[2 * j + 1], w++, j++;
+            nkey = carry_key(n, j, ne, UINT64_MAX);
         }
-        c->out[2 * w] = r[0], c->out[2 * w + 1] = r[1], w++;
+        out[2 * w] = r0, out[2 * w + 1] = r1, w++;
     }
-    for (; j < c->nb[t + 1]; j++)
-        c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1], w++;
+    for (; j < ne; j++)
+        out[2 * w] = n[2 * j], out[2 * w + 1] = n[2 * j + 1], w++;
     c->out_end[t] = w, c->drop_end[t] = dw;
 }
 
@@ -322,32 +355,41 @@ static void task_carry(void *arg, uint32_t t, uint32_t k)
 static void task_carry2(void *arg, uint32_t t, uint32_t k)
 {
     carry_ctx *c = arg;
+    const uint64_t *restrict bits = c->changed;
+    const locd_id *restrict p = c->p, *restrict n = c->n;
+    locd_id *restrict out = c->out, *restrict drop = c->drop;
+    const size_t pb = c->pb[0], nb = c->nb[0];
     size_t i = c->pb[1], j = c->nb[1], w = c->pb[1] + c->nb[1], dw = c->pb[1];
+    uint64_t nkey;
     (void)k;
     if (t == 1) {
         c->out_off[1] = w, c->drop_off[1] = dw;
         task_carry(arg, 1, 2);
         return;
     }
-    while (i > c->pb[0]) {
-        const locd_id *r = c->p + 2 * --i;
+    /* walking down: the next new row is n[j - 1]; 0 when there is none */
+    nkey = j > nb ? lc_pair_key(n + 2 * (j - 1)) : 0;
+    while (i > pb) {
+        const locd_id *r = p + 2 * --i;
+        const locd_id r0 = r[0], r1 = r[1];
         uint64_t key;
-        if (row_changed(c->changed, r)) {
+        if (row_changed(bits, r)) {
             dw--;
-            c->drop[2 * dw] = r[0], c->drop[2 * dw + 1] = r[1];
+            drop[2 * dw] = r0, drop[2 * dw + 1] = r1;
             continue;
         }
         key = lc_pair_key(r);
-        while (j > c->nb[0] && lc_pair_key(c->n + 2 * (j - 1)) > key) {
+        while (nkey > key) { /* 0: none left (a key is never 0: serials start at 1) */
             j--, w--;
-            c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1];
+            out[2 * w] = n[2 * j], out[2 * w + 1] = n[2 * j + 1];
+            nkey = j > nb ? lc_pair_key(n + 2 * (j - 1)) : 0;
         }
         w--;
-        c->out[2 * w] = r[0], c->out[2 * w + 1] = r[1];
+        out[2 * w] = r0, out[2 * w + 1] = r1;
     }
-    while (j > c->nb[0]) {
+    while (j > nb) {
         j--, w--;
-        c->out[2 * w] = c->n[2 * j], c->out[2 * w + 1] = c->n[2 * j + 1];
+        out[2 * w] = n[2 * j], out[2 * w + 1] = n[2 * j + 1];
     }
     c->out_off[0] = w, c->drop_off[0] = dw;
 }
@@ -488,8 +530,10 @@ done:
     return st;
 }
 
-/* The pairs of the moved objects (query entries q, sorted) in the lists
- * dyn and sta, the carry pass, and the events. */
+/* The pairs of the moved objects (query entries q, sorted, searched in the
+ * lists dyn and sta; u->coast from their partner lists), the carry pass,
+ * and the events. The search's fat partners go to u->fat when the scene
+ * keeps partner lists. */
 static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q, size_t nq)
 {
     locd_scene *s = u->s;
@@ -499,7 +543,8 @@ static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, c
     double t0 = lc_now_ms(), t1;
     dropped.count = dropped.first = 0;
     memset(&s->spare_drop, 0, sizeof s->spare_drop);
-    st = lc_scene_find_moved(s, dyn, sta, q, nq, &n, &u->candidates);
+    st = lc_scene_find_moved(s, dyn, sta, q, nq, u->coast, u->ncoast, &n, s->have_adj ? &u->fat : NULL, &u->nfat,
+                             &u->candidates);
     t1 = lc_now_ms();
     u->ms_sweep = t1 - t0;
     t0 = t1;
@@ -531,6 +576,7 @@ static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, c
 typedef struct enc_part {
     size_t b, e;                 /* the part of the dirty list */
     size_t nq, ndel[2], nadd[2]; /* pass 1: counts; pass 2: where to write them in u->buf */
+    size_t ncoast, nsrch;        /* pass 1: counts; pass 2: where to write them in u->coast, u->srch */
     size_t live, fresh;          /* live objects, those new to the lists; pass 2: first undo row, dense index */
     size_t reenc;                /* objects whose cells changed */
 } enc_part;
@@ -557,13 +603,18 @@ static void encode_count(upd *u, enc_part *shared)
         uint8_t f = s->flags[slot];
         int l = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        uint64_t *q = u->new_q + 2 * k;
+        uint64_t *q = u->new_q + LC_HQ * k;
         if (k + LC_AHEAD < pt->e) { /* the dirty slots are scattered: a miss each, overlapped */
             uint32_t ahead = d[k + LC_AHEAD];
             __builtin_prefetch(s->flags + ahead);
             lc_scene_prefetch_box(s, ahead, 0);
             __builtin_prefetch(s->cell + ahead);
             __builtin_prefetch(s->dense + ahead);
+        }
+        if (k + LC_AHEAD / 2 < pt->e) { /* its dense index has come: its packed fat box */
+            uint32_t ahead = d[k + LC_AHEAD / 2];
+            if (s->flags[ahead] & LC_SLOT_INTREE)
+                __builtin_prefetch(s->hq + LC_HQ * (size_t)s->dense[ahead]);
         }
         if (!(f & LC_SLOT_LIVE))
             continue;
@@ -573,6 +624,16 @@ static void encode_count(upd *u, enc_part *shared)
             double box[6];
             lc_cells_of(g, lc_scene_box(s, slot, box), &c, q);
         }
+        /* Still inside its fat box, with the filter it had: its cells, its
+           entries and its partners stay; only its packed box is new. */
+        if (s->have_adj && (f & (LC_SLOT_INTREE | LC_SLOT_REFILTER)) == LC_SLOT_INTREE &&
+            lc_qbox_inside(q + 2, s->hq + LC_HQ * (size_t)s->dense[slot])) {
+            c.pad[0] = 1;
+            u->new_cells[k] = c;
+            pt->ncoast++;
+            continue;
+        }
+        pt->nsrch++;
         u->new_cells[k] = c;
         cnt = lc_cells_count(&c);
         pt->nq += cnt;
@@ -592,14 +653,14 @@ static void encode_write(upd *u, enc_part *shared)
     const uint32_t *d = s->dirty.data;
     enc_part part = *shared, *pt = &part; /* as in encode_count */
     size_t k, w = pt->live, at_q = pt->nq, at_del[2] = {pt->ndel[0], pt->ndel[1]},
-              at_add[2] = {pt->nadd[0], pt->nadd[1]};
+              at_add[2] = {pt->nadd[0], pt->nadd[1]}, at_coast = pt->ncoast, at_srch = pt->nsrch;
     uint32_t fresh = (uint32_t)pt->fresh;
     for (k = pt->b; k < pt->e; k++) {
         uint32_t slot = d[k], cnt;
         uint8_t f = s->flags[slot];
         int l = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        const uint64_t *q = u->new_q + 2 * k;
+        const uint64_t *q = u->new_q + LC_HQ * k;
         uint32_t di;
         if (k + LC_AHEAD < pt->e) {
             uint32_t ahead = d[k + LC_AHEAD];
@@ -607,7 +668,7 @@ static void encode_write(upd *u, enc_part *shared)
                 const char *h = (const char *)&s->hot[s->dense[ahead]];
                 __builtin_prefetch(h, 1);
                 __builtin_prefetch(h + sizeof(lc_hot) - 1, 1);
-                __builtin_prefetch(s->hq + 2 * (size_t)s->dense[ahead], 1);
+                __builtin_prefetch(s->hq + LC_HQ * (size_t)s->dense[ahead], 1);
             }
         }
         if (!(f & LC_SLOT_LIVE))
@@ -619,8 +680,16 @@ static void encode_write(upd *u, enc_part *shared)
         u->undo_cells[w] = s->cell[slot];
         u->undo_dense[w] = s->dense[slot];
         u->undo_hot[w] = s->hot[di];
+        memcpy(u->undo_hq + LC_HQ * w, s->hq + LC_HQ * (size_t)di, LC_HQ * sizeof *s->hq);
         u->undo_flags[w] = f;
         w++;
+        if (c.pad[0]) { /* stays in its fat box */
+            s->hq[LC_HQ * (size_t)di + 2] = q[2], s->hq[LC_HQ * (size_t)di + 3] = q[3];
+            s->hot[di].flags |= LC_SLOT_DIRTY;
+            u->coast[at_coast++] = di;
+            continue;
+        }
+        u->srch[at_srch++] = di;
         cnt = lc_cells_entries(g, &c, di, u->buf + at_q);
         if (!((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))) {
             if (f & LC_SLOT_INTREE)
@@ -637,8 +706,8 @@ static void encode_write(upd *u, enc_part *shared)
         } else {
             lc_hot_fill(s, slot, q, &s->hot[di]);
         }
-        s->hot[di].flags |= LC_SLOT_DIRTY;
-        s->hq[2 * (size_t)di] = q[0], s->hq[2 * (size_t)di + 1] = q[1];
+        s->hot[di].flags |= LC_SLOT_DIRTY | LC_HOT_SEARCH;
+        memcpy(s->hq + LC_HQ * (size_t)di, q, LC_HQ * sizeof *q);
         s->flags[slot] |= LC_SLOT_INTREE;
     }
     shared->reenc = pt->reenc;
@@ -679,13 +748,16 @@ static locd_status incremental(upd *u)
     u->undo_slot = lc_alloc(a, u->undo_cap * sizeof *u->undo_slot);
     u->undo_cells = lc_alloc(a, u->undo_cap * sizeof *u->undo_cells);
     u->undo_hot = lc_alloc(a, u->undo_cap * sizeof *u->undo_hot);
+    u->undo_hq = lc_alloc(a, u->undo_cap * LC_HQ * sizeof *u->undo_hq);
+    u->coast = lc_alloc(a, u->undo_cap * sizeof *u->coast);
+    u->srch = lc_alloc(a, u->undo_cap * sizeof *u->srch);
     u->undo_dense = lc_alloc(a, u->undo_cap * sizeof *u->undo_dense);
     u->new_cells = lc_alloc(a, u->undo_cap * sizeof *u->new_cells);
-    u->new_q = lc_alloc(a, u->undo_cap * 2 * sizeof *u->new_q);
+    u->new_q = lc_alloc(a, u->undo_cap * LC_HQ * sizeof *u->new_q);
     u->ndense_before = s->ndense;
     u->undo_flags = lc_alloc(a, u->undo_cap * sizeof *u->undo_flags);
     if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags || !u->undo_dense || !u->new_cells ||
-        !u->new_q)
+        !u->new_q || !u->undo_hq || !u->coast || !u->srch)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the update's undo list");
     /* Pass 1: the dirty objects' new cells and packed boxes, and the
        counts of the deltas (deleted and added per list, queries). */
@@ -720,15 +792,17 @@ static locd_status incremental(upd *u)
             if (s->flags[r[k]] & LC_SLOT_INTREE) {
                 int l = (s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0;
                 w[l] += lc_cells_entries(g, &s->cell[r[k]], s->dense[r[k]], u->buf + off_del[l] + w[l]);
+                s->hot[s->dense[r[k]]].flags |= LC_HOT_GONE; /* undo() clears it */
             }
     }
     {
         size_t at_del[2] = {off_del[0] + nrem[0], off_del[1] + nrem[1]}, at_add[2] = {off_add[0], off_add[1]};
-        size_t at_q = off_q, at_undo = 0, at_dense = s->ndense;
+        size_t at_q = off_q, at_undo = 0, at_dense = s->ndense, at_coast = 0, at_srch = 0;
         for (t = 0; t < nk; t++) {
             enc_part *pt = &ec.part[t];
             const size_t c_del[2] = {pt->ndel[0], pt->ndel[1]}, c_add[2] = {pt->nadd[0], pt->nadd[1]};
-            const size_t c_q = pt->nq, c_live = pt->live, c_fresh = pt->fresh;
+            const size_t c_q = pt->nq, c_live = pt->live, c_fresh = pt->fresh, c_coast = pt->ncoast,
+                         c_srch = pt->nsrch;
             int l;
             for (l = 0; l < 2; l++) {
                 pt->ndel[l] = at_del[l], at_del[l] += c_del[l];
@@ -737,9 +811,12 @@ static locd_status incremental(upd *u)
             pt->nq = at_q, at_q += c_q;
             pt->live = at_undo, at_undo += c_live;
             pt->fresh = at_dense, at_dense += c_fresh;
+            pt->ncoast = at_coast, at_coast += c_coast;
+            pt->nsrch = at_srch, at_srch += c_srch;
         }
         encode_run(&ec, nk, 2);
         u->nundo = at_undo;
+        u->ncoast = at_coast, u->nsrch = at_srch;
         s->ndense = at_dense;
         for (t = 0; t < nk; t++)
             u->reencoded += ec.part[t].reenc;
@@ -768,8 +845,11 @@ static locd_status incremental(upd *u)
     return st;
 }
 
-/* The lists built again from the current boxes (build_lists), then the
- * moved objects searched in them as in the incremental path. */
+/* The lists built again from the current boxes (build_lists) with the
+ * partner lists (lc_adj_build); then every moved object, inside the fat
+ * box just made from its box, takes its pairs from its partner list. When
+ * the partner lists could not be made, the moved objects search the entry
+ * lists as in the incremental path. */
 static locd_status relist(upd *u)
 {
     locd_scene *s = u->s;
@@ -781,23 +861,34 @@ static locd_status relist(upd *u)
     if ((st = build_lists(u)) != LOCD_OK)
         return st;
     g = &s->grid;
+    lc_adj_build(s); /* on failure the scene goes on without partner lists */
+    u->undo_cap = s->ndirty ? s->ndirty : 1;
     if ((st = buf_room(u, 0, 8 * s->ndirty + 1)) != LOCD_OK)
         return st;
+    if (!(u->coast = lc_alloc(s->alloc, u->undo_cap * sizeof *u->coast)))
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the update's moved list");
     for (k = 0; k < s->ndirty; k++) {
-        uint32_t slot = d[k];
+        uint32_t slot = d[k], di;
         if (!(s->flags[slot] & LC_SLOT_LIVE))
             continue;
-        nq += lc_cells_entries(g, &s->cell[slot], s->dense[slot], u->buf + nq);
-        s->hot[s->dense[slot]].flags |= LC_SLOT_DIRTY;
+        di = s->dense[slot];
+        if (s->have_adj) {
+            u->coast[u->ncoast++] = di;
+            s->hot[di].flags |= LC_SLOT_DIRTY;
+        } else {
+            nq += lc_cells_entries(g, &s->cell[slot], di, u->buf + nq);
+            s->hot[di].flags |= LC_SLOT_DIRTY | LC_HOT_SEARCH;
+        }
     }
     u->reencoded = s->live;
     st = lc_sort_u64_radix(s->alloc, u->buf, nq);
     u->ms_encode = lc_now_ms() - t0;
     if (st == LOCD_OK)
         st = moved_pairs(u, &s->dyn, &s->sta, u->buf, nq);
+    u->nfat = 0; /* every fat pair is in the lists already */
     for (k = 0; k < s->ndirty; k++)
         if (s->flags[d[k]] & LC_SLOT_LIVE)
-            s->hot[s->dense[d[k]]].flags &= ~(uint32_t)LC_SLOT_DIRTY;
+            s->hot[s->dense[d[k]]].flags &= ~(uint32_t)(LC_SLOT_DIRTY | LC_HOT_SEARCH);
     return st;
 }
 
@@ -852,6 +943,25 @@ static void clear_changes(locd_scene *s)
     lc_scene_free_removed(s);
 }
 
+/* The partner lists after an incremental update: the removed objects and
+ * those that searched leave their old partners' lists, then the searched
+ * ones are linked to the fat partners they found (adj.c). */
+static void relink(upd *u)
+{
+    locd_scene *s = u->s;
+    const uint32_t *r = s->removed.data, *fp = u->fat.data;
+    size_t k;
+    if (!s->have_adj)
+        return;
+    for (k = 0; k < s->nremoved; k++)
+        if (s->flags[r[k]] & LC_SLOT_INTREE)
+            lc_adj_unlink(s, s->dense[r[k]]);
+    for (k = 0; k < u->nsrch; k++)
+        lc_adj_unlink(s, u->srch[k]);
+    for (k = 0; k < u->nfat && s->have_adj; k++)
+        lc_adj_link(s, fp[2 * k], fp[2 * k + 1]);
+}
+
 static void commit(upd *u)
 {
     locd_scene *s = u->s;
@@ -859,6 +969,7 @@ static void commit(upd *u)
     if (u->rebuilt) {
         /* the lists are built again by the next update that needs them */
         lc_scene_tree_fini(s);
+        lc_adj_drop(s);
         memset(&s->dyn, 0, sizeof s->dyn);
         memset(&s->sta, 0, sizeof s->sta);
         if (s->have_tree) /* else no slot has the flag: the lists were dropped before */
@@ -871,8 +982,9 @@ static void commit(upd *u)
         lc_tree_edit_commit(s->alloc, &s->dyn, &u->edit[0]);
         lc_tree_edit_commit(s->alloc, &s->sta, &u->edit[1]);
         for (k = 0; k < u->nundo; k++)
-            s->hot[s->dense[u->undo_slot[k]]].flags &= ~(uint32_t)LC_SLOT_DIRTY;
+            s->hot[s->dense[u->undo_slot[k]]].flags &= ~(uint32_t)(LC_SLOT_DIRTY | LC_HOT_SEARCH);
         u->nundo = 0;
+        relink(u);
     }
     s->have_pairs = 1;
     swap_plist(&s->pairs, &u->next);
@@ -921,6 +1033,7 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     }
     commit(&u);
     upd_free(&u);
+    { void lc_adj_debug_check(const locd_scene *s); lc_adj_debug_check(s); }
     s->show_pairs = (flags & LOCD_SCENE_UPDATE_PAIRS) != 0;
     s->show_events = (flags & LOCD_SCENE_UPDATE_EVENTS) != 0;
     st_out = &s->stats;
