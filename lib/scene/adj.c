@@ -223,7 +223,7 @@ void lc_adj_debug_check(const locd_scene *s)
             if (!found)
                 fprintf(stderr, "ADJ missing %zu -> %zu\n", i, j);
         }
-        if (!lc_qbox_inside(s->hq + LC_HQ * i + 2, s->hq + LC_HQ * i))
+        if (!lc_qbox_inside(&s->hot[i].qlo, s->hq + LC_HQ * i))
             fprintf(stderr, "ADJ outside fat %zu\n", i);
     }
 }

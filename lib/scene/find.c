@@ -90,7 +90,7 @@ LC_INLINE uint32_t boxes_miss(const uint64_t *qm, const uint64_t *qo)
  * (equal packed ends) may hide boxes that do not overlap. */
 static int boxes_meet(const locd_scene *s, const lc_hot *hm, const lc_hot *ho)
 {
-    const uint64_t *xm = s->hq + LC_HQ * (size_t)(hm - s->hot) + 2, *xo = s->hq + LC_HQ * (size_t)(ho - s->hot) + 2;
+    const uint64_t *xm = &hm->qlo, *xo = &ho->qlo;
     uint32_t tie = 0, a;
     double tm[6], to[6];
     if (boxes_miss(xm, xo))
@@ -117,13 +117,13 @@ static void put_row(const locd_scene *s, find_out *fo, const lc_hot *hm, const l
 
 /* The second test of a candidate entry eo whose packed fat box meets the
  * query entry eq's (object m, record hm): the canonical cell pair. */
-static int consider_cell(const find_ctx *c, uint64_t eq, const lc_hot *hm, uint64_t eo, const uint64_t *qo)
+static int consider_cell(const find_ctx *c, uint64_t eq, const uint64_t *qm, uint64_t eo, const uint64_t *qo)
 {
     const locd_grid *g = &c->s->grid;
     const uint32_t ib = g->index_bits;
     uint32_t lm = (uint32_t)(eq >> ib) & 31u, lo = (uint32_t)(eo >> ib) & 31u, p[3], a;
     for (a = 0; a < 3; a++) {
-        uint32_t ml = FIELD(hm->qlo, a), ol = FIELD(qo[0], a);
+        uint32_t ml = FIELD(qm[0], a), ol = FIELD(qo[0], a);
         p[a] = ml > ol ? ml : ol;
     }
     return lm >= lo ? cell_holds(g, eq >> (ib + LC_LEVEL_BITS), lm, p)
@@ -177,13 +177,13 @@ static void flush(const find_ctx *c, find_out *fo)
         const uint64_t *qo = hq + LC_HQ * (size_t)(real ? o : m);
         cand += real;
         sk[nk] = k;
-        nk += real & !boxes_miss(&hot[m].qlo, qo);
+        nk += real & !boxes_miss(hq + LC_HQ * (size_t)m, qo);
     }
     fo->cand += cand;
     for (k = 0; k < nk; k++) {
         const uint64_t eq = fo->gq[sk[k]], eo = fo->go[sk[k]];
         const uint32_t m = (uint32_t)(eq & imask), o = (uint32_t)(eo & imask);
-        if (consider_cell(c, eq, &hot[m], eo, hq + LC_HQ * (size_t)o)) {
+        if (consider_cell(c, eq, hq + LC_HQ * (size_t)m, eo, hq + LC_HQ * (size_t)o)) {
             __builtin_prefetch(&hot[o]);
             __builtin_prefetch((const char *)&hot[o] + sizeof(lc_hot) - 1);
             sm[ns] = m, so[ns++] = o;
@@ -355,7 +355,7 @@ LC_INLINE void prefetch_record(const locd_scene *s, uint32_t d)
 {
     __builtin_prefetch(&s->hot[d]);
     __builtin_prefetch((const char *)&s->hot[d] + sizeof(lc_hot) - 1);
-    __builtin_prefetch(s->hq + LC_HQ * (size_t)d + 2);
+
 }
 
 static void coast_range(const find_ctx *c, find_out *fo, size_t b, size_t e)

@@ -97,3 +97,17 @@ void lc_plist_diff(const locd_id *a, size_t na, const locd_id *b, size_t nb, loc
         bma[2 * wb] = b[2 * j], bma[2 * wb + 1] = b[2 * j + 1], wb++;
     *namb = wa, *nbma = wb;
 }
+
+/* The first row of sorted rows[0, n) whose key is >= key. */
+size_t lc_rows_lower_bound(const locd_id *rows, size_t n, uint64_t key)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (lc_pair_key(rows + 2 * mid) < key)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}

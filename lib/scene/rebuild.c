@@ -405,10 +405,11 @@ done:
     return st;
 }
 
-void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *h)
+void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[LC_QPAIR], lc_hot *h)
 {
-    h->qlo = qbox[0];
-    h->qhi = qbox[1];
+    h->qlo = qbox[2];
+    h->qhi = qbox[3];
+    h->pad = 0;
     h->cat = s->cat[k];
     h->mask = s->mask[k];
     h->group = s->group[k];
@@ -457,10 +458,10 @@ static void fill_records(build_ctx *c, size_t b, size_t e)
             __builtin_prefetch(s->group + a);
             __builtin_prefetch(s->id + a);
             __builtin_prefetch(s->flags + a);
-            __builtin_prefetch(c->qb + LC_HQ * (size_t)a);
+            __builtin_prefetch(c->qb + LC_QPAIR * (size_t)a);
         }
-        lc_hot_fill(s, slot, c->qb + LC_HQ * (size_t)slot, &c->hot[d]);
-        memcpy(c->hq + LC_HQ * d, c->qb + LC_HQ * (size_t)slot, LC_HQ * sizeof *c->hq);
+        lc_hot_fill(s, slot, c->qb + LC_QPAIR * (size_t)slot, &c->hot[d]);
+        memcpy(c->hq + LC_HQ * d, c->qb + LC_QPAIR * (size_t)slot, LC_HQ * sizeof *c->hq);
     }
 }
 
@@ -481,7 +482,7 @@ static void task_build(void *arg, uint32_t t, uint32_t k)
             if (!(s->flags[j] & LC_SLOT_LIVE))
                 continue;
             double tmp[6];
-            lc_cells_of(c->g, lc_scene_box(s, j, tmp), &c->cells[j], c->qb + LC_HQ * j);
+            lc_cells_of(c->g, lc_scene_box(s, j, tmp), &c->cells[j], c->qb + LC_QPAIR * j);
             n[(s->flags[j] & LC_SLOT_STATIC) ? 1 : 0] +=
                 (1u + (cl->span & 1u)) * (1u + ((cl->span >> 1) & 1u)) * (1u + ((cl->span >> 2) & 1u));
         }
@@ -507,7 +508,7 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
 {
     const locd_allocator *a = s->alloc;
     const uint64_t imask = ((uint64_t)1 << g->index_bits) - 1;
-    size_t k, nk, n[2] = {0, 0}, qcap = LC_HQ * (s->nslots ? s->nslots : 1), next = 0, j;
+    size_t k, nk, n[2] = {0, 0}, qcap = LC_QPAIR * (s->nslots ? s->nslots : 1), next = 0, j;
     uint64_t *qb = lc_alloc(a, qcap * sizeof *qb), *scr = NULL;
     uint32_t *ord;
     build_ctx *c = lc_alloc(a, sizeof *c);

@@ -53,19 +53,22 @@ typedef struct lc_cells {
     uint8_t level, span, pad[2];
 } lc_cells;
 
-/* What the search reads of a candidate, 56 bytes: the packed sweep box of
- * the object's fat box (lc_cells_of), the filter, the id (a found pair's row needs no read of
- * the per-slot ids, a cache miss each), the slot and the flags. The records are
- * indexed by a dense index that the entries carry instead of the slot:
- * a rebuild numbers the objects in the order of the sorted entry lists,
- * so the objects of one cell have neighbouring records and a search reads
- * them in a few cache lines. Objects added later take the next indices. */
+/* What the search reads of a candidate once its fat box passed (hq), and
+ * all a partner list's pass reads of a partner, one cache line: the packed
+ * sweep box (lc_pack_qbox) of the object's box, the filter, the id (a found
+ * pair's row needs no read of the per-slot ids, a cache miss each), the
+ * slot and the flags. The records are indexed by a dense index that the
+ * entries carry instead of the slot: a rebuild numbers the objects in the
+ * order of the sorted entry lists, so the objects of one cell have
+ * neighbouring records and a search reads them in a few cache lines.
+ * Objects added later take the next indices. */
 typedef struct lc_hot {
     uint64_t qlo, qhi;
     uint64_t cat, mask, group;
     locd_id id;
     uint32_t slot;
-    uint32_t flags; /* LC_SLOT_STATIC; LC_SLOT_DIRTY and LC_HOT_SEARCH while an update runs */
+    uint32_t flags; /* LC_SLOT_STATIC; LC_SLOT_DIRTY, LC_HOT_SEARCH, LC_HOT_GONE while an update runs */
+    uint64_t pad;   /* to 64 bytes: a large array of them starts on a cache line (lc_alloc) */
 } lc_hot;
 
 /* An object's partner list (adj.c): off and n of its run in the scene's
@@ -74,10 +77,14 @@ typedef struct lc_adj {
     uint32_t off, n, cap;
 } lc_adj;
 
-/* The packed boxes of dense index d: hq[LC_HQ * d] holds the fat box's
- * (the one its cells and entries are made from, its record's copy), the
- * two after it the box's own. */
-#define LC_HQ 4
+/* One record a cache line (the partner-list pass reads one a partner). */
+typedef char lc_hot_is_64_bytes[sizeof(lc_hot) == 64 ? 1 : -1];
+
+/* The packed fat box of dense index d (the one its cells and entries are
+ * made from) is hq[LC_HQ * d], hq[LC_HQ * d + 1]. */
+#define LC_HQ 2
+/* lc_cells_of's packed boxes: the fat box's two words, then the box's. */
+#define LC_QPAIR 4
 
 /* An entry list: a main array sorted by entry, in which a deleted entry is
  * a tombstone (its slot bits all set: the key, hence the order of keys,
@@ -141,8 +148,8 @@ struct locd_scene {
     lc_cells *cell;      /* per slot, valid with LC_SLOT_INTREE */
     uint32_t *dense;     /* per slot: its dense index, valid with LC_SLOT_INTREE */
     lc_hot *hot;         /* per dense index (hot_cap of them; ndense issued since the last rebuild) */
-    uint64_t *hq;        /* per dense index, LC_HQ: the packed fat box again and the packed box, 32
-                            bytes (2 a cache line) for the search's first test and the exact one */
+    uint64_t *hq;        /* per dense index, LC_HQ: the packed fat box, 16 bytes (4 a cache line)
+                            for the search's first test */
     size_t hot_cap, ndense;
     /* partner lists (adj.c): per dense index (hot_cap), the objects whose fat
        boxes meet its fat box and that may pair with it; valid with have_adj */
@@ -316,6 +323,12 @@ LC_INLINE uint64_t lc_pair_key(const locd_id *row)
 }
 /* Sorts rows[0, n) (scratch: 2 * n locd_id) by key. */
 locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n);
+/* The first row of sorted rows[0, n) whose key is >= key. */
+size_t lc_rows_lower_bound(const locd_id *rows, size_t n, uint64_t key);
+/* The carry pass (carry.c): into *next the previous set's rows whose ends
+ * did not change (dirty or removed slots) merged with the new rows n
+ * (sorted), into *dropped the others. */
+locd_status lc_scene_carry(locd_scene *s, const lc_plist *n, lc_plist *next, lc_plist *dropped);
 /* Both differences of sorted a and b in one merge: amb = a \ b (room for
  * na rows), bma = b \ a (room for nb rows). */
 void lc_plist_diff(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *amb, size_t *namb, locd_id *bma,
@@ -400,8 +413,8 @@ locd_status lc_scene_build_trees(locd_scene *s, const locd_grid *g, lc_cells *ce
                                  uint64_t *hq, size_t *ndense, lc_tree *dyn, lc_tree *sta);
 /* The dense indices a rebuild of n slots makes room for. */
 size_t lc_scene_dense_room(size_t nslots);
-/* The hot record of slot k from its slot arrays and packed box. */
-void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[2], lc_hot *h);
+/* The hot record of slot k from its slot arrays and packed boxes (lc_cells_of's). */
+void lc_hot_fill(const locd_scene *s, size_t k, const uint64_t qbox[LC_QPAIR], lc_hot *h);
 /* Computes the pairs of the live objects from scratch into *out (sorted). */
 locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates);
 

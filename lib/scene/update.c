@@ -37,7 +37,7 @@ typedef struct upd {
     lc_hot *undo_hot;
     uint64_t *undo_hq;  /* LC_HQ a row */
     uint32_t *undo_dense;
-    lc_cells *new_cells; /* pass 1's cells and packed boxes (LC_HQ) of the dirty objects, for pass 2;
+    lc_cells *new_cells; /* pass 1's cells and packed boxes (LC_QPAIR) of the dirty objects, for pass 2;
                             pad[0] of the cells is 1 for an object that stays in its fat box */
     uint64_t *new_q;
     /* the moved objects that take their pairs from their partner lists
@@ -113,7 +113,7 @@ static void upd_free(upd *u)
     lc_buf_release(a, &u->fat, 2 * sizeof(uint32_t));
     lc_free(a, u->undo_dense, u->undo_cap * sizeof *u->undo_dense);
     lc_free(a, u->new_cells, u->undo_cap * sizeof *u->new_cells);
-    lc_free(a, u->new_q, u->undo_cap * LC_HQ * sizeof *u->new_q);
+    lc_free(a, u->new_q, u->undo_cap * LC_QPAIR * sizeof *u->new_q);
     lc_free(a, u->undo_flags, u->undo_cap * sizeof *u->undo_flags);
     lc_free(a, u->buf, u->buf_cap * sizeof *u->buf);
 }
@@ -280,134 +280,6 @@ static locd_status buf_room(upd *u, size_t len, size_t n)
     return LOCD_OK;
 }
 
-/* The carry pass, split over the pool: thread t takes rows [b[t], b[t+1])
- * of the previous set and the new rows whose keys fall in its key range,
- * counts (pass 1) then writes (pass 2) its kept rows merged with those new
- * rows, and its dropped rows, at offsets the counts give. */
-typedef struct carry_ctx {
-    const locd_scene *s;
-    const uint64_t *changed; /* bitmap of changed slots */
-    const locd_id *p;        /* previous rows */
-    const locd_id *n;        /* new rows */
-    size_t pb[LC_MAX_THREADS + 1], nb[LC_MAX_THREADS + 1]; /* row ranges */
-    size_t ndrop[LC_MAX_THREADS], out_off[LC_MAX_THREADS], drop_off[LC_MAX_THREADS];
-    locd_id *out, *drop;
-    size_t out_end[LC_MAX_THREADS], drop_end[LC_MAX_THREADS]; /* pass 2: where each thread's rows end */
-    int pass; /* 1: count the dropped rows; 2: write; 3: two threads, no count (task_carry2) */
-} carry_ctx;
-
-LC_INLINE int row_changed(const uint64_t *bits, const locd_id *r)
-{
-    uint32_t a = LC_ID_SLOT(r[0]), b = LC_ID_SLOT(r[1]);
-    return (int)(((bits[a >> 6] >> (a & 63)) | (bits[b >> 6] >> (b & 63))) & 1u);
-}
-
-/* The loops below keep everything in locals (restrict pointers, the next
- * new row's key): through the context, each row reloaded the pointers and
- * bounds after every store, as they may alias. */
-LC_INLINE uint64_t carry_key(const locd_id *r, size_t j, size_t end, uint64_t none)
-{
-    return j < end ? lc_pair_key(r + 2 * j) : none; /* none: UINT64_MAX, above every key (first < second) */
-}
-
-static void task_carry(void *arg, uint32_t t, uint32_t k)
-{
-    carry_ctx *c = arg;
-    const uint64_t *restrict bits = c->changed;
-    const locd_id *restrict p = c->p, *restrict n = c->n;
-    locd_id *restrict out = c->out, *restrict drop = c->drop;
-    const size_t pe = c->pb[t + 1], ne = c->nb[t + 1];
-    size_t i, j = c->nb[t], w = c->out_off[t], dw = c->drop_off[t];
-    uint64_t nkey;
-    (void)k;
-    if (c->pass == 1) {
-        size_t nd = 0;
-        for (i = c->pb[t]; i < pe; i++)
-            nd += (size_t)row_changed(bits, p + 2 * i);
-        c->ndrop[t] = nd;
-        return;
-    }
-    nkey = carry_key(n, j, ne, UINT64_MAX);
-    for (i = c->pb[t]; i < pe; i++) {
-        const locd_id r0 = p[2 * i], r1 = p[2 * i + 1];
-        uint64_t key;
-        if (row_changed(bits, p + 2 * i)) {
-            drop[2 * dw] = r0, drop[2 * dw + 1] = r1, dw++;
-            continue;
-        }
-        key = lc_pair_key(p + 2 * i);
-        while (nkey < key) {
-            out[2 * w] = n[2 * j], out[2 * w + 1] = n[2 * j + 1], w++, j++;
-            nkey = carry_key(n, j, ne, UINT64_MAX);
-        }
-        out[2 * w] = r0, out[2 * w + 1] = r1, w++;
-    }
-    for (; j < ne; j++)
-        out[2 * w] = n[2 * j], out[2 * w + 1] = n[2 * j + 1], w++;
-    c->out_end[t] = w, c->drop_end[t] = dw;
-}
-
-/* The carry pass on two threads in one pass, with no count first: thread
- * 1 writes its rows forward from the position where thread 0's range
- * would end if nothing were dropped, thread 0 writes its rows backward
- * from that same position. The output is then one run that starts after
- * the rows thread 0 dropped (lc_plist.first); so are the dropped rows. */
-static void task_carry2(void *arg, uint32_t t, uint32_t k)
-{
-    carry_ctx *c = arg;
-    const uint64_t *restrict bits = c->changed;
-    const locd_id *restrict p = c->p, *restrict n = c->n;
-    locd_id *restrict out = c->out, *restrict drop = c->drop;
-    const size_t pb = c->pb[0], nb = c->nb[0];
-    size_t i = c->pb[1], j = c->nb[1], w = c->pb[1] + c->nb[1], dw = c->pb[1];
-    uint64_t nkey;
-    (void)k;
-    if (t == 1) {
-        c->out_off[1] = w, c->drop_off[1] = dw;
-        task_carry(arg, 1, 2);
-        return;
-    }
-    /* walking down: the next new row is n[j - 1]; 0 when there is none */
-    nkey = j > nb ? lc_pair_key(n + 2 * (j - 1)) : 0;
-    while (i > pb) {
-        const locd_id *r = p + 2 * --i;
-        const locd_id r0 = r[0], r1 = r[1];
-        uint64_t key;
-        if (row_changed(bits, r)) {
-            dw--;
-            drop[2 * dw] = r0, drop[2 * dw + 1] = r1;
-            continue;
-        }
-        key = lc_pair_key(r);
-        while (nkey > key) { /* 0: none left (a key is never 0: serials start at 1) */
-            j--, w--;
-            out[2 * w] = n[2 * j], out[2 * w + 1] = n[2 * j + 1];
-            nkey = j > nb ? lc_pair_key(n + 2 * (j - 1)) : 0;
-        }
-        w--;
-        out[2 * w] = r0, out[2 * w + 1] = r1;
-    }
-    while (j > nb) {
-        j--, w--;
-        out[2 * w] = n[2 * j], out[2 * w + 1] = n[2 * j + 1];
-    }
-    c->out_off[0] = w, c->drop_off[0] = dw;
-}
-
-/* The first row of sorted rows[0, n) whose key is >= key. */
-static size_t rows_lower_bound(const locd_id *rows, size_t n, uint64_t key)
-{
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (lc_pair_key(rows + 2 * mid) < key)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
-}
-
 /* created = next \ previous and lost = previous \ next, split over the
  * pool by key range: thread t writes its rows in the part of each output
  * that its input range would fill, and the parts are closed up after. */
@@ -442,7 +314,7 @@ static locd_status events_full(upd *u)
     for (t = 0; t <= k; t++) {
         c.nb[t] = u->next.count * t / k;
         c.pb[t] = t == 0 ? 0 : t == k ? s->pairs.count
-                                      : rows_lower_bound(c.p, s->pairs.count, lc_pair_key(c.n + 2 * c.nb[t]));
+                                      : lc_rows_lower_bound(c.p, s->pairs.count, lc_pair_key(c.n + 2 * c.nb[t]));
     }
     if (k > 1)
         lc_pool_run(s->pool, k, task_diff, &c);
@@ -455,79 +327,6 @@ static locd_status events_full(upd *u)
     }
     u->cr.count = wc, u->lo.count = wl;
     return LOCD_OK;
-}
-
-/* The rows of the previous set that neither end changed (kept), the others
- * (dropped, into *dropped), merged with the new rows n. */
-static locd_status carry(upd *u, const lc_plist *n, lc_plist *dropped)
-{
-    locd_scene *s = u->s;
-    const locd_allocator *a = s->alloc;
-    const uint32_t *d = s->dirty.data, *r = s->removed.data;
-    size_t words = (s->nslots + 63) / 64 + 1, np = s->pairs.count, k, nd = 0;
-    uint32_t kk = s->threads ? s->threads : 1, t;
-    carry_ctx *c = lc_alloc(a, sizeof *c);
-    uint64_t *bits = lc_alloc(a, words * sizeof *bits);
-    locd_status st = LOCD_OK;
-    if (!c || !bits) {
-        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the carry pass");
-        goto done;
-    }
-    memset(c, 0, sizeof *c);
-    memset(bits, 0, words * sizeof *bits);
-    for (k = 0; k < s->ndirty; k++)
-        bits[d[k] >> 6] |= (uint64_t)1 << (d[k] & 63);
-    for (k = 0; k < s->nremoved; k++)
-        bits[r[k] >> 6] |= (uint64_t)1 << (r[k] & 63);
-    if (np < 65536)
-        kk = 1;
-    c->s = s, c->changed = bits, c->p = lc_plist_rows(&s->pairs), c->n = n->rows.data;
-    for (t = 0; t <= kk; t++) {
-        c->pb[t] = np * t / kk;
-        c->nb[t] = t == 0 ? 0 : t == kk ? n->count : rows_lower_bound(n->rows.data, n->count, lc_pair_key(c->p + 2 * c->pb[t]));
-    }
-    if (kk == 2) {
-        if ((st = lc_plist_reserve(a, &u->next, np + n->count + 1)) != LOCD_OK ||
-            (st = lc_plist_reserve(a, dropped, np + 1)) != LOCD_OK)
-            goto done;
-        c->out = u->next.rows.data;
-        c->drop = dropped->rows.data;
-        c->pass = 3;
-        lc_pool_run(s->pool, 2, task_carry2, c);
-        u->next.first = c->out_off[0];
-        u->next.count = c->out_end[1] - c->out_off[0];
-        dropped->first = c->drop_off[0];
-        dropped->count = c->drop_end[1] - c->drop_off[0];
-        goto done;
-    }
-    c->pass = 1;
-    if (kk > 1)
-        lc_pool_run(s->pool, kk, task_carry, c);
-    else
-        task_carry(c, 0, 1);
-    for (t = 0; t < kk; t++) {
-        c->drop_off[t] = nd;
-        nd += c->ndrop[t];
-    }
-    for (t = 0, k = 0; t < kk; t++) {
-        c->out_off[t] = k;
-        k += (c->pb[t + 1] - c->pb[t]) - c->ndrop[t] + (c->nb[t + 1] - c->nb[t]);
-    }
-    if ((st = lc_plist_reserve(a, &u->next, k + 1)) != LOCD_OK || (st = lc_plist_reserve(a, dropped, nd + 1)) != LOCD_OK)
-        goto done;
-    c->out = u->next.rows.data;
-    c->drop = dropped->rows.data;
-    c->pass = 2;
-    if (kk > 1)
-        lc_pool_run(s->pool, kk, task_carry, c);
-    else
-        task_carry(c, 0, 1);
-    u->next.count = k;
-    dropped->count = nd;
-done:
-    lc_free(a, c, sizeof *c);
-    lc_free(a, bits, words * sizeof *bits);
-    return st;
 }
 
 /* The pairs of the moved objects (query entries q, sorted, searched in the
@@ -549,7 +348,7 @@ static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, c
     u->ms_sweep = t1 - t0;
     t0 = t1;
     if (st == LOCD_OK)
-        st = carry(u, &n, &dropped);
+        st = lc_scene_carry(s, &n, &u->next, &dropped);
     if (st == LOCD_OK && (u->flags & LOCD_SCENE_UPDATE_EVENTS)) {
         /* previous = kept + dropped, now = kept + n, kept disjoint from both */
         if ((st = lc_plist_reserve(a, &u->cr, n.count + 1)) == LOCD_OK &&
@@ -603,7 +402,7 @@ static void encode_count(upd *u, enc_part *shared)
         uint8_t f = s->flags[slot];
         int l = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        uint64_t *q = u->new_q + LC_HQ * k;
+        uint64_t *q = u->new_q + LC_QPAIR * k;
         if (k + LC_AHEAD < pt->e) { /* the dirty slots are scattered: a miss each, overlapped */
             uint32_t ahead = d[k + LC_AHEAD];
             __builtin_prefetch(s->flags + ahead);
@@ -660,7 +459,7 @@ static void encode_write(upd *u, enc_part *shared)
         uint8_t f = s->flags[slot];
         int l = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
-        const uint64_t *q = u->new_q + LC_HQ * k;
+        const uint64_t *q = u->new_q + LC_QPAIR * k;
         uint32_t di;
         if (k + LC_AHEAD < pt->e) {
             uint32_t ahead = d[k + LC_AHEAD];
@@ -684,7 +483,7 @@ static void encode_write(upd *u, enc_part *shared)
         u->undo_flags[w] = f;
         w++;
         if (c.pad[0]) { /* stays in its fat box */
-            s->hq[LC_HQ * (size_t)di + 2] = q[2], s->hq[LC_HQ * (size_t)di + 3] = q[3];
+            s->hot[di].qlo = q[2], s->hot[di].qhi = q[3];
             s->hot[di].flags |= LC_SLOT_DIRTY;
             u->coast[at_coast++] = di;
             continue;
@@ -702,7 +501,7 @@ static void encode_write(upd *u, enc_part *shared)
         s->cell[slot] = c;
         s->dense[slot] = di;
         if ((f & (LC_SLOT_INTREE | LC_SLOT_REFILTER)) == LC_SLOT_INTREE) { /* moved only: the filter is as it was */
-            s->hot[di].qlo = q[0], s->hot[di].qhi = q[1];
+            s->hot[di].qlo = q[2], s->hot[di].qhi = q[3];
         } else {
             lc_hot_fill(s, slot, q, &s->hot[di]);
         }
@@ -753,7 +552,7 @@ static locd_status incremental(upd *u)
     u->srch = lc_alloc(a, u->undo_cap * sizeof *u->srch);
     u->undo_dense = lc_alloc(a, u->undo_cap * sizeof *u->undo_dense);
     u->new_cells = lc_alloc(a, u->undo_cap * sizeof *u->new_cells);
-    u->new_q = lc_alloc(a, u->undo_cap * LC_HQ * sizeof *u->new_q);
+    u->new_q = lc_alloc(a, u->undo_cap * LC_QPAIR * sizeof *u->new_q);
     u->ndense_before = s->ndense;
     u->undo_flags = lc_alloc(a, u->undo_cap * sizeof *u->undo_flags);
     if (!u->undo_slot || !u->undo_cells || !u->undo_hot || !u->undo_flags || !u->undo_dense || !u->new_cells ||
