@@ -1,7 +1,10 @@
 /* Sorted pair lists. A row is two ids (first < second); rows sort by
  * (first, second), which is the order of the key serial_a << 32 | serial_b
- * (ids sort by serial, scene.h). The sort is an LSD radix sort of the keys
- * carrying each row's position, over the bytes that vary only. */
+ * (ids sort by serial, scene.h). The sort is an LSD radix sort of the rows
+ * themselves on 11-bit digits of the serials, second then first, over the
+ * bits the serials use: four passes at up to 2^22 serials. (It sorted
+ * keys and positions on bytes, six passes and a gather of the rows after:
+ * about 0.3 ms of a 1%-moved frame's 2x10^4 new rows at 10^6 cubes.) */
 #include "scene/scene.h"
 
 locd_status lc_plist_reserve(const locd_allocator *a, lc_plist *p, size_t rows)
@@ -23,57 +26,49 @@ void lc_plist_fini(const locd_allocator *a, lc_plist *p)
     p->first = 0;
 }
 
+#define LC_ROW_DIGIT 11
+
 locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n)
 {
-    uint64_t *key, *key2, diff = 0;
-    uint32_t *pos, *pos2;
-    locd_id *tmp;
-    size_t i, bytes;
-    uint32_t b;
+    const uint32_t nb = 1u << LC_ROW_DIGIT;
+    size_t *count, i;
+    locd_id *tmp, *src = rows, *dst;
+    uint32_t used[2] = {0, 0}, f;
     if (n < 2)
         return LOCD_OK;
-    bytes = n * (2 * sizeof(uint64_t) + 2 * sizeof(uint32_t) + 2 * sizeof(locd_id));
-    key = lc_alloc(a, bytes);
-    if (!key)
+    tmp = lc_alloc(a, 2 * n * sizeof *tmp + nb * sizeof *count);
+    if (!tmp)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the pair sort's scratch");
-    key2 = key + n;
-    tmp = (locd_id *)(key2 + n);
-    pos = (uint32_t *)(tmp + 2 * n);
-    pos2 = pos + n;
-    for (i = 0; i < n; i++) {
-        key[i] = lc_pair_key(rows + 2 * i);
-        pos[i] = (uint32_t)i;
-        diff |= key[i] ^ key[0];
-    }
-    for (b = 0; b < 8; b++) {
-        size_t count[256] = {0}, sum = 0;
-        uint32_t sh = 8 * b;
-        uint64_t *tk;
-        uint32_t *tp;
-        if (!((diff >> sh) & 0xff))
-            continue;
-        for (i = 0; i < n; i++)
-            count[(key[i] >> sh) & 0xff]++;
-        for (i = 0; i < 256; i++) {
-            size_t c = count[i];
-            count[i] = sum;
-            sum += c;
+    count = (size_t *)(tmp + 2 * n);
+    dst = tmp;
+    for (i = 0; i < n; i++)
+        used[0] |= LC_ID_SERIAL(rows[2 * i]), used[1] |= LC_ID_SERIAL(rows[2 * i + 1]);
+    for (f = 2; f-- > 0;) { /* the second serial, then the first */
+        uint32_t sh;
+        for (sh = 0; sh < 32 && (used[f] >> sh); sh += LC_ROW_DIGIT) {
+            size_t sum = 0;
+            uint32_t b, d0 = (LC_ID_SERIAL(src[f]) >> sh) & (nb - 1);
+            locd_id *t;
+            memset(count, 0, nb * sizeof *count);
+            for (i = 0; i < n; i++)
+                count[(LC_ID_SERIAL(src[2 * i + f]) >> sh) & (nb - 1)]++;
+            if (count[d0] == n) /* one digit: the pass would change nothing */
+                continue;
+            for (b = 0; b < nb; b++) {
+                size_t c = count[b];
+                count[b] = sum;
+                sum += c;
+            }
+            for (i = 0; i < n; i++) {
+                size_t d = count[(LC_ID_SERIAL(src[2 * i + f]) >> sh) & (nb - 1)]++;
+                dst[2 * d] = src[2 * i], dst[2 * d + 1] = src[2 * i + 1];
+            }
+            t = src, src = dst, dst = t;
         }
-        for (i = 0; i < n; i++) {
-            size_t d = count[(key[i] >> sh) & 0xff]++;
-            key2[d] = key[i];
-            pos2[d] = pos[i];
-        }
-        tk = key, key = key2, key2 = tk;
-        tp = pos, pos = pos2, pos2 = tp;
     }
-    for (i = 0; i < n; i++) {
-        tmp[2 * i] = rows[2 * (size_t)pos[i]];
-        tmp[2 * i + 1] = rows[2 * (size_t)pos[i] + 1];
-    }
-    memcpy(rows, tmp, 2 * n * sizeof(locd_id));
-    /* key may have been swapped with key2: free the block by its start. */
-    lc_free(a, key < key2 ? key : key2, bytes);
+    if (src != rows)
+        memcpy(rows, src, 2 * n * sizeof *rows);
+    lc_free(a, tmp, 2 * n * sizeof *tmp + nb * sizeof *count);
     return LOCD_OK;
 }
 
