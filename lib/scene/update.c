@@ -118,6 +118,10 @@ static void upd_free(upd *u)
     lc_free(a, u->buf, u->buf_cap * sizeof *u->buf);
 }
 
+/* In undo_flags beside a slot's flags (which use the 7 low bits): the row
+ * saved the record only (an object that stayed in its fat box). */
+#define LC_UNDO_RECORD 0x80u
+
 /* Puts back what a failed incremental update wrote early: the cells and
  * hot records of the moved objects, the tombstones. */
 static void undo(upd *u)
@@ -128,6 +132,8 @@ static void undo(upd *u)
         uint32_t slot = u->undo_slot[k];
         uint32_t di = (u->undo_flags[k] & LC_SLOT_INTREE) ? u->undo_dense[k] : s->dense[slot];
         s->hot[di] = u->undo_hot[k];
+        if (u->undo_flags[k] & LC_UNDO_RECORD) /* the record was all that changed */
+            continue;
         memcpy(s->hq + LC_HQ * (size_t)di, u->undo_hq + LC_HQ * k, LC_HQ * sizeof *s->hq);
         s->cell[slot] = u->undo_cells[k];
         s->dense[slot] = u->undo_dense[k];
@@ -403,15 +409,14 @@ static void encode_count(upd *u, enc_part *shared)
         int l = (f & LC_SLOT_STATIC) ? 1 : 0;
         lc_cells c;
         uint64_t *q = u->new_q + LC_QPAIR * k;
-        if (k + LC_AHEAD < pt->e) { /* the dirty slots are scattered: a miss each, overlapped */
-            uint32_t ahead = d[k + LC_AHEAD];
+        if (k + 2 * LC_AHEAD < pt->e) { /* the dirty slots are scattered: a miss each, overlapped */
+            uint32_t ahead = d[k + 2 * LC_AHEAD];
             __builtin_prefetch(s->flags + ahead);
             lc_scene_prefetch_box(s, ahead, 0);
-            __builtin_prefetch(s->cell + ahead);
             __builtin_prefetch(s->dense + ahead);
         }
-        if (k + LC_AHEAD / 2 < pt->e) { /* its dense index has come: its packed fat box */
-            uint32_t ahead = d[k + LC_AHEAD / 2];
+        if (k + LC_AHEAD < pt->e) { /* its dense index has come: its packed fat box */
+            uint32_t ahead = d[k + LC_AHEAD];
             if (s->flags[ahead] & LC_SLOT_INTREE)
                 __builtin_prefetch(s->hq + LC_HQ * (size_t)s->dense[ahead]);
         }
@@ -476,18 +481,19 @@ static void encode_write(upd *u, enc_part *shared)
         /* an object new to the lists takes the next dense index */
         di = (f & LC_SLOT_INTREE) ? s->dense[slot] : fresh++;
         u->undo_slot[w] = slot;
-        u->undo_cells[w] = s->cell[slot];
         u->undo_dense[w] = s->dense[slot];
         u->undo_hot[w] = s->hot[di];
-        memcpy(u->undo_hq + LC_HQ * w, s->hq + LC_HQ * (size_t)di, LC_HQ * sizeof *s->hq);
-        u->undo_flags[w] = f;
-        w++;
-        if (c.pad[0]) { /* stays in its fat box */
+        if (c.pad[0]) { /* stays in its fat box: only its record changes */
+            u->undo_flags[w++] = f | LC_UNDO_RECORD;
             s->hot[di].qlo = q[2], s->hot[di].qhi = q[3];
             s->hot[di].flags |= LC_SLOT_DIRTY;
             u->coast[at_coast++] = di;
             continue;
         }
+        u->undo_cells[w] = s->cell[slot];
+        memcpy(u->undo_hq + LC_HQ * w, s->hq + LC_HQ * (size_t)di, LC_HQ * sizeof *s->hq);
+        u->undo_flags[w] = f;
+        w++;
         u->srch[at_srch++] = di;
         cnt = lc_cells_entries(g, &c, di, u->buf + at_q);
         if (!((f & LC_SLOT_INTREE) && lc_cells_same(&c, &s->cell[slot]))) {
