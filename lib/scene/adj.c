@@ -95,8 +95,9 @@ locd_status lc_adj_build(locd_scene *s)
     for (k = 0; k < np; k++) {
         const uint32_t i = p[2 * k], j = p[2 * k + 1];
         if (hot_may_pair(&s->hot[i], &s->hot[j])) {
-            s->adj_pool[s->adj[i].off + s->adj[i].n++] = j;
-            s->adj_pool[s->adj[j].off + s->adj[j].n++] = i;
+            const uint32_t paired = lc_hot_meet(s, &s->hot[i], &s->hot[j]) ? LC_ADJ_PAIRED : 0u;
+            s->adj_pool[s->adj[i].off + s->adj[i].n++] = j | paired;
+            s->adj_pool[s->adj[j].off + s->adj[j].n++] = i | paired;
         }
     }
     s->have_adj = 1;
@@ -112,10 +113,10 @@ void lc_adj_unlink(locd_scene *s, uint32_t d)
     lc_adj *h = &s->adj[d];
     uint32_t k;
     for (k = 0; k < h->n; k++) {
-        lc_adj *ho = &s->adj[s->adj_pool[h->off + k]];
+        lc_adj *ho = &s->adj[s->adj_pool[h->off + k] & LC_ADJ_INDEX];
         uint32_t *v = s->adj_pool + ho->off, x;
         for (x = 0; x < ho->n; x++)
-            if (v[x] == d) {
+            if ((v[x] & LC_ADJ_INDEX) == d) {
                 v[x] = v[--ho->n];
                 break;
             }
@@ -171,15 +172,29 @@ static int push(locd_scene *s, uint32_t a, uint32_t b)
     return 1;
 }
 
-void lc_adj_link(locd_scene *s, uint32_t a, uint32_t b)
+void lc_adj_link(locd_scene *s, uint32_t a, uint32_t b, int paired)
 {
+    const uint32_t bit = paired ? LC_ADJ_PAIRED : 0u;
     if (!s->have_adj)
         return;
-    if (!push(s, a, b) || !push(s, b, a)) {
+    if (!push(s, a, b | bit) || !push(s, b, a | bit)) {
         lc_adj_drop(s); /* the scene searches every moved object until the lists are built again */
         return;
     }
     s->adj_live += 2;
+}
+
+void lc_adj_set_paired(locd_scene *s, uint32_t a, uint32_t k, uint32_t b, int paired)
+{
+    const lc_adj *hb = &s->adj[b];
+    uint32_t *v = s->adj_pool + hb->off, x;
+    uint32_t *e = s->adj_pool + s->adj[a].off + k;
+    *e = (*e & LC_ADJ_INDEX) | (paired ? LC_ADJ_PAIRED : 0u);
+    for (x = 0; x < hb->n; x++)
+        if ((v[x] & LC_ADJ_INDEX) == a) {
+            v[x] = a | (paired ? LC_ADJ_PAIRED : 0u);
+            break;
+        }
 }
 
 /* TEMP DEBUG */
@@ -195,13 +210,18 @@ void lc_adj_debug_check(const locd_scene *s)
         const lc_hot *a = &s->hot[i];
         int la = (s->flags[a->slot] & LC_SLOT_LIVE) && s->dense[a->slot] == i && s->id[a->slot] == a->id;
         for (k = 0; k < s->adj[i].n; k++) {
-            uint32_t o = s->adj_pool[s->adj[i].off + k], x, c = 0;
+            uint32_t e = s->adj_pool[s->adj[i].off + k], o = e & LC_ADJ_INDEX, x, c = 0, eb = 0;
             for (x = 0; x < s->adj[o].n; x++)
-                c += s->adj_pool[s->adj[o].off + x] == i;
+                if ((s->adj_pool[s->adj[o].off + x] & LC_ADJ_INDEX) == i)
+                    c++, eb = s->adj_pool[s->adj[o].off + x] >> 31;
             if (c != 1 || !la)
                 fprintf(stderr, "ADJ asym %zu -> %u (back %u, live %d)\n", i, o, c, la);
+            if (eb != (e >> 31))
+                fprintf(stderr, "ADJ bit asym %zu -> %u\n", i, o);
+            if ((e >> 31) != (uint32_t)lc_hot_meet(s, a, &s->hot[o]))
+                fprintf(stderr, "ADJ bit wrong %zu -> %u (bit %u)\n", i, o, e >> 31);
             for (x = 0; x < k; x++)
-                if (s->adj_pool[s->adj[i].off + x] == o)
+                if ((s->adj_pool[s->adj[i].off + x] & LC_ADJ_INDEX) == o)
                     fprintf(stderr, "ADJ dup %zu -> %u\n", i, o);
         }
         if (!la)
@@ -209,17 +229,13 @@ void lc_adj_debug_check(const locd_scene *s)
         for (j = 0; j < s->ndense; j++) {
             const lc_hot *b = &s->hot[j];
             const uint64_t *qa = s->hq + LC_HQ * i, *qb = s->hq + LC_HQ * j;
-            uint32_t ax, miss = 0, found = 0;
+            uint32_t found = 0;
             if (j == i || !((s->flags[b->slot] & LC_SLOT_LIVE) && s->dense[b->slot] == j && s->id[b->slot] == b->id))
                 continue;
-            for (ax = 0; ax < 3; ax++) {
-                const uint64_t fm = LC_SMASK << (ax * LC_SBITS);
-                miss |= (qa[0] & fm) > (qb[1] & fm) || (qb[0] & fm) > (qa[1] & fm);
-            }
-            if (miss || !hot_may_pair(a, b))
+            if (lc_qbox_miss(qa, qb) || !hot_may_pair(a, b))
                 continue;
             for (k = 0; k < s->adj[i].n; k++)
-                found |= s->adj_pool[s->adj[i].off + k] == j;
+                found |= (s->adj_pool[s->adj[i].off + k] & LC_ADJ_INDEX) == j;
             if (!found)
                 fprintf(stderr, "ADJ missing %zu -> %zu\n", i, j);
         }

@@ -203,3 +203,102 @@ done:
     lc_free(a, bits, words * sizeof *bits);
     return st;
 }
+
+/* The patch of an incremental update whose changes are known exactly (the
+ * partner lists' PAIRED bits, update.c): the new set is the previous one
+ * without the lost rows and with the created ones, copied in runs between
+ * the edits' positions. The edits are a few hundred a frame where the
+ * dropped and new rows are tens of thousands, so the pass is a copy at
+ * memory speed, split over the pool by ranges of the previous rows. */
+typedef struct patch_ctx {
+    const locd_id *p, *lost, *created;
+    const size_t *pos_l, *pos_c; /* each edit's position in p: the lost row's, the created row's lower bound */
+    size_t np, nl, nc;
+    size_t pb[LC_MAX_THREADS + 1], lb[LC_MAX_THREADS + 1], cb[LC_MAX_THREADS + 1], off[LC_MAX_THREADS];
+    locd_id *out;
+} patch_ctx;
+
+static void task_patch(void *arg, uint32_t t, uint32_t k)
+{
+    patch_ctx *c = arg;
+    const locd_id *p = c->p;
+    size_t i = c->pb[t], w = c->off[t], li = c->lb[t], ci = c->cb[t];
+    const size_t pe = c->pb[t + 1], le = c->lb[t + 1], ce = c->cb[t + 1];
+    (void)k;
+    for (;;) {
+        size_t e = pe;
+        if (li < le && c->pos_l[li] < e)
+            e = c->pos_l[li];
+        if (ci < ce && c->pos_c[ci] < e)
+            e = c->pos_c[ci];
+        memcpy(c->out + 2 * w, p + 2 * i, 2 * (e - i) * sizeof *p);
+        w += e - i, i = e;
+        if (ci < ce && c->pos_c[ci] == i) { /* a created row goes before the row at its lower bound */
+            c->out[2 * w] = c->created[2 * ci], c->out[2 * w + 1] = c->created[2 * ci + 1];
+            w++, ci++;
+        } else if (li < le && c->pos_l[li] == i) {
+            i++, li++;
+        } else {
+            break;
+        }
+    }
+}
+
+/* The first of v[0, n) >= x (v sorted). */
+static size_t pos_lower(const size_t *v, size_t n, size_t x)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (v[mid] < x)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+locd_status lc_scene_patch(locd_scene *s, const lc_plist *lost, const lc_plist *created, lc_plist *next)
+{
+    const locd_allocator *a = s->alloc;
+    const size_t np = s->pairs.count, nl = lost->count, nc = created->count;
+    size_t *pos = lc_alloc(a, (nl + nc + 1) * sizeof *pos), i;
+    patch_ctx c;
+    uint32_t kk = s->threads > 1 && np >= 65536 ? s->threads : 1, t;
+    locd_status st = LOCD_OK;
+    if (!pos)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the pair set's patch");
+    memset(&c, 0, sizeof c);
+    c.p = lc_plist_rows(&s->pairs), c.lost = lc_plist_rows(lost), c.created = lc_plist_rows(created);
+    c.np = np, c.nl = nl, c.nc = nc;
+    c.pos_l = pos, c.pos_c = pos + nl;
+    for (i = 0; i < nl; i++) {
+        const locd_id *r = c.lost + 2 * i;
+        pos[i] = lc_rows_lower_bound(c.p, np, lc_pair_key(r));
+        if (pos[i] >= np || c.p[2 * pos[i]] != r[0] || c.p[2 * pos[i] + 1] != r[1]) {
+            st = lc_error(LOCD_ERR_INTERNAL, "a lost pair is not in the pair set");
+            goto done;
+        }
+    }
+    for (i = 0; i < nc; i++)
+        pos[nl + i] = lc_rows_lower_bound(c.p, np, lc_pair_key(c.created + 2 * i));
+    if ((st = lc_plist_reserve(a, next, np - nl + nc + 1)) != LOCD_OK)
+        goto done;
+    c.out = next->rows.data;
+    next->first = 0;
+    for (t = 0; t <= kk; t++) {
+        c.pb[t] = np * t / kk;
+        c.lb[t] = t == kk ? nl : pos_lower(c.pos_l, nl, c.pb[t]);
+        c.cb[t] = t == kk ? nc : pos_lower(c.pos_c, nc, c.pb[t]);
+    }
+    for (t = 0; t < kk; t++)
+        c.off[t] = c.pb[t] - c.lb[t] + c.cb[t];
+    if (kk > 1)
+        lc_pool_run(s->pool, kk, task_patch, &c);
+    else
+        task_patch(&c, 0, 1);
+    next->count = np - nl + nc;
+done:
+    lc_free(a, pos, (nl + nc + 1) * sizeof *pos);
+    return st;
+}

@@ -38,11 +38,16 @@ typedef struct anc_cache {
     size_t b[32], e[32];
 } anc_cache;
 
+/* A thread's outputs: rows (two ids); the fat partners found, uint32 (m,
+ * o | LC_ADJ_PAIRED when the boxes meet); the partner-list pass's changed
+ * pairs, uint32 (m, k, o | LC_ADJ_PAIRED now) where k is o's place in m's
+ * list. */
+enum { FO_ROWS, FO_FAT, FO_EV, FO_N };
+static const size_t fo_unit[FO_N] = {2 * sizeof(locd_id), 2 * sizeof(uint32_t), 3 * sizeof(uint32_t)};
+
 typedef struct find_out {
-    lc_buf rows; /* locd_id, two a row */
-    size_t count;
-    lc_buf fat; /* uint32 dense index pairs: the fat partners found */
-    size_t nfat;
+    lc_buf buf[FO_N];
+    size_t len[FO_N];
     uint64_t cand;
     locd_status st;
     uint32_t ng;
@@ -57,7 +62,7 @@ typedef struct find_ctx {
     size_t nq;
     const uint32_t *coast; /* the moved objects that take their partner lists */
     size_t ncoast;
-    int want_fat;
+    int events; /* LC_FIND_EVENTS: fat partners and changes, no rows */
     find_out out[LC_MAX_THREADS];
 } find_ctx;
 
@@ -72,45 +77,23 @@ static int cell_holds(const locd_grid *g, uint64_t pm, uint32_t level, const uin
 
 #define FIELD(w, a) ((uint32_t)(((w) >> ((a)*LC_SBITS)) & LC_SMASK))
 
-/* Whether packed boxes qm and qo miss each other: each axis's fields
- * compared in place (masked, not shifted), the three axes' results or-ed. */
-LC_INLINE uint32_t boxes_miss(const uint64_t *qm, const uint64_t *qo)
+/* Room for one more item of output `which`; NULL (and fo->st set) on no memory. */
+static void *put(const locd_scene *s, find_out *fo, int which)
 {
-    uint32_t miss = 0, a;
-    for (a = 0; a < 3; a++) {
-        const uint64_t fm = LC_SMASK << (a * LC_SBITS);
-        miss |= (uint32_t)((qm[0] & fm) > (qo[1] & fm)) | (uint32_t)((qo[0] & fm) > (qm[1] & fm));
-    }
-    return miss;
-}
-
-/* Whether the boxes of dense indices m and o overlap: their packed boxes
- * first. Strictly overlapping packed boxes need no exact test: the
- * quantization is monotone, so q(x) < q(y) implies x < y. Only a tie
- * (equal packed ends) may hide boxes that do not overlap. */
-static int boxes_meet(const locd_scene *s, const lc_hot *hm, const lc_hot *ho)
-{
-    const uint64_t *xm = &hm->qlo, *xo = &ho->qlo;
-    uint32_t tie = 0, a;
-    double tm[6], to[6];
-    if (boxes_miss(xm, xo))
-        return 0;
-    for (a = 0; a < 3; a++) {
-        const uint64_t fm = LC_SMASK << (a * LC_SBITS);
-        tie |= (uint32_t)((xm[0] & fm) == (xo[1] & fm)) | (uint32_t)((xo[0] & fm) == (xm[1] & fm));
-    }
-    return !tie || lc_box_overlap(lc_scene_box(s, hm->slot, tm), lc_scene_box(s, ho->slot, to));
+    if (fo->st == LOCD_OK &&
+        lc_buf_reserve(s->alloc, &fo->buf[which], fo_unit[which], fo->len[which] + 1) != LOCD_OK)
+        fo->st = LOCD_ERR_NO_MEMORY;
+    if (fo->st != LOCD_OK)
+        return NULL;
+    return (char *)fo->buf[which].data + fo_unit[which] * fo->len[which]++;
 }
 
 /* The row of the pair of records hm and ho. */
 static void put_row(const locd_scene *s, find_out *fo, const lc_hot *hm, const lc_hot *ho)
 {
-    locd_id *row;
-    if (fo->st == LOCD_OK && lc_buf_reserve(s->alloc, &fo->rows, 2 * sizeof(locd_id), fo->count + 1) != LOCD_OK)
-        fo->st = LOCD_ERR_NO_MEMORY;
-    if (fo->st != LOCD_OK)
+    locd_id *row = put(s, fo, FO_ROWS);
+    if (!row)
         return;
-    row = (locd_id *)fo->rows.data + 2 * fo->count++;
     row[0] = hm->id < ho->id ? hm->id : ho->id;
     row[1] = hm->id < ho->id ? ho->id : hm->id;
 }
@@ -131,7 +114,8 @@ static int consider_cell(const find_ctx *c, uint64_t eq, const uint64_t *qm, uin
 }
 
 /* The rest, from o's record ho: both searched and not m < o, the filter
- * (a fat partner from here on), the boxes; then the row. */
+ * (a fat partner from here on), the boxes; then the row, or the fat
+ * partner with whether the boxes meet. */
 static void consider_rest(const find_ctx *c, find_out *fo, const lc_hot *hm, const lc_hot *ho)
 {
     const locd_scene *s = c->s;
@@ -143,17 +127,13 @@ static void consider_rest(const find_ctx *c, find_out *fo, const lc_hot *hm, con
     if ((hm->flags & ho->flags & LC_SLOT_STATIC) || !(hm->cat & ho->mask) || !(ho->cat & hm->mask) ||
         (hm->group == ho->group && hm->group != 0))
         return;
-    if (c->want_fat) {
-        uint32_t *f;
-        if (fo->st == LOCD_OK && lc_buf_reserve(s->alloc, &fo->fat, 2 * sizeof(uint32_t), fo->nfat + 1) != LOCD_OK)
-            fo->st = LOCD_ERR_NO_MEMORY;
-        if (fo->st != LOCD_OK)
-            return;
-        f = (uint32_t *)fo->fat.data + 2 * fo->nfat++;
-        f[0] = (uint32_t)(hm - s->hot), f[1] = (uint32_t)(ho - s->hot);
-    }
-    if (boxes_meet(s, hm, ho))
+    if (c->events) {
+        uint32_t *f = put(s, fo, FO_FAT);
+        if (f)
+            f[0] = (uint32_t)(hm - s->hot), f[1] = (uint32_t)(ho - s->hot) | (lc_hot_meet(s, hm, ho) ? LC_ADJ_PAIRED : 0u);
+    } else if (lc_hot_meet(s, hm, ho)) {
         put_row(s, fo, hm, ho);
+    }
 }
 
 /* Tests the gathered candidates in three rounds. The first drops, with no
@@ -177,7 +157,7 @@ static void flush(const find_ctx *c, find_out *fo)
         const uint64_t *qo = hq + LC_HQ * (size_t)(real ? o : m);
         cand += real;
         sk[nk] = k;
-        nk += real & !boxes_miss(hq + LC_HQ * (size_t)m, qo);
+        nk += real & !lc_qbox_miss(hq + LC_HQ * (size_t)m, qo);
     }
     fo->cand += cand;
     for (k = 0; k < nk; k++) {
@@ -332,8 +312,10 @@ LC_INLINE void prefetch_query(const find_ctx *c, uint64_t eq)
 #define LC_COAST_PART 4
 
 /* The pairs of moved object m from its partner list: a partner that
- * searched reports the pair itself; of two that both took their lists, the
- * one with the smaller id does. */
+ * searched reports the pair itself, a removed one its loss; of two that
+ * both took their lists, the one with the smaller id does. Rows: m's pairs.
+ * Events: the partners whose pairing changed (the list's PAIRED bit is the
+ * previous set's). */
 static void coast_one(const find_ctx *c, find_out *fo, uint32_t m)
 {
     const locd_scene *s = c->s;
@@ -342,12 +324,21 @@ static void coast_one(const find_ctx *c, find_out *fo, uint32_t m)
     const lc_hot *hm = &s->hot[m];
     uint32_t k;
     for (k = 0; k < h->n; k++) {
-        const lc_hot *ho = &s->hot[v[k]];
+        const uint32_t o = v[k] & LC_ADJ_INDEX;
+        const lc_hot *ho = &s->hot[o];
+        uint32_t meet;
         if ((ho->flags & (LC_HOT_SEARCH | LC_HOT_GONE)) || ((ho->flags & LC_SLOT_DIRTY) && ho->id < hm->id))
             continue;
         fo->cand++;
-        if (boxes_meet(s, hm, ho))
-            put_row(s, fo, hm, ho);
+        meet = (uint32_t)lc_hot_meet(s, hm, ho);
+        if (!c->events) {
+            if (meet)
+                put_row(s, fo, hm, ho);
+        } else if (meet != (v[k] >> 31)) {
+            uint32_t *e = put(s, fo, FO_EV);
+            if (e)
+                e[0] = m, e[1] = k, e[2] = o | (meet << 31);
+        }
     }
 }
 
@@ -374,7 +365,7 @@ static void coast_range(const find_ctx *c, find_out *fo, size_t b, size_t e)
             const lc_adj *h = &s->adj[m[i + LC_COAST_PART]];
             uint32_t k;
             for (k = 0; k < h->n; k++)
-                prefetch_record(s, s->adj_pool[h->off + k]);
+                prefetch_record(s, s->adj_pool[h->off + k] & LC_ADJ_INDEX);
         }
         coast_one(c, fo, m[i]);
     }
@@ -407,19 +398,36 @@ static void task_find(void *arg, uint32_t t, uint32_t k)
     c->out[t] = fo;
 }
 
+/* Each thread's output `which`, one after another, into out (*len items). */
+static locd_status gather_out(const locd_scene *s, const find_ctx *c, uint32_t k, int which, lc_buf *out, size_t *len)
+{
+    size_t total = 0, w = 0;
+    uint32_t t;
+    for (t = 0; t < k; t++)
+        total += c->out[t].len[which];
+    if (lc_buf_reserve(s->alloc, out, fo_unit[which], total ? total : 1) != LOCD_OK)
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not gather the search's output");
+    for (t = 0; t < k; t++) {
+        if (c->out[t].len[which])
+            memcpy((char *)out->data + fo_unit[which] * w, c->out[t].buf[which].data,
+                   fo_unit[which] * c->out[t].len[which]);
+        w += c->out[t].len[which];
+    }
+    *len = w;
+    return LOCD_OK;
+}
+
 locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q,
-                                size_t nq, const uint32_t *coast, size_t ncoast, lc_plist *out, lc_buf *fat,
-                                size_t *nfat, uint64_t *candidates)
+                                size_t nq, const uint32_t *coast, size_t ncoast, int mode, lc_found *out)
 {
     find_ctx *c = lc_alloc(s->alloc, sizeof *c);
     uint32_t k = s->threads, t;
-    size_t total = 0, nf = 0;
     locd_status st = LOCD_OK;
     if (!c)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the search state");
     memset(c, 0, sizeof *c);
     c->s = s, c->dyn = dyn, c->sta = sta, c->q = q, c->nq = nq;
-    c->coast = coast, c->ncoast = ncoast, c->want_fat = fat != NULL;
+    c->coast = coast, c->ncoast = ncoast, c->events = mode == LC_FIND_EVENTS;
     if (k < 1)
         k = 1;
     if (nq + ncoast < 2048)
@@ -431,35 +439,18 @@ locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const l
     for (t = 0; t < k; t++) {
         if (c->out[t].st != LOCD_OK)
             st = lc_error(LOCD_ERR_NO_MEMORY, "could not grow the new pairs");
-        total += c->out[t].count;
-        nf += c->out[t].nfat;
-        *candidates += c->out[t].cand;
+        out->candidates += c->out[t].cand;
     }
-    *nfat = 0;
-    if (st == LOCD_OK && fat) {
-        if (lc_buf_reserve(s->alloc, fat, 2 * sizeof(uint32_t), nf ? nf : 1) != LOCD_OK)
-            st = lc_error(LOCD_ERR_NO_MEMORY, "could not grow the fat partners");
-        for (t = 0; t < k && st == LOCD_OK; t++) {
-            if (c->out[t].nfat)
-                memcpy((uint32_t *)fat->data + 2 * *nfat, c->out[t].fat.data, 2 * c->out[t].nfat * sizeof(uint32_t));
-            *nfat += c->out[t].nfat;
-        }
-    }
-    if (st == LOCD_OK)
-        st = lc_plist_reserve(s->alloc, out, total ? total : 1);
-    if (st == LOCD_OK) {
-        size_t w = 0;
-        for (t = 0; t < k; t++) {
-            if (c->out[t].count)
-                memcpy((locd_id *)out->rows.data + 2 * w, c->out[t].rows.data, 2 * c->out[t].count * sizeof(locd_id));
-            w += c->out[t].count;
-        }
-        out->count = w;
-        st = lc_pairs_sort_rows(s->alloc, out->rows.data, w);
-    }
+    out->nfat = out->nev = 0;
+    out->rows.count = out->rows.first = 0;
+    if (st == LOCD_OK && c->events && (st = gather_out(s, c, k, FO_FAT, &out->fat, &out->nfat)) == LOCD_OK)
+        st = gather_out(s, c, k, FO_EV, &out->ev, &out->nev);
+    if (st == LOCD_OK && !c->events && (st = gather_out(s, c, k, FO_ROWS, &out->rows.rows, &out->rows.count)) == LOCD_OK)
+        st = lc_pairs_sort_rows(s->alloc, out->rows.rows.data, out->rows.count);
     for (t = 0; t < k; t++) {
-        lc_buf_release(s->alloc, &c->out[t].rows, 2 * sizeof(locd_id));
-        lc_buf_release(s->alloc, &c->out[t].fat, 2 * sizeof(uint32_t));
+        int w;
+        for (w = 0; w < FO_N; w++)
+            lc_buf_release(s->alloc, &c->out[t].buf[w], fo_unit[w]);
     }
     lc_free(s->alloc, c, sizeof *c);
     return st;

@@ -72,10 +72,13 @@ typedef struct lc_hot {
 } lc_hot;
 
 /* An object's partner list (adj.c): off and n of its run in the scene's
- * partner pool, cap the room there. */
+ * partner pool, cap the room there. An entry is a partner's dense index,
+ * with LC_ADJ_PAIRED when the two are a pair of the current set. */
 typedef struct lc_adj {
     uint32_t off, n, cap;
 } lc_adj;
+#define LC_ADJ_PAIRED 0x80000000u
+#define LC_ADJ_INDEX 0x7fffffffu
 
 /* One record a cache line (the partner-list pass reads one a partner). */
 typedef char lc_hot_is_64_bytes[sizeof(lc_hot) == 64 ? 1 : -1];
@@ -313,6 +316,36 @@ LC_INLINE int lc_box_overlap(const double *a, const double *b)
     return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
 }
 
+/* Whether packed boxes qm and qo miss each other: each axis's fields
+ * compared in place (masked, not shifted), the three axes' results or-ed. */
+LC_INLINE uint32_t lc_qbox_miss(const uint64_t *qm, const uint64_t *qo)
+{
+    uint32_t miss = 0, a;
+    for (a = 0; a < 3; a++) {
+        const uint64_t fm = LC_SMASK << (a * LC_SBITS);
+        miss |= (uint32_t)((qm[0] & fm) > (qo[1] & fm)) | (uint32_t)((qo[0] & fm) > (qm[1] & fm));
+    }
+    return miss;
+}
+
+/* Whether the boxes of records hm and ho overlap: their packed boxes
+ * first. Strictly overlapping packed boxes need no exact test: the
+ * quantization is monotone, so q(x) < q(y) implies x < y. Only a tie
+ * (equal packed ends) may hide boxes that do not overlap. */
+LC_INLINE int lc_hot_meet(const locd_scene *s, const lc_hot *hm, const lc_hot *ho)
+{
+    const uint64_t *xm = &hm->qlo, *xo = &ho->qlo;
+    uint32_t tie = 0, a;
+    double tm[6], to[6];
+    if (lc_qbox_miss(xm, xo))
+        return 0;
+    for (a = 0; a < 3; a++) {
+        const uint64_t fm = LC_SMASK << (a * LC_SBITS);
+        tie |= (uint32_t)((xm[0] & fm) == (xo[1] & fm)) | (uint32_t)((xo[0] & fm) == (xm[1] & fm));
+    }
+    return !tie || lc_box_overlap(lc_scene_box(s, hm->slot, tm), lc_scene_box(s, ho->slot, to));
+}
+
 /* ---- sorted pair lists (pairset.c) ---- */
 locd_status lc_plist_reserve(const locd_allocator *a, lc_plist *p, size_t rows);
 void lc_plist_fini(const locd_allocator *a, lc_plist *p);
@@ -329,6 +362,10 @@ size_t lc_rows_lower_bound(const locd_id *rows, size_t n, uint64_t key);
  * did not change (dirty or removed slots) merged with the new rows n
  * (sorted), into *dropped the others. */
 locd_status lc_scene_carry(locd_scene *s, const lc_plist *n, lc_plist *next, lc_plist *dropped);
+/* Into *next the previous set without the rows lost (sorted, all in it)
+ * and with the rows created (sorted, none in it). LOCD_ERR_INTERNAL when a
+ * lost row is not in the set. */
+locd_status lc_scene_patch(locd_scene *s, const lc_plist *lost, const lc_plist *created, lc_plist *next);
 /* Both differences of sorted a and b in one merge: amb = a \ b (room for
  * na rows), bma = b \ a (room for nb rows). */
 void lc_plist_diff(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *amb, size_t *namb, locd_id *bma,
@@ -398,14 +435,23 @@ void lc_tree_edit_free(const locd_allocator *a, lc_tree_edit *e);
 locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g);
 /* 1 if box b quantizes inside the root cube without clamping. */
 int lc_grid_holds(const locd_grid *g, const double *b);
-/* The pairs of the moved objects into *out (sorted): those of the objects
- * whose entries are q (sorted), searched in the lists dyn and sta, and
- * those of the objects coast[0, ncoast) (dense indices), from their partner
- * lists. Adds to *candidates. When fat is not NULL, the search's fat
- * partners (dense index pairs, each pair once) go to it, *nfat of them. */
+/* What lc_scene_find_moved finds. LC_FIND_ROWS: the moved objects' rows
+ * (sorted). LC_FIND_EVENTS: the search's fat partners, uint32 (m, o |
+ * LC_ADJ_PAIRED when their boxes meet), each pair once; and the changes the
+ * partner-list pass found, uint32 (m, k, o | LC_ADJ_PAIRED now), k being
+ * o's place in m's list, the pairs whose PAIRED bit is wrong now. */
+enum { LC_FIND_ROWS, LC_FIND_EVENTS };
+typedef struct lc_found {
+    lc_plist rows;
+    lc_buf fat, ev;
+    size_t nfat, nev;
+    uint64_t candidates; /* added to */
+} lc_found;
+/* The pairs of the moved objects: those whose entries are q (sorted),
+ * searched in the lists dyn and sta, and the objects coast[0, ncoast) (dense
+ * indices), from their partner lists. */
 locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q,
-                                size_t nq, const uint32_t *coast, size_t ncoast, lc_plist *out, lc_buf *fat,
-                                size_t *nfat, uint64_t *candidates);
+                                size_t nq, const uint32_t *coast, size_t ncoast, int mode, lc_found *out);
 /* Every live object's cells on g into cells, its dense index into dense
  * and its record into hot (numbered in entry order; *ndense receives the
  * count), and both entry lists, sorted by key. */
@@ -427,9 +473,12 @@ locd_status lc_adj_build(locd_scene *s);
 void lc_adj_drop(locd_scene *s);
 /* Takes dense index d off the lists of its partners and empties its own. */
 void lc_adj_unlink(locd_scene *s, uint32_t d);
-/* Makes a and b partners (neither in the other's list before). On no
- * memory the lists are dropped (the scene then searches every moved object). */
-void lc_adj_link(locd_scene *s, uint32_t a, uint32_t b);
+/* Makes a and b partners (neither in the other's list before), a pair of
+ * the current set when `paired`. On no memory the lists are dropped (the
+ * scene then searches every moved object). */
+void lc_adj_link(locd_scene *s, uint32_t a, uint32_t b, int paired);
+/* Sets or clears the PAIRED bit of a's entry k (partner b) and of b's entry for a. */
+void lc_adj_set_paired(locd_scene *s, uint32_t a, uint32_t k, uint32_t b, int paired);
 
 /* ---- queries (query.c) ---- */
 /* The ray-box slab test (docs/scene.md); 1 and *t_enter on a hit. */

@@ -44,8 +44,8 @@ typedef struct upd {
        (coast) and those that search the entry lists (srch): dense indices */
     uint32_t *coast, *srch;
     size_t ncoast, nsrch;
-    lc_buf fat; /* the search's fat partners: uint32 pairs */
-    size_t nfat;
+    int events;     /* the changes come from the partner lists' PAIRED bits (moved_events) */
+    lc_found found; /* what the moved objects' search found */
     size_t ndense_before;
     uint8_t *undo_flags;
     size_t nundo, undo_cap;
@@ -110,7 +110,9 @@ static void upd_free(upd *u)
     lc_free(a, u->undo_hq, u->undo_cap * LC_HQ * sizeof *u->undo_hq);
     lc_free(a, u->coast, u->undo_cap * sizeof *u->coast);
     lc_free(a, u->srch, u->undo_cap * sizeof *u->srch);
-    lc_buf_release(a, &u->fat, 2 * sizeof(uint32_t));
+    lc_plist_fini(a, &u->found.rows);
+    lc_buf_release(a, &u->found.fat, 2 * sizeof(uint32_t));
+    lc_buf_release(a, &u->found.ev, 3 * sizeof(uint32_t));
     lc_free(a, u->undo_dense, u->undo_cap * sizeof *u->undo_dense);
     lc_free(a, u->new_cells, u->undo_cap * sizeof *u->new_cells);
     lc_free(a, u->new_q, u->undo_cap * LC_QPAIR * sizeof *u->new_q);
@@ -337,35 +339,145 @@ static locd_status events_full(upd *u)
 
 /* The pairs of the moved objects (query entries q, sorted, searched in the
  * lists dyn and sta; u->coast from their partner lists), the carry pass,
- * and the events. The search's fat partners go to u->fat when the scene
- * keeps partner lists. */
+ * and the events. */
 static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q, size_t nq)
 {
     locd_scene *s = u->s;
     const locd_allocator *a = s->alloc;
-    lc_plist n = {{NULL, 0}, 0, 0}, dropped = s->spare_drop;
+    lc_plist *n = &u->found.rows, dropped = s->spare_drop;
     locd_status st;
     double t0 = lc_now_ms(), t1;
     dropped.count = dropped.first = 0;
     memset(&s->spare_drop, 0, sizeof s->spare_drop);
-    st = lc_scene_find_moved(s, dyn, sta, q, nq, u->coast, u->ncoast, &n, s->have_adj ? &u->fat : NULL, &u->nfat,
-                             &u->candidates);
+    st = lc_scene_find_moved(s, dyn, sta, q, nq, u->coast, u->ncoast, LC_FIND_ROWS, &u->found);
     t1 = lc_now_ms();
     u->ms_sweep = t1 - t0;
     t0 = t1;
     if (st == LOCD_OK)
-        st = lc_scene_carry(s, &n, &u->next, &dropped);
+        st = lc_scene_carry(s, n, &u->next, &dropped);
     if (st == LOCD_OK && (u->flags & LOCD_SCENE_UPDATE_EVENTS)) {
         /* previous = kept + dropped, now = kept + n, kept disjoint from both */
-        if ((st = lc_plist_reserve(a, &u->cr, n.count + 1)) == LOCD_OK &&
+        if ((st = lc_plist_reserve(a, &u->cr, n->count + 1)) == LOCD_OK &&
             (st = lc_plist_reserve(a, &u->lo, dropped.count + 1)) == LOCD_OK) {
-            lc_plist_diff(n.rows.data, n.count, lc_plist_rows(&dropped), dropped.count, u->cr.rows.data, &u->cr.count,
-                          u->lo.rows.data, &u->lo.count);
+            lc_plist_diff(n->rows.data, n->count, lc_plist_rows(&dropped), dropped.count, u->cr.rows.data,
+                          &u->cr.count, u->lo.rows.data, &u->lo.count);
         }
     }
     u->ms_events = lc_now_ms() - t0;
-    lc_plist_fini(a, &n);
     s->spare_drop = dropped; /* sized for a whole set: kept, as the set's own buffers */
+    return st;
+}
+
+/* Appends the row of dense indices m and o to p (room made beforehand). */
+LC_INLINE void put_pair(const locd_scene *s, lc_plist *p, uint32_t m, uint32_t o)
+{
+    const locd_id a = s->hot[m].id, b = s->hot[o].id;
+    locd_id *r = (locd_id *)p->rows.data + 2 * p->count++;
+    r[0] = a < b ? a : b, r[1] = a < b ? b : a;
+}
+
+/* Whether m reports its pair with partner o (their records): not when o
+ * was removed (o's removal does), nor when both searched and o's id is the
+ * smaller (o does). As the search's rule (find.c), for the pairs of
+ * before. */
+LC_INLINE int reports(const lc_hot *hm, const lc_hot *ho)
+{
+    return !(ho->flags & LC_HOT_GONE) && !((ho->flags & LC_HOT_SEARCH) && ho->id < hm->id);
+}
+
+/* The changes of an update whose moved objects all have partner lists:
+ * created and lost from the PAIRED bits (the previous set) against what
+ * the objects' boxes give now, then the new set patched from the previous
+ * one (lc_scene_patch). The partner-list pass reports its changes itself;
+ * a searched object's pairs of before are its list's PAIRED entries, its
+ * pairs now what the search found; a removed object's pairs are lost. The
+ * bits are brought up to date at commit (relink). */
+static locd_status moved_events(upd *u, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q, size_t nq)
+{
+    locd_scene *s = u->s;
+    const locd_allocator *a = s->alloc;
+    const uint32_t *r = s->removed.data;
+    lc_found *f = &u->found;
+    uint64_t *keys = NULL;
+    size_t k, x, nold = 0, nnew = 0, room, nkeys = 0;
+    locd_status st;
+    double t0 = lc_now_ms(), t1;
+    st = lc_scene_find_moved(s, dyn, sta, q, nq, u->coast, u->ncoast, LC_FIND_EVENTS, f);
+    t1 = lc_now_ms();
+    u->ms_sweep = t1 - t0;
+    t0 = t1;
+    if (st != LOCD_OK)
+        return st;
+    /* The searched objects' pairs of before and now, as keys m << 32 | o:
+       sorted, then merged. */
+    for (k = 0; k < u->nsrch; k++)
+        nkeys += s->adj[u->srch[k]].n;
+    nkeys += f->nfat;
+    if (!(keys = lc_alloc(a, (nkeys + 1) * sizeof *keys))) {
+        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the searched objects' pairs");
+        goto done;
+    }
+    for (k = 0; k < u->nsrch; k++) {
+        const uint32_t m = u->srch[k];
+        const lc_adj *h = &s->adj[m];
+        for (x = 0; x < h->n; x++) {
+            const uint32_t e = s->adj_pool[h->off + x], o = e & LC_ADJ_INDEX;
+            if ((e & LC_ADJ_PAIRED) && reports(&s->hot[m], &s->hot[o]))
+                keys[nold++] = (uint64_t)m << 32 | o;
+        }
+    }
+    for (k = 0; k < f->nfat; k++) {
+        const uint32_t *e = (const uint32_t *)f->fat.data + 2 * k;
+        if (e[1] & LC_ADJ_PAIRED)
+            keys[nold + nnew++] = (uint64_t)e[0] << 32 | (e[1] & LC_ADJ_INDEX);
+    }
+    if ((st = lc_sort_u64_radix(a, keys, nold)) != LOCD_OK || (st = lc_sort_u64_radix(a, keys + nold, nnew)) != LOCD_OK)
+        goto done;
+    /* room: every change may be a row */
+    room = f->nev + nold + nnew + 1;
+    for (k = 0; k < s->nremoved; k++)
+        if (s->flags[r[k]] & LC_SLOT_INTREE)
+            room += s->adj[s->dense[r[k]]].n;
+    if ((st = lc_plist_reserve(a, &u->cr, room)) != LOCD_OK || (st = lc_plist_reserve(a, &u->lo, room)) != LOCD_OK)
+        goto done;
+    u->cr.count = u->lo.count = u->cr.first = u->lo.first = 0;
+    for (k = 0; k < f->nev; k++) {
+        const uint32_t *e = (const uint32_t *)f->ev.data + 3 * k;
+        put_pair(s, (e[2] & LC_ADJ_PAIRED) ? &u->cr : &u->lo, e[0], e[2] & LC_ADJ_INDEX);
+    }
+    {
+        const uint64_t *old = keys, *now = keys + nold;
+        size_t i = 0, j = 0;
+        while (i < nold || j < nnew) {
+            if (j == nnew || (i < nold && old[i] < now[j])) {
+                put_pair(s, &u->lo, (uint32_t)(old[i] >> 32), (uint32_t)old[i]), i++;
+            } else if (i == nold || now[j] < old[i]) {
+                put_pair(s, &u->cr, (uint32_t)(now[j] >> 32), (uint32_t)now[j]), j++;
+            } else {
+                i++, j++;
+            }
+        }
+    }
+    for (k = 0; k < s->nremoved; k++)
+        if (s->flags[r[k]] & LC_SLOT_INTREE) {
+            const uint32_t m = s->dense[r[k]];
+            const lc_adj *h = &s->adj[m];
+            for (x = 0; x < h->n; x++) {
+                const uint32_t e = s->adj_pool[h->off + x], o = e & LC_ADJ_INDEX;
+                /* of two removed objects, the one with the smaller id reports */
+                if ((e & LC_ADJ_PAIRED) && !((s->hot[o].flags & LC_HOT_GONE) && s->hot[o].id < s->hot[m].id))
+                    put_pair(s, &u->lo, m, o);
+            }
+        }
+    if ((st = lc_pairs_sort_rows(a, u->cr.rows.data, u->cr.count)) != LOCD_OK ||
+        (st = lc_pairs_sort_rows(a, u->lo.rows.data, u->lo.count)) != LOCD_OK ||
+        (st = lc_scene_patch(s, &u->lo, &u->cr, &u->next)) != LOCD_OK)
+        goto done;
+    if (!(u->flags & LOCD_SCENE_UPDATE_EVENTS))
+        u->cr.count = u->lo.count = 0;
+done:
+    lc_free(a, keys, (nkeys + 1) * sizeof *keys);
+    u->ms_events = lc_now_ms() - t0;
     return st;
 }
 
@@ -644,7 +756,8 @@ static locd_status incremental(upd *u)
     view_tree(&s->dyn, &u->edit[0], &u->dyn);
     view_tree(&s->sta, &u->edit[1], &u->sta);
     u->ms_merge = lc_now_ms() - t0;
-    st = moved_pairs(u, &u->dyn, &u->sta, u->buf + off_q, nq);
+    u->events = s->have_adj;
+    st = (u->events ? moved_events : moved_pairs)(u, &u->dyn, &u->sta, u->buf + off_q, nq);
     memset(&u->dyn, 0, sizeof u->dyn); /* views: not ours to free */
     memset(&u->sta, 0, sizeof u->sta);
     return st;
@@ -690,7 +803,6 @@ static locd_status relist(upd *u)
     u->ms_encode = lc_now_ms() - t0;
     if (st == LOCD_OK)
         st = moved_pairs(u, &s->dyn, &s->sta, u->buf, nq);
-    u->nfat = 0; /* every fat pair is in the lists already */
     for (k = 0; k < s->ndirty; k++)
         if (s->flags[d[k]] & LC_SLOT_LIVE)
             s->hot[s->dense[d[k]]].flags &= ~(uint32_t)(LC_SLOT_DIRTY | LC_HOT_SEARCH);
@@ -754,17 +866,22 @@ static void clear_changes(locd_scene *s)
 static void relink(upd *u)
 {
     locd_scene *s = u->s;
-    const uint32_t *r = s->removed.data, *fp = u->fat.data;
+    const uint32_t *r = s->removed.data, *fp = u->found.fat.data, *ev = u->found.ev.data;
     size_t k;
-    if (!s->have_adj)
+    if (!s->have_adj || !u->events)
         return;
+    /* the partner-list pass's changes first: their places k hold until a
+       list is unlinked below */
+    for (k = 0; k < u->found.nev; k++)
+        lc_adj_set_paired(s, ev[3 * k], ev[3 * k + 1], ev[3 * k + 2] & LC_ADJ_INDEX,
+                          (ev[3 * k + 2] & LC_ADJ_PAIRED) != 0);
     for (k = 0; k < s->nremoved; k++)
         if (s->flags[r[k]] & LC_SLOT_INTREE)
             lc_adj_unlink(s, s->dense[r[k]]);
     for (k = 0; k < u->nsrch; k++)
         lc_adj_unlink(s, u->srch[k]);
-    for (k = 0; k < u->nfat && s->have_adj; k++)
-        lc_adj_link(s, fp[2 * k], fp[2 * k + 1]);
+    for (k = 0; k < u->found.nfat && s->have_adj; k++)
+        lc_adj_link(s, fp[2 * k], fp[2 * k + 1] & LC_ADJ_INDEX, (fp[2 * k + 1] & LC_ADJ_PAIRED) != 0);
 }
 
 static void commit(upd *u)
@@ -849,7 +966,7 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     st_out->moved = u.moved;
     st_out->reencoded = u.reencoded;
     st_out->entries = s->dyn.count + s->sta.count;
-    st_out->candidates = u.candidates;
+    st_out->candidates = u.candidates + u.found.candidates;
     st_out->pairs = s->pairs.count;
     st_out->created = s->created.count;
     st_out->lost = s->lost.count;
