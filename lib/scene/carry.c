@@ -302,3 +302,125 @@ done:
     lc_free(a, pos, (nl + nc + 1) * sizeof *pos);
     return st;
 }
+
+/* The same patch in the set's own buffer, when it has room after the set:
+ * every row moves toward the buffer's end (the set starts B rows later,
+ * B the largest leftward move a row would make), so one pass from the end
+ * moves each run in place. A run is read and written in the same cache
+ * lines: 32 MB of traffic at 10^6 pairs where a copy into another buffer
+ * makes 48 (its lines are read before they are written). The ops are the
+ * forward walk's runs and insertions, done in reverse. On two threads the
+ * right half's first rows, which the left half may overwrite first, are
+ * saved before. */
+typedef struct patch_op {
+    size_t src, dst, len; /* a run: len rows from src to dst (buffer rows); len 0: insert created row src at dst */
+} patch_op;
+
+typedef struct inplace_ctx {
+    locd_id *buf;
+    const locd_id *created;
+    const patch_op *op;
+    size_t ob[3];        /* op ranges of the (at most two) threads */
+    const locd_id *head; /* thread 1: buffer rows [hb, he) as they were */
+    size_t hb, he;
+} inplace_ctx;
+
+static void task_inplace(void *arg, uint32_t t, uint32_t k)
+{
+    const inplace_ctx *c = arg;
+    size_t x;
+    (void)k;
+    for (x = c->ob[t + 1]; x-- > c->ob[t];) {
+        const patch_op *o = &c->op[x];
+        if (!o->len) {
+            c->buf[2 * o->dst] = c->created[2 * o->src], c->buf[2 * o->dst + 1] = c->created[2 * o->src + 1];
+            continue;
+        }
+        if (t == 1 && o->src < c->he) { /* partly or wholly in the saved head */
+            const size_t in = c->he - o->src < o->len ? c->he - o->src : o->len;
+            memmove(c->buf + 2 * (o->dst + in), c->buf + 2 * (o->src + in), 2 * (o->len - in) * sizeof *c->buf);
+            memcpy(c->buf + 2 * o->dst, c->head + 2 * (o->src - c->hb), 2 * in * sizeof *c->buf);
+            continue;
+        }
+        memmove(c->buf + 2 * o->dst, c->buf + 2 * o->src, 2 * o->len * sizeof *c->buf);
+    }
+}
+
+int lc_scene_patch_in_place(locd_scene *s, const lc_plist *lost, const lc_plist *created)
+{
+    const locd_allocator *a = s->alloc;
+    lc_plist *set = &s->pairs;
+    const size_t np = set->count, nl = lost->count, nc = created->count, f0 = set->first;
+    const locd_id *p = lc_plist_rows(set), *cr = lc_plist_rows(created), *lo = lc_plist_rows(lost);
+    const size_t nops = 2 * (nl + nc) + 2;
+    patch_op *op = lc_alloc(a, nops * sizeof *op);
+    locd_id *head = NULL;
+    size_t i = 0, w = 0, li = 0, ci = 0, n = 0, x, shift = 0, nhead = 0;
+    inplace_ctx c;
+    uint32_t kk = 1;
+    if (!op)
+        return 0;
+    /* the forward walk (as task_patch), new rows counted from the set's start */
+    for (;;) {
+        size_t e = np, pl = SIZE_MAX, pc = SIZE_MAX;
+        if (li < nl)
+            pl = lc_rows_lower_bound(p, np, lc_pair_key(lo + 2 * li));
+        if (ci < nc)
+            pc = lc_rows_lower_bound(p, np, lc_pair_key(cr + 2 * ci));
+        if (pl < e)
+            e = pl;
+        if (pc < e)
+            e = pc;
+        if (e > i) {
+            op[n].src = f0 + i, op[n].dst = w, op[n++].len = e - i;
+            if (i > w && i - w > shift)
+                shift = i - w;
+            w += e - i, i = e;
+        }
+        if (pc == i) {
+            op[n].src = ci++, op[n].dst = w++, op[n++].len = 0;
+        } else if (pl == i) {
+            if (p[2 * i] != lo[2 * li] || p[2 * i + 1] != lo[2 * li + 1]) {
+                lc_free(a, op, nops * sizeof *op);
+                return 0; /* not in the set: the copying patch reports it */
+            }
+            i++, li++;
+        } else {
+            break;
+        }
+    }
+    /* the set starts at f0 + shift: every run moves right */
+    if (f0 + shift + w > set->rows.cap) {
+        lc_free(a, op, nops * sizeof *op);
+        return 0;
+    }
+    for (x = 0; x < n; x++)
+        op[x].dst += f0 + shift;
+    memset(&c, 0, sizeof c);
+    c.buf = set->rows.data, c.created = cr, c.op = op;
+    c.ob[0] = 0, c.ob[1] = n;
+    if (s->threads > 1 && np >= 65536 && n >= 2) {
+        /* the right half starts at the first op whose source is past the middle */
+        size_t m = 0, reach;
+        while (m < n && !(op[m].len && op[m].src >= f0 + np / 2))
+            m++;
+        if (m > 0 && m < n) {
+            reach = op[m - 1].dst + (op[m - 1].len ? op[m - 1].len : 1); /* the left half writes below this */
+            c.hb = op[m].src, c.he = reach > op[m].src ? reach : op[m].src;
+            nhead = c.he - c.hb;
+            if (!nhead || (head = lc_alloc(a, 2 * nhead * sizeof *head)) != NULL) {
+                if (nhead)
+                    memcpy(head, c.buf + 2 * c.hb, 2 * nhead * sizeof *head);
+                c.head = head, c.ob[1] = m, c.ob[2] = n, kk = 2;
+            }
+        }
+    }
+    if (kk > 1)
+        lc_pool_run(s->pool, 2, task_inplace, &c);
+    else
+        task_inplace(&c, 0, 1);
+    set->first = f0 + shift, set->count = w;
+    lc_free(a, head, 2 * (nhead ? nhead : 1) * sizeof *head);
+    lc_free(a, op, nops * sizeof *op);
+    return 1;
+}

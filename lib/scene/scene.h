@@ -366,6 +366,11 @@ locd_status lc_scene_carry(locd_scene *s, const lc_plist *n, lc_plist *next, lc_
  * and with the rows created (sorted, none in it). LOCD_ERR_INTERNAL when a
  * lost row is not in the set. */
 locd_status lc_scene_patch(locd_scene *s, const lc_plist *lost, const lc_plist *created, lc_plist *next);
+/* The same in the set's own buffer (s->pairs: its start moves toward the
+ * buffer's end). 0 when it cannot (no room after the set, no memory, a lost
+ * row not in the set): nothing was changed, lc_scene_patch does it. It
+ * cannot fail once it starts, so it is an update's last step. */
+int lc_scene_patch_in_place(locd_scene *s, const lc_plist *lost, const lc_plist *created);
 /* Both differences of sorted a and b in one merge: amb = a \ b (room for
  * na rows), bma = b \ a (room for nb rows). */
 void lc_plist_diff(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *amb, size_t *namb, locd_id *bma,

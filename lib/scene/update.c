@@ -45,6 +45,7 @@ typedef struct upd {
     uint32_t *coast, *srch;
     size_t ncoast, nsrch;
     int events;     /* the changes come from the partner lists' PAIRED bits (moved_events) */
+    int in_place;   /* moved_events patched s->pairs itself (u->next is unused) */
     lc_found found; /* what the moved objects' search found */
     size_t ndense_before;
     uint8_t *undo_flags;
@@ -163,30 +164,12 @@ static int want_rebuild(const locd_scene *s, size_t moved)
     return (double)moved > LC_REBUILD_FRACTION * (double)s->live && moved > 64;
 }
 
-/* 1 when the entry lists must be built again before the moved objects'
- * search: none (the last update found its pairs from scratch), a moved box
- * outside the root cube, or more new objects than the numbering has room for. */
-static int want_relist(const locd_scene *s)
-{
-    size_t k;
-    const uint32_t *d = s->dirty.data;
-    if (!s->have_tree)
-        return 1;
-    {
-        size_t fresh = 0; /* objects new to the lists: each takes a dense index */
-        for (k = 0; k < s->ndirty; k++)
-            fresh += (s->flags[d[k]] & (LC_SLOT_LIVE | LC_SLOT_INTREE)) == LC_SLOT_LIVE;
-        if (s->ndense + fresh > s->hot_cap)
-            return 1;
-    }
-    for (k = 0; k < s->ndirty; k++)
-        if (s->flags[d[k]] & LC_SLOT_LIVE) {
-            double tmp[6];
-            if (!lc_grid_holds(&s->grid, lc_scene_box(s, d[k], tmp)))
-                return 1;
-        }
-    return 0;
-}
+/* The entry lists must be built again before the moved objects' search
+ * when there are none (the last update found its pairs from scratch), and
+ * when a moved box lies outside the root cube or more objects are new than
+ * the numbering has room for: the incremental path's first pass finds
+ * those two (LC_RELIST). */
+#define LC_RELIST 0x52454c /* internal, never returned: not a locd_status */
 
 static locd_status events_full(upd *u);
 
@@ -337,6 +320,20 @@ static locd_status events_full(upd *u)
     return LOCD_OK;
 }
 
+/* The moved objects' records lose the update's flags once the search has
+ * read them: here, before the pass over the whole set (which evicts them
+ * from the caches), rather than at commit. undo() puts the records back
+ * whole if the update fails after. */
+static void clear_moved_records(upd *u)
+{
+    lc_hot *hot = u->s->hot;
+    size_t k;
+    for (k = 0; k < u->ncoast; k++)
+        hot[u->coast[k]].flags &= ~(uint32_t)(LC_SLOT_DIRTY | LC_HOT_SEARCH);
+    for (k = 0; k < u->nsrch; k++)
+        hot[u->srch[k]].flags &= ~(uint32_t)(LC_SLOT_DIRTY | LC_HOT_SEARCH);
+}
+
 /* The pairs of the moved objects (query entries q, sorted, searched in the
  * lists dyn and sta; u->coast from their partner lists), the carry pass,
  * and the events. */
@@ -353,6 +350,8 @@ static locd_status moved_pairs(upd *u, const lc_tree *dyn, const lc_tree *sta, c
     t1 = lc_now_ms();
     u->ms_sweep = t1 - t0;
     t0 = t1;
+    if (!u->relisted)
+        clear_moved_records(u);
     if (st == LOCD_OK)
         st = lc_scene_carry(s, n, &u->next, &dropped);
     if (st == LOCD_OK && (u->flags & LOCD_SCENE_UPDATE_EVENTS)) {
@@ -470,7 +469,11 @@ static locd_status moved_events(upd *u, const lc_tree *dyn, const lc_tree *sta, 
             }
         }
     if ((st = lc_pairs_sort_rows(a, u->cr.rows.data, u->cr.count)) != LOCD_OK ||
-        (st = lc_pairs_sort_rows(a, u->lo.rows.data, u->lo.count)) != LOCD_OK ||
+        (st = lc_pairs_sort_rows(a, u->lo.rows.data, u->lo.count)) != LOCD_OK)
+        goto done;
+    clear_moved_records(u);
+    /* the last step: in place, nothing after it may fail */
+    if (!(u->in_place = lc_scene_patch_in_place(s, &u->lo, &u->cr)) &&
         (st = lc_scene_patch(s, &u->lo, &u->cr, &u->next)) != LOCD_OK)
         goto done;
     if (!(u->flags & LOCD_SCENE_UPDATE_EVENTS))
@@ -496,6 +499,7 @@ typedef struct enc_part {
     size_t ncoast, nsrch;        /* pass 1: counts; pass 2: where to write them in u->coast, u->srch */
     size_t live, fresh;          /* live objects, those new to the lists; pass 2: first undo row, dense index */
     size_t reenc;                /* objects whose cells changed */
+    int outside;                 /* pass 1: a box outside the root cube */
 } enc_part;
 
 typedef struct enc_ctx {
@@ -538,7 +542,9 @@ static void encode_count(upd *u, enc_part *shared)
         pt->fresh += !(f & LC_SLOT_INTREE);
         {
             double box[6];
-            lc_cells_of(g, lc_scene_box(s, slot, box), &c, q);
+            const double *b = lc_scene_box(s, slot, box);
+            pt->outside |= !lc_grid_holds(g, b);
+            lc_cells_of(g, b, &c, q);
         }
         /* Still inside its fat box, with the filter it had: its cells, its
            entries and its partners stay; only its packed box is new. */
@@ -685,6 +691,14 @@ static locd_status incremental(upd *u)
     }
     ec.u = u;
     encode_run(&ec, nk, 1);
+    {
+        size_t fresh = 0;
+        int outside = 0;
+        for (t = 0; t < nk; t++)
+            fresh += ec.part[t].fresh, outside |= ec.part[t].outside;
+        if (outside || s->ndense + fresh > s->hot_cap)
+            return LC_RELIST; /* nothing written but scratch */
+    }
     for (k = 0; k < s->nremoved; k++)
         if (s->flags[r[k]] & LC_SLOT_INTREE)
             ndel[(s->flags[r[k]] & LC_SLOT_STATIC) ? 1 : 0] += lc_cells_count(&s->cell[r[k]]);
@@ -780,11 +794,13 @@ static locd_status relist(upd *u)
         return st;
     g = &s->grid;
     lc_adj_build(s); /* on failure the scene goes on without partner lists */
-    u->undo_cap = s->ndirty ? s->ndirty : 1;
     if ((st = buf_room(u, 0, 8 * s->ndirty + 1)) != LOCD_OK)
         return st;
-    if (!(u->coast = lc_alloc(s->alloc, u->undo_cap * sizeof *u->coast)))
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the update's moved list");
+    if (!u->coast) { /* (allocated already when the incremental path turned to this one) */
+        u->undo_cap = s->ndirty ? s->ndirty : 1;
+        if (!(u->coast = lc_alloc(s->alloc, u->undo_cap * sizeof *u->coast)))
+            return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the update's moved list");
+    }
     for (k = 0; k < s->ndirty; k++) {
         uint32_t slot = d[k], di;
         if (!(s->flags[slot] & LC_SLOT_LIVE))
@@ -853,8 +869,11 @@ static void clear_changes(locd_scene *s)
         for (k = 0; k < n; k++)
             f[k] &= keep;
     } else {
-        for (k = 0; k < s->ndirty; k++)
+        for (k = 0; k < s->ndirty; k++) {
+            if (k + 2 * LC_AHEAD < s->ndirty) /* scattered: evicted by the pass over the set */
+                __builtin_prefetch(s->flags + d[k + 2 * LC_AHEAD], 1);
             s->flags[d[k]] &= keep;
+        }
     }
     s->ndirty = 0;
     lc_scene_free_removed(s);
@@ -903,14 +922,13 @@ static void commit(upd *u)
     } else {
         lc_tree_edit_commit(s->alloc, &s->dyn, &u->edit[0]);
         lc_tree_edit_commit(s->alloc, &s->sta, &u->edit[1]);
-        for (k = 0; k < u->nundo; k++)
-            s->hot[s->dense[u->undo_slot[k]]].flags &= ~(uint32_t)(LC_SLOT_DIRTY | LC_HOT_SEARCH);
         u->nundo = 0;
         relink(u);
     }
     s->have_pairs = 1;
-    swap_plist(&s->pairs, &u->next);
-    s->spare = u->next; /* the previous set's buffer: the next update writes into it */
+    if (!u->in_place) /* else s->pairs is the new set already */
+        swap_plist(&s->pairs, &u->next);
+    s->spare = u->next; /* the previous set's buffer (or the spare, unused): the next update writes into it */
     memset(&u->next, 0, sizeof u->next);
     swap_plist(&s->created, &u->cr);
     swap_plist(&s->lost, &u->lo);
@@ -942,10 +960,8 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     u.moved = moved = live_dirty(s); /* every path's count: the live objects of the dirty list */
     if (want_rebuild(s, moved))
         st = rebuild(&u);
-    else if (want_relist(s))
+    else if (!s->have_tree || (st = incremental(&u)) == LC_RELIST)
         u.relisted = 1, st = relist(&u);
-    else
-        st = incremental(&u);
     if (st != LOCD_OK) {
         undo(&u);
         keep_event_buffers(&u);
