@@ -118,8 +118,10 @@ int main(int argc, char **argv)
         double t, c;
         /* a random subset (distinct: a stride walk from a random start) */
         size_t start = rng(&seed) % (n - nstat), stride = 1 + (n - nstat) / (nmove ? nmove : 1);
+        /* when the walk would wrap, a prefix (the objects moved are those given to the scene) */
+        const int wraps = stride * nmove > (n - nstat) + stride;
         for (k = 0; k < nmove; k++) {
-            size_t j = nstat + (start + k * stride) % (n - nstat);
+            size_t j = nstat + (wraps ? k : (start + k * stride) % (n - nstat));
             float *b = boxes + 6 * j, d[3];
             int a;
             for (a = 0; a < 3; a++)
@@ -128,10 +130,6 @@ int main(int argc, char **argv)
                 b[a] += d[a % 3];
             mids[k] = ids[j];
             memcpy(mbox + 6 * k, b, 24);
-        }
-        if (stride * nmove > (n - nstat) + stride) { /* the walk wrapped: fall back to a prefix */
-            for (k = 0; k < nmove; k++)
-                mids[k] = ids[nstat + k], memcpy(mbox + 6 * k, boxes + 6 * (nstat + k), 24);
         }
         if (locd_scene_move_f32(s, mids, mbox, nmove))
             return 1;

@@ -635,6 +635,131 @@ static void whole_scene_moves_then_a_few(void)
         }
 }
 
+/* ---- fat boxes and partner lists (docs/scene.md) ---- */
+
+/* A box of the partner-list test: cubes of edge 0.5-1.5 in [0, 22]^3,
+ * with a point now and then and a large box rarely. */
+static void pl_box(world *w, double *b)
+{
+    double e = 0.5 + ts_uniform(&w->r);
+    int a, kind = (int)(ts_next(&w->r) % 100);
+    if (kind == 0)
+        e = 0.0;
+    else if (kind == 1)
+        e = 5.0;
+    for (a = 0; a < 3; a++) {
+        b[a] = ts_uniform(&w->r) * 22.0;
+        b[a + 3] = b[a] + e;
+    }
+}
+
+/* Moves the model's object i by at most step on each axis, in the scene too. */
+static void pl_move(locd_scene *s, world *w, m_obj *o, double step)
+{
+    double b[6];
+    int a;
+    for (a = 0; a < 3; a++) {
+        const double d = (ts_uniform(&w->r) - 0.5) * 2.0 * step;
+        b[a] = o->box[a] + d, b[a + 3] = o->box[a + 3] + d;
+    }
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s, &o->id, b, 1));
+    memcpy(o->box, b, sizeof b);
+}
+
+/* The partner lists through their life: objects moving a little each frame
+ * take their pairs from their lists (stats.coasted); a frame where most
+ * moved objects leave their fat boxes drops the lists (every moved object
+ * searches, the update stays incremental); after LC_CALM_UPDATES calm
+ * updates the lists are built again. Statics move too; adds, removes and
+ * filter changes come in between. Every frame against the model, with
+ * over 65,536 pairs (the two threads' patch of the set). */
+static void partner_lists_come_and_go(void)
+{
+    const size_t n0 = 16000;
+    world w = world_make(5151, 22.0, 1.0, 0);
+    model m;
+    locd_engine *e = new_engine(2, NULL);
+    locd_scene *s = NULL;
+    locd_scene_add_options o;
+    locd_scene_stats st;
+    double b[6];
+    size_t i, k;
+    int frame;
+    memset(&m, 0, sizeof m);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    locd_scene_add_options_init(&o);
+    for (i = 0; i < n0; i++) {
+        locd_id id;
+        const int stat = i % 10 == 0;
+        uint64_t cat = 1, mask = ~(uint64_t)0, group = 0;
+        if (i % 7 == 0)
+            cat = random_bits(&w), mask = random_bits(&w), group = ts_next(&w.r) % 3;
+        pl_box(&w, b);
+        o.flags = stat ? LOCD_OBJECT_STATIC : 0;
+        o.category = cat, o.mask = mask, o.group = group;
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b, 1, &o, &id));
+        m_add(&m, id, b, cat, mask, group, 0, stat);
+    }
+    check_update(s, &m);
+    TEST_ASSERT_TRUE(m.npairs > 65536);
+    for (frame = 1; frame <= 13; frame++) {
+        const int teleport = frame == 6;
+        size_t moved = 0;
+        if (teleport) {
+            /* more leave their fat boxes than stay, at least LC_ADJ_MIN_LEFT
+               (1,024), under 8% of the objects: lists dropped, incremental */
+            for (k = 0; k < 1100; k++) {
+                m_obj *mo = &m.o[(k * 13 + 1) % m.n];
+                pl_box(&w, b);
+                b[0] += 0.01, b[3] += 0.01; /* never where it was */
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s, &mo->id, b, 1));
+                memcpy(mo->box, b, sizeof b);
+            }
+            for (k = 0; k < 100; k++)
+                pl_move(s, &w, &m.o[(k * 13 + 7) % m.n], 0.002);
+        } else {
+            for (i = (size_t)frame % 50; i < m.n; i += 50, moved++) /* 2%, a little */
+                pl_move(s, &w, &m.o[i], 0.002);
+        }
+        if (frame == 5) { /* removes, adds, filters, on top */
+            locd_id ids[20];
+            uint64_t c[20], mk[20], g[20];
+            for (k = 0; k < 20; k++)
+                ids[k] = m.o[(k * 101 + 3) % m.n].id;
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, ids, 20));
+            for (k = 0; k < 20; k++)
+                m_remove(&m, ids[k]);
+            o.flags = 0, o.category = 1, o.mask = ~(uint64_t)0, o.group = 0;
+            for (k = 0; k < 20; k++) {
+                locd_id id;
+                pl_box(&w, b);
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b, 1, &o, &id));
+                m_add(&m, id, b, 1, ~(uint64_t)0, 0, 0, 0);
+            }
+            for (k = 0; k < 20; k++) {
+                m_obj *mo = &m.o[(k * 37 + 11) % m.n];
+                ids[k] = mo->id, c[k] = random_bits(&w), mk[k] = random_bits(&w), g[k] = ts_next(&w.r) % 3;
+                mo->cat = c[k], mo->mask = mk[k], mo->group = g[k];
+            }
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_filter(s, ids, 20, c, mk, g));
+        }
+        check_update(s, &m);
+        for (k = 0; k < 3; k++)
+            random_query(&w, s, &m);
+        locd_scene_stats_init(&st);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
+        TEST_ASSERT_EQUAL_UINT32(0, st.rebuilt);
+        if (frame <= 5 || frame >= 11) /* the lists: built by frame 1, again at frame 10's commit */
+            TEST_ASSERT_TRUE(st.coasted * 10 >= moved * 9);
+        else /* dropped at frame 6, none till then */
+            TEST_ASSERT_EQUAL_UINT32(0, st.coasted);
+    }
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    free(m.o);
+    free(m.pairs);
+}
+
 static void bigger_scene_two_threads(void)
 {
     run_opts ro = {2, 200, 3000, 0, 1, 7};
@@ -1838,6 +1963,7 @@ static const lt_test tests[] = {
     LT_TEST(bigger_scene_two_threads),
     LT_TEST(whole_scene_moves_then_a_few),
     LT_TEST(thread_counts_give_identical_lists),
+    LT_TEST(partner_lists_come_and_go),
 };
 
 int main(void)

@@ -242,6 +242,7 @@ public:
         d["created"] = s.created;
         d["lost"] = s.lost;
         d["rebuilt"] = s.rebuilt != 0;
+        d["coasted"] = s.coasted;
         d["ms_total"] = s.ms_total;
         d["ms_encode"] = s.ms_encode;
         d["ms_merge"] = s.ms_merge;

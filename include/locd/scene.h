@@ -162,8 +162,9 @@ typedef struct locd_scene_stats {
     uint64_t created;
     uint64_t lost;
     uint32_t rebuilt;        /* 1 if this update found its pairs from scratch (the first one, or
-                                more than 8% of the objects moved) */
-    uint32_t reserved;
+                                too many objects moved: docs/scene.md) */
+    uint32_t coasted;        /* moved objects that stayed in their fat boxes and took their pairs from
+                                their partner lists (no search; docs/scene.md) */
     double ms_total;
     double ms_encode;
     double ms_merge;         /* repairing the sorted entry list */

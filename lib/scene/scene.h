@@ -161,6 +161,8 @@ struct locd_scene {
     uint32_t *adj_pool;
     size_t adj_used, adj_cap, adj_live; /* pool positions used, allocated; list entries held */
     int have_adj;
+    uint32_t calm_updates; /* incremental updates in a row, without lists, whose moved objects stayed in
+                              their fat boxes (update.c) */
     lc_buf free_slots;   /* uint32 stack */
     size_t nfree;
     uint32_t serial;     /* serials issued */

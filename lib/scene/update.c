@@ -15,10 +15,24 @@
 #include "scene/scene.h"
 
 /* Find the pairs from scratch when more than this fraction of the objects
- * moved: at 10^6 uniform cubes on 2 threads, 8% moving costs about what a
- * from-scratch update costs (`locd frames u.aabb --moving P`, docs/scene.md;
- * it was 10% before the sweep's scan lost its mispredicted branch). */
+ * moved: at 10^6 uniform cubes on 2 threads, 8% moving objects that all
+ * search the entry lists cost about what a from-scratch update costs
+ * (docs/scene.md). With partner lists, objects that stay in their fat
+ * boxes cost a tenth of that: up to LC_REBUILD_FRACTION_ADJ of them moving
+ * is cheaper than from scratch (`locd frames u.aabb --moving P`). When the
+ * first pass finds that most of the moved objects left their fat boxes,
+ * the update goes on as without partner lists (LC_REBUILD past 8%). */
 #define LC_REBUILD_FRACTION 0.08
+#define LC_REBUILD_FRACTION_ADJ 0.25
+
+/* Partner lists are kept while the moved objects mostly stay in their fat
+ * boxes. An update where more of them left than stayed (and at least
+ * LC_ADJ_MIN_LEFT left) drops the lists: searching every moved object
+ * costs less than searching most of them and keeping the lists. They are
+ * built again (at commit, from the final boxes) after LC_CALM_UPDATES
+ * updates in a row in which nine in ten moved objects stayed. */
+#define LC_ADJ_MIN_LEFT 1024
+#define LC_CALM_UPDATES 4
 
 typedef struct upd {
     locd_scene *s;
@@ -46,6 +60,7 @@ typedef struct upd {
     size_t ncoast, nsrch;
     int events;     /* the changes come from the partner lists' PAIRED bits (moved_events) */
     int in_place;   /* moved_events patched s->pairs itself (u->next is unused) */
+    int adj_after;  /* build the partner lists at commit */
     lc_found found; /* what the moved objects' search found */
     size_t ndense_before;
     uint8_t *undo_flags;
@@ -161,7 +176,8 @@ static int want_rebuild(const locd_scene *s, size_t moved)
 {
     if (!s->have_pairs)
         return 1;
-    return (double)moved > LC_REBUILD_FRACTION * (double)s->live && moved > 64;
+    return (double)moved > (s->have_adj ? LC_REBUILD_FRACTION_ADJ : LC_REBUILD_FRACTION) * (double)s->live &&
+           moved > 64;
 }
 
 /* The entry lists must be built again before the moved objects' search
@@ -170,6 +186,8 @@ static int want_rebuild(const locd_scene *s, size_t moved)
  * the numbering has room for: the incremental path's first pass finds
  * those two (LC_RELIST). */
 #define LC_RELIST 0x52454c /* internal, never returned: not a locd_status */
+/* Likewise: the incremental path's first pass found it should not go on. */
+#define LC_REBUILD 0x524542
 
 static locd_status events_full(upd *u);
 
@@ -497,6 +515,7 @@ typedef struct enc_part {
     size_t b, e;                 /* the part of the dirty list */
     size_t nq, ndel[2], nadd[2]; /* pass 1: counts; pass 2: where to write them in u->buf */
     size_t ncoast, nsrch;        /* pass 1: counts; pass 2: where to write them in u->coast, u->srch */
+    size_t calm;                 /* pass 1: objects that stayed in their fat boxes (partner lists or not) */
     size_t live, fresh;          /* live objects, those new to the lists; pass 2: first undo row, dense index */
     size_t reenc;                /* objects whose cells changed */
     int outside;                 /* pass 1: a box outside the root cube */
@@ -548,12 +567,15 @@ static void encode_count(upd *u, enc_part *shared)
         }
         /* Still inside its fat box, with the filter it had: its cells, its
            entries and its partners stay; only its packed box is new. */
-        if (s->have_adj && (f & (LC_SLOT_INTREE | LC_SLOT_REFILTER)) == LC_SLOT_INTREE &&
+        if ((f & (LC_SLOT_INTREE | LC_SLOT_REFILTER)) == LC_SLOT_INTREE &&
             lc_qbox_inside(q + 2, s->hq + LC_HQ * (size_t)s->dense[slot])) {
-            c.pad[0] = 1;
-            u->new_cells[k] = c;
-            pt->ncoast++;
-            continue;
+            pt->calm++;
+            if (s->have_adj) {
+                c.pad[0] = 1;
+                u->new_cells[k] = c;
+                pt->ncoast++;
+                continue;
+            }
         }
         pt->nsrch++;
         u->new_cells[k] = c;
@@ -692,12 +714,29 @@ static locd_status incremental(upd *u)
     ec.u = u;
     encode_run(&ec, nk, 1);
     {
-        size_t fresh = 0;
+        size_t fresh = 0, coast = 0, srch = 0, calm = 0;
         int outside = 0;
-        for (t = 0; t < nk; t++)
+        for (t = 0; t < nk; t++) {
             fresh += ec.part[t].fresh, outside |= ec.part[t].outside;
+            coast += ec.part[t].ncoast, srch += ec.part[t].nsrch, calm += ec.part[t].calm;
+        }
         if (outside || s->ndense + fresh > s->hot_cap)
             return LC_RELIST; /* nothing written but scratch */
+        if (s->have_adj && srch > coast && srch >= LC_ADJ_MIN_LEFT) {
+            lc_adj_drop(s); /* a cache: dropping it changes no result */
+            s->calm_updates = 0;
+            if ((double)u->moved > LC_REBUILD_FRACTION * (double)s->live)
+                return LC_REBUILD;
+            for (t = 0; t < nk; t++) { /* pass 1 again, every object searching */
+                const size_t b = ec.part[t].b, e = ec.part[t].e;
+                memset(&ec.part[t], 0, sizeof ec.part[t]);
+                ec.part[t].b = b, ec.part[t].e = e;
+            }
+            encode_run(&ec, nk, 1);
+        } else if (!s->have_adj) {
+            s->calm_updates = calm * 10 >= (coast + srch) * 9 ? s->calm_updates + 1 : 0;
+            u->adj_after = s->calm_updates >= LC_CALM_UPDATES;
+        }
     }
     for (k = 0; k < s->nremoved; k++)
         if (s->flags[r[k]] & LC_SLOT_INTREE)
@@ -924,6 +963,10 @@ static void commit(upd *u)
         lc_tree_edit_commit(s->alloc, &s->sta, &u->edit[1]);
         u->nundo = 0;
         relink(u);
+        if (u->adj_after && !s->have_adj) {
+            lc_adj_build(s); /* from the boxes now, as the set is; on failure the scene goes on without */
+            s->calm_updates = 0;
+        }
     }
     s->have_pairs = 1;
     if (!u->in_place) /* else s->pairs is the new set already */
@@ -958,9 +1001,9 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     memset(&s->spare, 0, sizeof s->spare);
     take_event_buffers(&u);
     u.moved = moved = live_dirty(s); /* every path's count: the live objects of the dirty list */
-    if (want_rebuild(s, moved))
+    if (want_rebuild(s, moved) || (s->have_tree && (st = incremental(&u)) == LC_REBUILD))
         st = rebuild(&u);
-    else if (!s->have_tree || (st = incremental(&u)) == LC_RELIST)
+    else if (!s->have_tree || st == LC_RELIST)
         u.relisted = 1, st = relist(&u);
     if (st != LOCD_OK) {
         undo(&u);
@@ -987,6 +1030,7 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     st_out->created = s->created.count;
     st_out->lost = s->lost.count;
     st_out->rebuilt = (uint32_t)u.rebuilt;
+    st_out->coasted = (uint32_t)u.ncoast;
     st_out->ms_encode = u.ms_encode;
     st_out->ms_merge = u.ms_merge;
     st_out->ms_sweep = u.ms_sweep;

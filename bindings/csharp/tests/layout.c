@@ -150,7 +150,7 @@ int main(void)
     OFF(locd_scene_stats, created);
     OFF(locd_scene_stats, lost);
     OFF(locd_scene_stats, rebuilt);
-    OFF(locd_scene_stats, reserved);
+    OFF(locd_scene_stats, coasted);
     OFF(locd_scene_stats, ms_total);
     OFF(locd_scene_stats, ms_encode);
     OFF(locd_scene_stats, ms_merge);

@@ -496,7 +496,7 @@ namespace Locd
             public ulong created;
             public ulong lost;
             public uint rebuilt;
-            public uint reserved;
+            public uint coasted;
             public double ms_total;
             public double ms_encode;
             public double ms_merge;

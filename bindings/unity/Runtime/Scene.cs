@@ -110,6 +110,8 @@ namespace Locd
         public long Created { get { return (long)Raw.created; } }
         public long Lost { get { return (long)Raw.lost; } }
         public bool Rebuilt { get { return Raw.rebuilt != 0; } }
+        /// <summary>Moved objects that stayed in their fat boxes and took their pairs from their partner lists.</summary>
+        public long Coasted { get { return (long)Raw.coasted; } }
         public double MsTotal { get { return Raw.ms_total; } }
         public double MsEncode { get { return Raw.ms_encode; } }
         public double MsMerge { get { return Raw.ms_merge; } }
