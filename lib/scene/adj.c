@@ -30,11 +30,14 @@ void lc_adj_drop(locd_scene *s)
     s->have_adj = 0;
 }
 
-/* A may pair with b (the records' filter; the lists hold no other pair). */
+/* A may pair with b (the records' filter; the lists hold no other pair).
+ * A removed object's record stays (its dense index is not given again
+ * before the lists are built from scratch) with LC_HOT_GONE: it has no
+ * partners. */
 LC_INLINE int hot_may_pair(const lc_hot *a, const lc_hot *b)
 {
-    return !(a->flags & b->flags & LC_SLOT_STATIC) && (a->cat & b->mask) && (b->cat & a->mask) &&
-           !(a->group == b->group && a->group != 0);
+    return !((a->flags | b->flags) & LC_HOT_GONE) && !(a->flags & b->flags & LC_SLOT_STATIC) &&
+           (a->cat & b->mask) && (b->cat & a->mask) && !(a->group == b->group && a->group != 0);
 }
 
 locd_status lc_adj_build(locd_scene *s)
@@ -47,6 +50,8 @@ locd_status lc_adj_build(locd_scene *s)
     locd_stats st_find;
     locd_status st;
     lc_adj_drop(s);
+    if (heads > LC_ADJ_INDEX) /* an entry keeps one bit for PAIRED */
+        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "too many objects for partner lists");
     s->adj = lc_alloc(a, heads * sizeof *s->adj);
     fb = lc_alloc(a, (n ? n : 1) * 6 * sizeof *fb);
     if (!s->adj || !fb)
@@ -195,51 +200,4 @@ void lc_adj_set_paired(locd_scene *s, uint32_t a, uint32_t k, uint32_t b, int pa
             v[x] = a | (paired ? LC_ADJ_PAIRED : 0u);
             break;
         }
-}
-
-/* TEMP DEBUG */
-#include <stdio.h>
-#include <stdlib.h>
-void lc_adj_debug_check(const locd_scene *s);
-void lc_adj_debug_check(const locd_scene *s)
-{
-    size_t i, j, k;
-    if (!getenv("LOCD_DEBUG_ADJ") || !s->have_adj || s->ndense > 4000)
-        return;
-    for (i = 0; i < s->ndense; i++) {
-        const lc_hot *a = &s->hot[i];
-        int la = (s->flags[a->slot] & LC_SLOT_LIVE) && s->dense[a->slot] == i && s->id[a->slot] == a->id;
-        for (k = 0; k < s->adj[i].n; k++) {
-            uint32_t e = s->adj_pool[s->adj[i].off + k], o = e & LC_ADJ_INDEX, x, c = 0, eb = 0;
-            for (x = 0; x < s->adj[o].n; x++)
-                if ((s->adj_pool[s->adj[o].off + x] & LC_ADJ_INDEX) == i)
-                    c++, eb = s->adj_pool[s->adj[o].off + x] >> 31;
-            if (c != 1 || !la)
-                fprintf(stderr, "ADJ asym %zu -> %u (back %u, live %d)\n", i, o, c, la);
-            if (eb != (e >> 31))
-                fprintf(stderr, "ADJ bit asym %zu -> %u\n", i, o);
-            if ((e >> 31) != (uint32_t)lc_hot_meet(s, a, &s->hot[o]))
-                fprintf(stderr, "ADJ bit wrong %zu -> %u (bit %u)\n", i, o, e >> 31);
-            for (x = 0; x < k; x++)
-                if ((s->adj_pool[s->adj[i].off + x] & LC_ADJ_INDEX) == o)
-                    fprintf(stderr, "ADJ dup %zu -> %u\n", i, o);
-        }
-        if (!la)
-            continue;
-        for (j = 0; j < s->ndense; j++) {
-            const lc_hot *b = &s->hot[j];
-            const uint64_t *qa = s->hq + LC_HQ * i, *qb = s->hq + LC_HQ * j;
-            uint32_t found = 0;
-            if (j == i || !((s->flags[b->slot] & LC_SLOT_LIVE) && s->dense[b->slot] == j && s->id[b->slot] == b->id))
-                continue;
-            if (lc_qbox_miss(qa, qb) || !hot_may_pair(a, b))
-                continue;
-            for (k = 0; k < s->adj[i].n; k++)
-                found |= (s->adj_pool[s->adj[i].off + k] & LC_ADJ_INDEX) == j;
-            if (!found)
-                fprintf(stderr, "ADJ missing %zu -> %zu\n", i, j);
-        }
-        if (!lc_qbox_inside(&s->hot[i].qlo, s->hq + LC_HQ * i))
-            fprintf(stderr, "ADJ outside fat %zu\n", i);
-    }
 }

@@ -1014,7 +1014,6 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     }
     commit(&u);
     upd_free(&u);
-    { void lc_adj_debug_check(const locd_scene *s); lc_adj_debug_check(s); }
     s->show_pairs = (flags & LOCD_SCENE_UPDATE_PAIRS) != 0;
     s->show_events = (flags & LOCD_SCENE_UPDATE_EVENTS) != 0;
     st_out = &s->stats;
