@@ -5,10 +5,12 @@
  *
  * Files: slots.c (ids, slots), validate.c (batch checks), scene.c (create,
  * the changes), move.c (large moves on the pool), tree.c (cells, the two entry lists: tombstones, overflow,
- * compaction, directory), find.c (pairs of the moved objects), rebuild.c
+ * compaction, directory; fat boxes), find.c (pairs of the moved objects:
+ * the search, the partner lists' pass), adj.c (partner lists), rebuild.c
  * (everything from scratch, the numbering), pairset.c (sorted pair lists),
- * update.c (the update: both paths, undo, the carry pass), query.c,
- * stats.c. docs/scene.md explains the design. */
+ * carry.c (the new set: the carry pass, the patch), update.c (the update:
+ * its paths, undo, the changes), query.c, stats.c. docs/scene.md explains
+ * the design. */
 #ifndef LOCD_SCENE_IMPL_H
 #define LOCD_SCENE_IMPL_H
 
