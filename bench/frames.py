@@ -130,7 +130,10 @@ def report(args, results, img_dir, meta):
     goals = [(0.0, 0.01, 0.10, "1% moving: update at most 10% of a rebuild"),
              (0.0, 1.0, 1.10, "100% moving: at most 1.1x a rebuild"),
              (0.9, 0.01, 0.05, "90% static, 1% moving: at most 5% of a rebuild")]
-    L.append("Issue 14's goals at n = %s (update / rebuild, medians of this run):" % bench_run.fmt_n(big))
+    L.append("Issue 14's goals at n = %s (update / rebuild, medians of this run, where each of locd's frames "
+             "follows Bullet's and FCL's and finds the caches holding their trees; the issue states the ratios "
+             "for `locd frames`, whose figures are in [scene.md](scene.md#fat-boxes-and-partner-lists-where-the-goals-stand)):"
+             % bench_run.fmt_n(big))
     L.append("")
     for st, mv, goal, text in goals:
         r = next((r for r in table if r["n"] == big and r["static"] == st and r["moving"] == mv), None)
