@@ -213,7 +213,7 @@ done:
 
 /* pos[i]: the first row of p[0, np) whose key is >= rows[i]'s (rows sorted). */
 static locd_status edit_positions(const locd_allocator *a, const locd_id *p, size_t np, const locd_id *rows,
-                                  size_t n, size_t *pos)
+                                  size_t n, uint64_t *pos)
 {
     const size_t ns = (np >> LC_SAMPLE_BITS) + 1;
     uint64_t *key;
@@ -239,7 +239,7 @@ static locd_status edit_positions(const locd_allocator *a, const locd_id *p, siz
 
 /* The lost rows' positions (each must hold its row) and the created rows'. */
 static locd_status patch_positions(const locd_allocator *a, const locd_id *p, size_t np, const lc_plist *lost,
-                                   const lc_plist *created, size_t *pos_l, size_t *pos_c)
+                                   const lc_plist *created, uint64_t *pos_l, uint64_t *pos_c)
 {
     const locd_id *lo = lc_plist_rows(lost);
     locd_status st;
@@ -261,7 +261,7 @@ static locd_status patch_positions(const locd_allocator *a, const locd_id *p, si
  * memory speed, split over the pool by ranges of the previous rows. */
 typedef struct patch_ctx {
     const locd_id *p, *lost, *created;
-    const size_t *pos_l, *pos_c; /* each edit's position in p: the lost row's, the created row's lower bound */
+    const uint64_t *pos_l, *pos_c; /* each edit's position in p: the lost row's, the created row's lower bound */
     size_t np, nl, nc;
     size_t pb[LC_MAX_THREADS + 1], lb[LC_MAX_THREADS + 1], cb[LC_MAX_THREADS + 1], off[LC_MAX_THREADS];
     locd_id *out;
@@ -293,25 +293,11 @@ static void task_patch(void *arg, uint32_t t, uint32_t k)
     }
 }
 
-/* The first of v[0, n) >= x (v sorted). */
-static size_t pos_lower(const size_t *v, size_t n, size_t x)
-{
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (v[mid] < x)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
-}
-
 locd_status lc_scene_patch(locd_scene *s, const lc_plist *lost, const lc_plist *created, lc_plist *next)
 {
     const locd_allocator *a = s->alloc;
     const size_t np = s->pairs.count, nl = lost->count, nc = created->count;
-    size_t *pos = lc_alloc(a, (nl + nc + 1) * sizeof *pos);
+    uint64_t *pos = lc_alloc(a, (nl + nc + 1) * sizeof *pos);
     patch_ctx c;
     uint32_t kk = s->threads > 1 && np >= 65536 ? s->threads : 1, t;
     locd_status st = LOCD_OK;
@@ -328,8 +314,8 @@ locd_status lc_scene_patch(locd_scene *s, const lc_plist *lost, const lc_plist *
     next->first = 0;
     for (t = 0; t <= kk; t++) {
         c.pb[t] = np * t / kk;
-        c.lb[t] = t == kk ? nl : pos_lower(c.pos_l, nl, c.pb[t]);
-        c.cb[t] = t == kk ? nc : pos_lower(c.pos_c, nc, c.pb[t]);
+        c.lb[t] = t == kk ? nl : lc_lower_bound(c.pos_l, nl, c.pb[t]);
+        c.cb[t] = t == kk ? nc : lc_lower_bound(c.pos_c, nc, c.pb[t]);
     }
     for (t = 0; t < kk; t++)
         c.off[t] = c.pb[t] - c.lb[t] + c.cb[t];
@@ -394,7 +380,7 @@ int lc_scene_patch_in_place(locd_scene *s, const lc_plist *lost, const lc_plist 
     const locd_id *p = lc_plist_rows(set), *cr = lc_plist_rows(created);
     const size_t nops = 2 * (nl + nc) + 2;
     patch_op *op = lc_alloc(a, nops * sizeof *op);
-    size_t *pos = lc_alloc(a, (nl + nc + 1) * sizeof *pos);
+    uint64_t *pos = lc_alloc(a, (nl + nc + 1) * sizeof *pos);
     locd_id *head = NULL;
     size_t i = 0, w = 0, li = 0, ci = 0, n = 0, x, shift = 0, nhead = 0;
     inplace_ctx c;
