@@ -1,22 +1,23 @@
-/* The pairs of the moved objects, from the repaired entry lists. For each
- * entry (cell c, object m) of a moved object, the objects on a common
- * root-to-leaf path with c are the entries of c's subtree (one range of the
- * sorted list: same cell and descendants) and of c's ancestors (one exact
- * key per level that holds any entry). Each candidate is tested in this
- * order: the quantized boxes (conservative: they overlap whenever the boxes
- * do) and the canonical cell pair, from 16 bytes of o; then o's record:
- * both moved and not m < o (the other one reports it), the filter
- * (static-static, category/mask, group: a filtered pair is never box-tested
- * nor reported); the exact box test only when the quantized boxes touch
- * (strictly overlapping ones overlap). Everything but
- * the exact test reads o's record (lc_hot), and the records of one cell's
- * objects are neighbours (dense indices, scene.h).
+/* The pairs of the moved objects. One that stayed in its fat box reads its
+ * partner list (coast_one). One that searches (new, re-filtered, or out of
+ * its fat box) searches the repaired entry lists: for each entry (cell c,
+ * object m), the objects on a common root-to-leaf path with c are the
+ * entries of c's subtree (one range of the sorted list: same cell and
+ * descendants) and of c's ancestors (one exact key per level that holds any
+ * entry). Each candidate is tested in this order: the packed fat boxes
+ * (conservative: they meet whenever the boxes do) and the canonical cell
+ * pair, from 16 bytes of o (hq); then o's record: both searched and not
+ * m < o (the other one reports it), the filter (static-static,
+ * category/mask, group: a filtered pair is never box-tested nor reported);
+ * then the boxes' own test (lc_hot_meet: the packed boxes, the stored
+ * coordinates on a tie). The records of one cell's objects are neighbours
+ * (dense indices, scene.h).
  *
  * The canonical cell pair makes each pair come out once however many cells
  * the two objects share paths in: the point p = max(lo_m, lo_o) (sweep
- * coordinates) lies in both quantized boxes when the boxes overlap, so in
- * exactly one cell of each, and those two cells lie on one path; the pair
- * is reported at that cell pair only (docs/scene.md). */
+ * coordinates) lies in both packed fat boxes when they meet, so in exactly
+ * one cell of each, and those two cells lie on one path; the pair is
+ * considered at that cell pair only (docs/scene.md). */
 #include "scene/scene.h"
 
 /* One thread's output, on its own stack while it runs (no two threads
