@@ -165,6 +165,9 @@ struct locd_scene {
     int have_adj;
     uint32_t calm_updates; /* incremental updates in a row, without lists, whose moved objects stayed in
                               their fat boxes (update.c) */
+    uint32_t band_updates; /* from-scratch updates in a row with no lists and 8% to 25% of the objects
+                              moved (update.c) */
+    uint32_t band_wait;    /* how many of those before the lists are built (0: LC_BAND_WAIT) */
     lc_buf free_slots;   /* uint32 stack */
     size_t nfree;
     uint32_t serial;     /* serials issued */

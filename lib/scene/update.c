@@ -34,6 +34,17 @@
 #define LC_ADJ_MIN_LEFT 1024
 #define LC_CALM_UPDATES 4
 
+/* A scene with no lists (its last update was from scratch) would go from
+ * scratch again at every update where more than 8% of its objects moved,
+ * and never get the lists that make up to 25% cheaper. Of such updates in
+ * a row with at most 25% moved, the LC_BAND_WAIT-th builds the lists
+ * instead (a relist: several from-scratch updates' cost, once). When
+ * the lists are then dropped (the objects jump), the wait doubles, up to
+ * LC_BAND_WAIT_MAX; an update whose moved objects mostly stayed in their
+ * fat boxes sets it back. */
+#define LC_BAND_WAIT 2
+#define LC_BAND_WAIT_MAX 64
+
 typedef struct upd {
     locd_scene *s;
     uint32_t flags;
@@ -168,6 +179,19 @@ static void undo(upd *u)
         }
     lc_tree_edit_undo(&s->dyn, &u->edit[0]);
     lc_tree_edit_undo(&s->sta, &u->edit[1]);
+}
+
+LC_INLINE uint32_t band_wait(const locd_scene *s)
+{
+    return s->band_wait ? s->band_wait : LC_BAND_WAIT;
+}
+
+/* 1 when a scene with no lists had more than 8% and at most 25% of its
+ * objects moved (see LC_BAND_WAIT). */
+static int in_band(const locd_scene *s, size_t moved)
+{
+    return s->have_pairs && !s->have_tree && (double)moved > LC_REBUILD_FRACTION * (double)s->live &&
+           (double)moved <= LC_REBUILD_FRACTION_ADJ * (double)s->live && moved > 64;
 }
 
 /* 1 when this update should find its pairs from scratch: the first one,
@@ -725,6 +749,7 @@ static locd_status incremental(upd *u)
         if (s->have_adj && srch > coast && srch >= LC_ADJ_MIN_LEFT) {
             lc_adj_drop(s); /* a cache: dropping it changes no result */
             s->calm_updates = 0;
+            s->band_wait = 2 * band_wait(s) < LC_BAND_WAIT_MAX ? 2 * band_wait(s) : LC_BAND_WAIT_MAX;
             if ((double)u->moved > LC_REBUILD_FRACTION * (double)s->live)
                 return LC_REBUILD;
             for (t = 0; t < nk; t++) { /* pass 1 again, every object searching */
@@ -736,6 +761,8 @@ static locd_status incremental(upd *u)
         } else if (!s->have_adj) {
             s->calm_updates = calm * 10 >= (coast + srch) * 9 ? s->calm_updates + 1 : 0;
             u->adj_after = s->calm_updates >= LC_CALM_UPDATES;
+        } else if (coast * 10 >= (coast + srch) * 9) {
+            s->band_wait = 0;
         }
     }
     for (k = 0; k < s->nremoved; k++)
@@ -1001,10 +1028,15 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     memset(&s->spare, 0, sizeof s->spare);
     take_event_buffers(&u);
     u.moved = moved = live_dirty(s); /* every path's count: the live objects of the dirty list */
-    if (want_rebuild(s, moved) || (s->have_tree && (st = incremental(&u)) == LC_REBUILD))
-        st = rebuild(&u);
-    else if (!s->have_tree || st == LC_RELIST)
+    if (in_band(s, moved) && s->band_updates + 1 >= band_wait(s)) {
+        s->band_updates = 0; /* the lists, at last: the moved objects take them at once */
         u.relisted = 1, st = relist(&u);
+    } else if (want_rebuild(s, moved) || (s->have_tree && (st = incremental(&u)) == LC_REBUILD)) {
+        s->band_updates = in_band(s, moved) ? s->band_updates + 1 : 0;
+        st = rebuild(&u);
+    } else if (!s->have_tree || st == LC_RELIST) {
+        u.relisted = 1, st = relist(&u);
+    }
     if (st != LOCD_OK) {
         undo(&u);
         keep_event_buffers(&u);

@@ -345,6 +345,61 @@ def test_long_random_sequence(dtype):
 
 
 # -- the surface ------------------------------------------------------------------------
+@pytest.mark.parametrize("dtype,share", [(np.float32, 20), (np.float64, 20), (np.float64, 10)])
+def test_small_moves_take_partner_lists(dtype, share):
+    """Objects that move a little stay in their fat boxes and take their pairs from their partner
+    lists (stats["coasted"]); a few jump, come and go, change filters; statics move too. Every frame
+    against the model. With 1 in 10 moving (over 8%), the first updates go from scratch, then one
+    builds the lists (scene.md, "Partner lists come and go")."""
+    rng = np.random.default_rng(41)
+    model = Model(dtype)
+
+    def random_boxes(n):
+        lo = rng.uniform(0.0, 12.0, (n, 3))
+        edge = rng.uniform(0.5, 1.5, (n, 1))
+        edge[rng.random(n) < 0.02] = 0.0  # points: no fat box to stay in
+        return np.hstack([lo, lo + edge])
+
+    with locd.Scene(dtype=dtype) as scene:
+        for static in (True, False):
+            b = random_boxes(200 if static else 600)
+            cat = rng.integers(1, 4, len(b)).astype(np.uint8)
+            ids = scene.add(b, static=static, category=cat)
+            for k, i in enumerate(ids.tolist()):
+                model.objects[i] = dict(box=model.exact(b[k]), static=static, category=int(cat[k]), mask=ALL,
+                                        group=0, user=0)
+        check_update(scene, model)
+        coasted = 0
+        for frame in range(40):
+            live = model.ids()
+            moving = rng.choice(live, size=len(live) // share, replace=False)
+            old = np.array([model.objects[int(i)]["box"] for i in moving])
+            d = rng.uniform(-0.01, 0.01, (len(moving), 3))
+            b = old + np.hstack([d, d])
+            jump = rng.random(len(moving)) < 0.05
+            b[jump] = random_boxes(int(jump.sum()))
+            scene.move(moving, b)
+            for i, box in zip(moving.tolist(), model.exact(b)):
+                model.objects[i]["box"] = box
+            if frame % 8 == 5:
+                gone = rng.choice(model.ids(), size=4, replace=False)
+                scene.remove(gone)
+                for i in gone.tolist():
+                    del model.objects[i]
+                b = random_boxes(4)
+                for k, i in enumerate(scene.add(b).tolist()):
+                    model.objects[i] = dict(box=model.exact(b[k]), static=False, category=1, mask=ALL, group=0,
+                                            user=0)
+                some = rng.choice(model.ids(), size=6, replace=False)
+                groups = rng.integers(0, 3, 6)
+                scene.set_filter(some, group=groups)
+                for i, g in zip(some.tolist(), groups.tolist()):
+                    model.objects[i]["group"] = g
+            check_update(scene, model)
+            coasted += scene.stats["coasted"]
+        assert coasted > 40 * (len(model.objects) // share) // 2  # most small moves took their lists
+
+
 def test_readme_example():
     scene = locd.Scene()
     ids = scene.add(np.array([[0, 0, 0, 1, 1, 1], [1, 0, 0, 2, 1, 1], [5, 5, 5, 6, 6, 6]], np.float32),
