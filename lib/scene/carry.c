@@ -211,19 +211,12 @@ done:
  * patch cost twice its copy). */
 #define LC_SAMPLE_BITS 8
 
-/* pos[i]: the first row of p[0, np) whose key is >= rows[i]'s (rows sorted). */
-static locd_status edit_positions(const locd_allocator *a, const locd_id *p, size_t np, const locd_id *rows,
-                                  size_t n, uint64_t *pos)
+/* pos[i]: the first row of p[0, np) whose key is >= rows[i]'s (rows sorted),
+ * through the sample key[0, ns). */
+static void edit_positions(const uint64_t *key, size_t ns, const locd_id *p, size_t np, const locd_id *rows,
+                           size_t n, uint64_t *pos)
 {
-    const size_t ns = (np >> LC_SAMPLE_BITS) + 1;
-    uint64_t *key;
     size_t i, b = 0;
-    if (!n)
-        return LOCD_OK;
-    if (!(key = lc_alloc(a, ns * sizeof *key)))
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the pair set's patch");
-    for (i = 0; i < ns; i++) /* the first key of each block (the last block may be empty) */
-        key[i] = (i << LC_SAMPLE_BITS) < np ? lc_pair_key(p + 2 * (i << LC_SAMPLE_BITS)) : UINT64_MAX;
     for (i = 0; i < n; i++) {
         const uint64_t k = lc_pair_key(rows + 2 * i);
         size_t lo, hi;
@@ -233,20 +226,26 @@ static locd_status edit_positions(const locd_allocator *a, const locd_id *p, siz
         hi = lo + ((size_t)1 << LC_SAMPLE_BITS) < np ? lo + ((size_t)1 << LC_SAMPLE_BITS) : np;
         pos[i] = lo + lc_rows_lower_bound(p + 2 * lo, hi - lo, k);
     }
-    lc_free(a, key, ns * sizeof *key);
-    return LOCD_OK;
 }
 
-/* The lost rows' positions (each must hold its row) and the created rows'. */
+/* The lost rows' positions (each must hold its row) and the created rows',
+ * through one sample of the set. */
 static locd_status patch_positions(const locd_allocator *a, const locd_id *p, size_t np, const lc_plist *lost,
                                    const lc_plist *created, uint64_t *pos_l, uint64_t *pos_c)
 {
     const locd_id *lo = lc_plist_rows(lost);
-    locd_status st;
+    const size_t ns = (np >> LC_SAMPLE_BITS) + 1;
+    uint64_t *key;
     size_t i;
-    if ((st = edit_positions(a, p, np, lo, lost->count, pos_l)) != LOCD_OK ||
-        (st = edit_positions(a, p, np, lc_plist_rows(created), created->count, pos_c)) != LOCD_OK)
-        return st;
+    if (!lost->count && !created->count)
+        return LOCD_OK;
+    if (!(key = lc_alloc(a, ns * sizeof *key)))
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the pair set's patch");
+    for (i = 0; i < ns; i++) /* the first key of each block (the last block may be empty) */
+        key[i] = (i << LC_SAMPLE_BITS) < np ? lc_pair_key(p + 2 * (i << LC_SAMPLE_BITS)) : UINT64_MAX;
+    edit_positions(key, ns, p, np, lo, lost->count, pos_l);
+    edit_positions(key, ns, p, np, lc_plist_rows(created), created->count, pos_c);
+    lc_free(a, key, ns * sizeof *key);
     for (i = 0; i < lost->count; i++)
         if (pos_l[i] >= np || p[2 * pos_l[i]] != lo[2 * i] || p[2 * pos_l[i] + 1] != lo[2 * i + 1])
             return lc_error(LOCD_ERR_INTERNAL, "a lost pair is not in the pair set");
