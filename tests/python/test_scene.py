@@ -108,6 +108,23 @@ def check_update(scene, model):
     assert len(scene) == len(model.objects)
 
 
+def move_both(scene, model, ids, boxes):
+    """Moves ids to boxes in the scene and in the model."""
+    scene.move(ids, boxes)
+    for i, box in zip(ids.tolist(), model.exact(boxes)):
+        model.objects[i]["box"] = box
+
+
+def replace_some(scene, model, rng, count, boxes):
+    """Removes count random objects and adds count plain ones at boxes, in the scene and in the model."""
+    gone = rng.choice(model.ids(), size=count, replace=False)
+    scene.remove(gone)
+    for i in gone.tolist():
+        del model.objects[i]
+    for k, i in enumerate(scene.add(boxes).tolist()):
+        model.objects[i] = dict(box=model.exact(boxes[k]), static=False, category=1, mask=ALL, group=0, user=0)
+
+
 def check_queries(scene, model, box, point, ray, mask):
     got = scene.query_box(box, mask=mask)
     assert got.dtype == np.uint64
@@ -318,19 +335,9 @@ def test_long_random_sequence(dtype):
         for frame in range(150):
             live = model.ids()
             moving = rng.choice(live, size=max(1, len(live) // 20), replace=False)
-            b = random_boxes(len(moving))
-            scene.move(moving, b)
-            for i, box in zip(moving.tolist(), model.exact(b)):
-                model.objects[i]["box"] = box
+            move_both(scene, model, moving, random_boxes(len(moving)))
             if frame % 10 == 3:
-                gone = rng.choice(model.ids(), size=5, replace=False)
-                scene.remove(gone)
-                for i in gone.tolist():
-                    del model.objects[i]
-                b = random_boxes(5)
-                for k, i in enumerate(scene.add(b).tolist()):
-                    model.objects[i] = dict(box=model.exact(b[k]), static=False, category=1, mask=ALL, group=0,
-                                            user=0)
+                replace_some(scene, model, rng, 5, random_boxes(5))
             if frame % 10 == 7:
                 some = rng.choice(model.ids(), size=10, replace=False)
                 masks = rng.integers(0, 4, 10).astype(np.uint64)
@@ -378,18 +385,9 @@ def test_small_moves_take_partner_lists(dtype, share):
             b = old + np.hstack([d, d])
             jump = rng.random(len(moving)) < 0.05
             b[jump] = random_boxes(int(jump.sum()))
-            scene.move(moving, b)
-            for i, box in zip(moving.tolist(), model.exact(b)):
-                model.objects[i]["box"] = box
+            move_both(scene, model, moving, b)
             if frame % 8 == 5:
-                gone = rng.choice(model.ids(), size=4, replace=False)
-                scene.remove(gone)
-                for i in gone.tolist():
-                    del model.objects[i]
-                b = random_boxes(4)
-                for k, i in enumerate(scene.add(b).tolist()):
-                    model.objects[i] = dict(box=model.exact(b[k]), static=False, category=1, mask=ALL, group=0,
-                                            user=0)
+                replace_some(scene, model, rng, 4, random_boxes(4))
                 some = rng.choice(model.ids(), size=6, replace=False)
                 groups = rng.integers(0, 3, 6)
                 scene.set_filter(some, group=groups)
