@@ -1426,6 +1426,128 @@ static void large_moves_on_the_pool(void)
     free(b), free(ids1), free(ids2), free(mv), free(pos), free(m.o), free(m.pairs);
 }
 
+/* Boxes of positions pos[0, cnt) for whole_scene_moves_in_slot_order: the
+ * lattice's box of each object shifted along x by a quarter times 0 to 3,
+ * from ts_next (floats exactly; which neighbours touch depends on the
+ * draws, so a box written to another slot changes the pairs). */
+static void jitter_boxes(model *m, const locd_id *ids, const size_t *pos, size_t cnt, ts_rng *r, locd_id *mv,
+                         float *f)
+{
+    size_t i;
+    int a;
+    for (i = 0; i < cnt; i++) {
+        double b[6], dx = 0.25 * (double)(ts_next(r) & 3);
+        lattice_box(pos[i], 0.0, b);
+        b[0] += dx, b[3] += dx;
+        mv[i] = ids[pos[i]];
+        for (a = 0; a < 6; a++)
+            f[6 * i + a] = (float)b[a];
+        memcpy(m->o[pos[i]].box, b, sizeof b);
+    }
+}
+
+/* A float move of every object in slot order copies the boxes to the
+ * spare array while it checks them, then swaps the arrays (move.c). The
+ * swap must follow a good batch only; the spare it leaves (the old boxes)
+ * must never be read as the boxes; a bad batch written half into the spare
+ * changes nothing; and the batches that are not in slot order, or not of
+ * every object, write the boxes as before. */
+static void whole_scene_moves_in_slot_order(void)
+{
+    const size_t n = 120000;
+    locd_engine *e1 = new_engine(1, NULL), *e2 = new_engine(2, NULL);
+    locd_scene *s1 = NULL, *s2 = NULL;
+    locd_id *ids1 = malloc(n * sizeof *ids1), *ids2 = malloc(n * sizeof *ids2), *mv = malloc(n * sizeof *mv);
+    size_t *pos = malloc(n * sizeof *pos), k;
+    float *f = malloc(n * 6 * sizeof *f);
+    double b[6];
+    model m;
+    ts_rng r;
+    int a, round;
+    memset(&m, 0, sizeof m);
+    ts_seed(&r, 616);
+    for (k = 0; k < n; k++) {
+        lattice_box(k, 0.0, b);
+        for (a = 0; a < 6; a++)
+            f[6 * k + a] = (float)b[a];
+    }
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e1, NULL, &s1));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e2, NULL, &s2));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s1, f, n, NULL, ids1));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s2, f, n, NULL, ids2));
+    TEST_ASSERT_EQUAL_MEMORY(ids1, ids2, n * sizeof *ids1);
+    for (k = 0; k < n; k++) {
+        lattice_box(k, 0.0, b);
+        m_add(&m, ids1[k], b, 1, ~(uint64_t)0, 0, 0, 0);
+    }
+    update_both(e1, s1, s2, &m);
+    /* in slot order, three times: the arrays swap back and forth */
+    for (k = 0; k < n; k++)
+        pos[k] = k;
+    for (round = 0; round < 3; round++) {
+        jitter_boxes(&m, ids1, pos, n, &r, mv, f);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s1, mv, f, n));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s2, mv, f, n));
+        update_both(e1, s1, s2, &m);
+    }
+    /* a bad batch in slot order: the spare takes the boxes up to the bad
+       one (in each thread's range), and nothing changes */
+    {
+        model keep = m;
+        uint64_t h1 = pairs_hash(s1), h2 = pairs_hash(s2);
+        keep.o = malloc(n * sizeof *keep.o);
+        memcpy(keep.o, m.o, n * sizeof *keep.o);
+        jitter_boxes(&keep, ids1, pos, n, &r, mv, f);
+        f[6 * 90000 + 2] = NAN;
+        TEST_ASSERT_EQUAL_INT(LOCD_ERR_NONFINITE, locd_scene_move_f32(s1, mv, f, n));
+        TEST_ASSERT_EQUAL_INT(LOCD_ERR_NONFINITE, locd_scene_move_f32(s2, mv, f, n));
+        TEST_ASSERT_EQUAL_INT64(90000, locd_last_error_index());
+        TEST_ASSERT_TRUE(h1 == pairs_hash(s1));
+        TEST_ASSERT_TRUE(h2 == pairs_hash(s2));
+        free(keep.o);
+    }
+    /* a fifth of the objects, then (from scratch) every box is read: the
+       others must be the last good batch's boxes, not the spare's */
+    for (k = 0; k < n / 5; k++)
+        pos[k] = 5 * k;
+    jitter_boxes(&m, ids1, pos, n / 5, &r, mv, f);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s1, mv, f, n / 5));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s2, mv, f, n / 5));
+    update_both(e1, s1, s2, &m);
+    /* every object in reverse slot order (the spare is written, not
+       swapped), then in slot order again */
+    for (k = 0; k < n; k++)
+        pos[k] = n - 1 - k;
+    for (round = 0; round < 2; round++) {
+        jitter_boxes(&m, ids1, pos, n, &r, mv, f);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s1, mv, f, n));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s2, mv, f, n));
+        update_both(e1, s1, s2, &m);
+        for (k = 0; k < n; k++)
+            pos[k] = k;
+    }
+    /* one object removed: a slot is not live, so no batch is of every slot */
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s1, &ids1[7], 1));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s2, &ids1[7], 1));
+    m_remove(&m, ids1[7]); /* the model's last object takes position 7 */
+    update_both(e1, s1, s2, &m);
+    for (k = 0; k + 1 < n; k++)
+        mv[k] = m.o[k].id;
+    for (k = 0; k + 1 < n; k++) {
+        m.o[k].box[0] += 0.125, m.o[k].box[3] -= 0.125;
+        for (a = 0; a < 6; a++)
+            f[6 * k + a] = (float)m.o[k].box[a];
+    }
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s1, mv, f, n - 1));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s2, mv, f, n - 1));
+    update_both(e1, s1, s2, &m);
+    locd_scene_destroy(s1);
+    locd_scene_destroy(s2);
+    locd_engine_destroy(e1);
+    locd_engine_destroy(e2);
+    free(f), free(ids1), free(ids2), free(mv), free(pos), free(m.o), free(m.pairs);
+}
+
 /* Adds n boxes (dynamic, or static) to scene and model. */
 static void add_boxes(locd_scene *s, model *m, const double *b, size_t n, int stat, locd_id *ids)
 {
@@ -1954,6 +2076,7 @@ static const lt_test tests[] = {
     LT_TEST(dense_and_sparse_dirty_lists),
     LT_TEST(large_scene_threads_and_fresh),
     LT_TEST(large_moves_on_the_pool),
+    LT_TEST(whole_scene_moves_in_slot_order),
     LT_TEST(from_scratch_follows_adds_removes_and_filters),
     LT_TEST(bad_batches_change_nothing),
     LT_TEST(levels_2_and_3_are_unsupported),

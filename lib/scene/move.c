@@ -1,11 +1,16 @@
 /* A large move on the pool. A move of most of the scene (every body of a
- * simulation, each frame) is three passes over the batch, each one split
- * over the threads: check the ids and boxes, check for repeated ids, then
- * write the boxes and the dirty list. A batch whose ids ascend (a caller
- * walking its bodies in order) cannot repeat one, and skips the second.
- * The result is the serial loop's (scene.c): the same boxes, flags and
- * dirty list in batch order; a bad batch changes nothing and its error is
- * the serial checks' own. */
+ * simulation, each frame) is two passes over the batch, each one split
+ * over the threads: check the ids and boxes, then write the dirty list
+ * (and the boxes). A batch whose ids ascend (a caller walking its bodies
+ * in order) cannot repeat one; any other batch takes two more passes, one
+ * that stamps each slot with its position and one that finds a slot
+ * stamped from another position. A batch of every object in slot order
+ * (the scene's slots all live, ids ascending: the usual simulation frame)
+ * copies its boxes to the spare box array while the checks read them, and
+ * the arrays are swapped once all passed: the boxes are read once, not
+ * twice. The result is the serial loop's (scene.c): the same boxes, flags
+ * and dirty list in batch order; a bad batch changes nothing and its
+ * error is the serial checks' own. */
 #include "scene/scene.h"
 
 /* Below this many objects a move runs on the calling thread. */
@@ -18,8 +23,11 @@ typedef struct move_ctx {
     int f64;
     size_t n;
     uint32_t base;                 /* stamp of position k: base + k */
+    float *spare;                  /* pass 1 copies box k to spare[6 k, 6 k + 6) (f32 batches of every slot) */
+    int swapped;                   /* pass 3: the spare holds the boxes and is fbox now */
     int bad[LC_MAX_THREADS];       /* a stale or repeated id, or a bad box, in the thread's range */
     int ascend[LC_MAX_THREADS];    /* pass 1: the range's ids ascend */
+    int in_place[LC_MAX_THREADS];  /* pass 1: the id at position k has slot k, for every k of the range */
     size_t fresh[LC_MAX_THREADS];  /* pass 1: slots not dirty yet (right once no id repeats), then
                                       the dirty list's offset */
     int64_t inexact[LC_MAX_THREADS]; /* change of ninexact */
@@ -41,24 +49,29 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
     move_ctx *c = arg;
     locd_scene *s = c->s;
     size_t i = c->n * t / k, e = c->n * (t + 1) / k;
-    if (c->pass == 1) { /* ids live, boxes valid; each slot stamped with its position */
+    if (c->pass == 1) { /* ids live, boxes valid */
         const size_t first = i;
         size_t fresh = 0;
-        int bad = 0, ascend = 1;
+        int bad = 0, ascend = 1, in_place = 1;
         for (; i < e; i++) {
             int64_t slot = lc_scene_slot(s, c->ids[i]);
             if (slot < 0 || !box_ok(c, i)) {
                 bad = 1;
                 break;
             }
-            /* a repeated id stamps one slot from two threads: relaxed atomics, no race */
-            __atomic_store_n(&s->stamp[slot], c->base + (uint32_t)i, __ATOMIC_RELAXED);
+            if (c->spare) /* the box was just read: in the caches */
+                memcpy(c->spare + 6 * i, (const float *)c->boxes + 6 * i, 6 * sizeof(float));
             ascend &= i == first || c->ids[i] > c->ids[i - 1];
+            in_place &= (size_t)slot == i;
             fresh += !(s->flags[slot] & LC_SLOT_DIRTY);
         }
         c->bad[t] = bad;
         c->ascend[t] = ascend;
+        c->in_place[t] = in_place;
         c->fresh[t] = fresh;
+    } else if (c->pass == 4) { /* each slot stamped with its position */
+        for (; i < e; i++) /* a repeated id stamps one slot from two threads: relaxed atomics, no race */
+            __atomic_store_n(&s->stamp[LC_ID_SLOT(c->ids[i])], c->base + (uint32_t)i, __ATOMIC_RELAXED);
     } else if (c->pass == 2) { /* a slot whose stamp is not its own position's is repeated */
         int bad = 0;
         for (; i < e; i++) {
@@ -74,7 +87,12 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
         int64_t inexact = 0;
         for (; i < e; i++) {
             uint32_t slot = LC_ID_SLOT(c->ids[i]);
-            inexact += lc_scene_put_box(s, slot, c->boxes, c->f64, i);
+            if (c->swapped) { /* float boxes: exact */
+                inexact -= (s->flags[slot] & LC_SLOT_INEXACT) != 0;
+                s->flags[slot] &= (uint8_t)~LC_SLOT_INEXACT;
+            } else {
+                inexact += lc_scene_put_box(s, slot, c->boxes, c->f64, i);
+            }
             if (!(s->flags[slot] & LC_SLOT_DIRTY)) {
                 s->flags[slot] |= LC_SLOT_DIRTY;
                 *dirty++ = slot;
@@ -96,6 +114,31 @@ static int batch_ascends(const move_ctx *c, uint32_t k)
             return 0;
     }
     return 1;
+}
+
+/* 1 when every position k of the batch holds an id of slot k. */
+static int batch_in_place(const move_ctx *c, uint32_t k)
+{
+    uint32_t t;
+    for (t = 0; t < k; t++)
+        if (!c->in_place[t])
+            return 0;
+    return 1;
+}
+
+/* The spare box array for a move of every object in slot order, or NULL
+ * (another batch; doubles kept; no memory: the move then writes the boxes
+ * in its last pass, as any other). */
+static float *spare_boxes(locd_scene *s, int f64, size_t n)
+{
+    if (f64 || s->keep_f64 || n != s->nslots || s->live != s->nslots)
+        return NULL;
+    if (s->fbox_spare_cap != s->slot_cap) {
+        lc_free(s->alloc, s->fbox_spare, s->fbox_spare_cap * 6 * sizeof(float));
+        s->fbox_spare = lc_alloc(s->alloc, s->slot_cap * 6 * sizeof(float));
+        s->fbox_spare_cap = s->fbox_spare ? s->slot_cap : 0;
+    }
+    return s->fbox_spare;
 }
 
 /* 1 when any thread's range failed the pass just run. */
@@ -126,9 +169,12 @@ static locd_status move_on_pool(locd_scene *s, const locd_id *ids, const void *b
     }
     c.base = s->stamp_now + 1;
     s->stamp_now += (uint32_t)n;
+    c.spare = spare_boxes(s, f64, n);
     c.pass = 1;
     lc_pool_run(s->pool, k, task_move, &c);
     if (!any_bad(&c, k) && !batch_ascends(&c, k)) {
+        c.pass = 4;
+        lc_pool_run(s->pool, k, task_move, &c);
         c.pass = 2;
         lc_pool_run(s->pool, k, task_move, &c);
     }
@@ -145,6 +191,11 @@ static locd_status move_on_pool(locd_scene *s, const locd_id *ids, const void *b
         size_t f = c.fresh[t];
         c.fresh[t] = off;
         off += f;
+    }
+    if (c.spare && batch_in_place(&c, k)) {
+        s->fbox_spare = s->fbox; /* the old boxes: the next such move's spare */
+        s->fbox = c.spare;
+        c.swapped = 1;
     }
     c.pass = 3;
     lc_pool_run(s->pool, k, task_move, &c);

@@ -146,6 +146,10 @@ struct locd_scene {
                            (set for good). Until then every box is its float copy, and a move writes 24
                            bytes an object, not 72 */
     size_t ninexact;    /* live objects flagged LC_SLOT_INEXACT */
+    float *fbox_spare;  /* fbox's twin (fbox_spare_cap slots), made by the first move of every object in
+                           slot order (move.c): such a move writes it while it checks the batch and then
+                           swaps it with fbox, one pass over the boxes instead of two */
+    size_t fbox_spare_cap;
     uint64_t *cat, *mask, *group, *user;
     uint8_t *flags;
     uint32_t *stamp;     /* duplicate check of a batch */

@@ -186,6 +186,7 @@ void lc_scene_slots_fini(locd_scene *s)
     if (s->box)
         lc_free(s->alloc, s->box, c * 6 * sizeof(double));
     lc_free(s->alloc, s->fbox, c * 6 * sizeof(float));
+    lc_free(s->alloc, s->fbox_spare, s->fbox_spare_cap * 6 * sizeof(float));
     lc_free(s->alloc, s->cat, c * sizeof(uint64_t));
     lc_free(s->alloc, s->mask, c * sizeof(uint64_t));
     lc_free(s->alloc, s->group, c * sizeof(uint64_t));
