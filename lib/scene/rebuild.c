@@ -102,7 +102,8 @@ typedef struct order_ctx {
     size_t *start;             /* nb + 1: first pair of each bucket */
     uint32_t bb[LC_MAX_THREADS + 1]; /* the threads' bucket ranges for the sort */
     uint32_t *local[LC_MAX_THREADS]; /* per thread: 2^shift + 1 counters */
-    uint64_t *key, *tmp;       /* np each: (i << 32 | j) by bucket, then by i */
+    uint64_t *key;             /* np: (i << 32 | j) by bucket */
+    uint64_t *run[LC_MAX_THREADS]; /* per thread: a bucket's keys by i (the largest bucket's room) */
     locd_id *rows;
     int pass;
 } order_ctx;
@@ -160,26 +161,30 @@ static void sort_run(uint64_t *v, size_t n)
 
 #define LC_ORDER_RUN 32
 
-/* Bucket b: key[start[b], start[b+1]) to tmp by i (counting sort), each
- * i's run sorted by j, then the rows at the same positions. */
+/* Bucket b: key[start[b], start[b+1]) to the thread's run buffer by i
+ * (counting sort), each i's run sorted by j, then the rows at the same
+ * positions. The run buffer holds the largest bucket: it stays in the
+ * caches from one bucket to the next, where a buffer as long as the keys
+ * (one region per bucket) was written and read back through memory. */
 static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
 {
-    size_t lo = c->start[b], hi = c->start[b + 1], x, y;
+    const size_t lo = c->start[b], m = c->start[b + 1] - lo;
+    size_t x, y;
     uint32_t span = 1u << c->shift, base = b << c->shift, *cnt = c->local[t], u, sum = 0;
-    const uint64_t *k = c->key;
-    uint64_t *v = c->tmp;
-    locd_id *rows = c->rows;
-    if (hi - lo > 1) {
+    const uint64_t *k = c->key + lo;
+    uint64_t *v = c->run[t];
+    locd_id *rows = c->rows + 2 * lo;
+    if (m > 1) {
         memset(cnt, 0, (span + 1) * sizeof *cnt);
-        for (x = lo; x < hi; x++)
+        for (x = 0; x < m; x++)
             cnt[(uint32_t)(k[x] >> 32) - base]++;
         for (u = 0; u < span; u++) {
-            uint32_t m = cnt[u];
+            uint32_t n = cnt[u];
             cnt[u] = sum;
-            sum += m;
+            sum += n;
         }
-        for (x = lo; x < hi; x++)
-            v[lo + cnt[(uint32_t)(k[x] >> 32) - base]++] = k[x];
+        for (x = 0; x < m; x++)
+            v[cnt[(uint32_t)(k[x] >> 32) - base]++] = k[x];
         /* One compare-exchange pass first, with no branch: it carries the
            largest key so far and leaves each i's run with its largest j
            last, which sorts every run of one or two keys (most runs: an
@@ -189,13 +194,13 @@ static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
            alone, its test mispredicted on about half the keys of the runs
            of two. */
         {
-            uint64_t cur = v[lo];
-            for (x = lo + 1; x < hi; x++) {
+            uint64_t cur = v[0];
+            for (x = 1; x < m; x++) {
                 const uint64_t e = v[x];
                 v[x - 1] = cur < e ? cur : e;
                 cur = cur < e ? e : cur;
             }
-            v[hi - 1] = cur;
+            v[m - 1] = cur;
         }
         /* Each i's run by j: v is in i order, so one insertion pass over
            the whole bucket moves each key back within its own run only
@@ -204,34 +209,34 @@ static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
            runs took a branch per i whatever its run's length. A run longer than
            LC_ORDER_RUN (a box over much of the scene) is sorted on its own
            (no quadratic case). */
-        for (x = lo + 1; x < hi; x++) {
+        for (x = 1; x < m; x++) {
             const uint64_t e = v[x];
             if (v[x - 1] <= e)
                 continue;
-            for (y = x; y > lo && v[y - 1] > e && x - y < LC_ORDER_RUN; y--)
+            for (y = x; y > 0 && v[y - 1] > e && x - y < LC_ORDER_RUN; y--)
                 v[y] = v[y - 1];
             v[y] = e;
-            if (x - y == LC_ORDER_RUN && y > lo && v[y - 1] > e) { /* a long run: sort all of it */
+            if (x - y == LC_ORDER_RUN && y > 0 && v[y - 1] > e) { /* a long run: sort all of it */
                 const uint32_t i = (uint32_t)(e >> 32);
-                size_t a = lo + (i - base ? cnt[i - base - 1] : 0), z = lo + cnt[i - base];
+                size_t a = i - base ? cnt[i - base - 1] : 0, z = cnt[i - base];
                 sort_run(v + a, z - a);
                 x = z - 1;
             }
         }
-    } else if (hi > lo) {
-        v[lo] = k[lo];
+    } else if (m) {
+        v[0] = k[0];
     }
     if (!c->idl) { /* ids in arithmetic progression with the index */
         const uint64_t s0 = c->serial0;
-        for (x = lo; x < hi; x++) {
+        for (x = 0; x < m; x++) {
             const uint64_t i = v[x] >> 32, j = (uint32_t)v[x];
             rows[2 * x] = (s0 + i) << 32 | i, rows[2 * x + 1] = (s0 + j) << 32 | j;
         }
         return;
     }
     /* j's id is a cache miss each (j is anywhere): asked for ahead */
-    for (x = lo; x < hi; x++) {
-        if (x + 16 < hi)
+    for (x = 0; x < m; x++) {
+        if (x + 16 < m)
             __builtin_prefetch(c->idl + (uint32_t)v[x + 16]);
         rows[2 * x] = c->idl[v[x] >> 32], rows[2 * x + 1] = c->idl[(uint32_t)v[x]];
     }
@@ -268,7 +273,7 @@ static locd_status order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint
     const locd_allocator *a = s->alloc;
     uint32_t kk = s->threads > 1 && np > 65536 ? s->threads : 1, t, b, bits = 0;
     order_ctx *c = lc_alloc(a, sizeof *c);
-    size_t scratch, total = 0, w = 0, x;
+    size_t scratch, total = 0, w = 0, x, most = 1;
     void *mem;
     locd_status st = LOCD_OK;
     if (!c)
@@ -283,15 +288,15 @@ static locd_status order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint
     c->s = s, c->p = p, c->np = np, c->n = n, c->live = live, c->idl = idl, c->rows = rows;
     c->serial0 = n ? LC_ID_SERIAL(s->id[slot_of(live, 0)]) : 0;
     c->all = filter_passes_all(s, live, n);
-    scratch = 2 * np * sizeof(uint64_t) + (kk + 1) * (c->nb + 1) * sizeof(size_t) +
+    scratch = np * sizeof(uint64_t) + (kk + 1) * (c->nb + 1) * sizeof(size_t) +
               kk * (((size_t)1 << c->shift) + 1) * sizeof(uint32_t);
     if (lc_buf_reserve(a, &s->order_buf, 1, scratch) != LOCD_OK) {
         st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
         goto done;
     }
     mem = s->order_buf.data;
-    c->key = mem, c->tmp = c->key + np;
-    c->start = (size_t *)(c->tmp + np);
+    c->key = mem;
+    c->start = (size_t *)(c->key + np);
     for (t = 0; t < kk; t++)
         c->cnt[t] = c->start + (c->nb + 1) * (t + 1);
     for (t = 0; t < kk; t++)
@@ -309,6 +314,15 @@ static locd_status order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint
         }
     }
     c->start[c->nb] = total;
+    for (b = 0; b < c->nb; b++)
+        if (c->start[b + 1] - c->start[b] > most)
+            most = c->start[b + 1] - c->start[b];
+    if (lc_buf_reserve(a, &s->order_runs, sizeof(uint64_t), kk * most) != LOCD_OK) {
+        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
+        goto done;
+    }
+    for (t = 0; t < kk; t++)
+        c->run[t] = (uint64_t *)s->order_runs.data + t * most;
     order_run(s->pool, kk, c, 2);
     /* bucket ranges of about total / kk pairs each */
     c->bb[0] = 0;

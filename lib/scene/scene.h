@@ -199,6 +199,7 @@ struct locd_scene {
     int order_known, filter_known;
     locd_pairs found;              /* from scratch: the engine's pairs, and the ordering's scratch */
     lc_buf order_buf;              /* (bytes), kept from one from-scratch update to the next for the same reason */
+    lc_buf order_runs;             /* uint64: the pair order's per-thread bucket buffers (rebuild.c) */
     int show_pairs, show_events;   /* the flags of the last update */
     locd_scene_stats stats;
 };
