@@ -1548,6 +1548,137 @@ static void whole_scene_moves_in_slot_order(void)
     free(f), free(ids1), free(ids2), free(mv), free(pos), free(m.o), free(m.pairs);
 }
 
+/* The pairs of boxes f[0, n) as rows of ids[] (ascending with the index),
+ * found by the engine's own find: a reference that shares no code with
+ * the scene's kept entry list. */
+static locd_id *engine_rows(locd_engine *e, const float *f, const locd_id *ids, size_t n, size_t *count)
+{
+    locd_pairs *p = NULL;
+    const uint32_t *v;
+    locd_id *rows;
+    size_t k, np;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_find_pairs_f32(e, f, n, LOCD_FIND_SORTED, p));
+    np = locd_pairs_count(p), v = locd_pairs_data(p);
+    rows = malloc((np + 1) * 2 * sizeof *rows);
+    for (k = 0; k < np; k++)
+        rows[2 * k] = ids[v[2 * k]], rows[2 * k + 1] = ids[v[2 * k + 1]];
+    locd_pairs_destroy(p);
+    *count = np;
+    return rows;
+}
+
+/* Rows of a (sorted) not in b (sorted), into out; returns how many. */
+static size_t rows_minus(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *out)
+{
+    size_t i = 0, j = 0, w = 0;
+    while (i < na) {
+        int c = j == nb ? -1 : cmp_row(a + 2 * i, b + 2 * j);
+        if (c < 0)
+            out[2 * w] = a[2 * i], out[2 * w + 1] = a[2 * i + 1], w++, i++;
+        else if (c == 0)
+            i++, j++;
+        else
+            j++;
+    }
+    return w;
+}
+
+/* The scene's pairs, created and lost after an update, against the
+ * reference rows now and before. */
+static void check_against(locd_scene *s, const locd_id *now, size_t nnow, const locd_id *before, size_t nbefore)
+{
+    const locd_id *p;
+    size_t np, nw;
+    locd_id *want = malloc((nnow + nbefore + 1) * 2 * sizeof *want);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s, &p, &np));
+    same_rows("pairs against the engine's find", now, nnow, p, np);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_created(s, &p, &np));
+    nw = rows_minus(now, nnow, before, nbefore, want);
+    same_rows("created against the engine's finds", want, nw, p, np);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_lost(s, &p, &np));
+    nw = rows_minus(before, nbefore, now, nnow, want);
+    same_rows("lost against the engine's finds", want, nw, p, np);
+    free(want);
+}
+
+/* A from-scratch update of 65,536 objects or more keeps its entries for the
+ * next one (lib/scene/kept_list.c): it encodes every box again and merges
+ * the entries of the objects whose cells changed into the sorted list. The
+ * sequence takes each of its ways, with one thread and with two, and every
+ * update is checked against the engine's own find: small steps (a merge),
+ * every object far (more changes than the merge takes: all sorted), an
+ * object out of the list's grid and back (a new grid), a fifth of the
+ * objects moving (the band rule builds the scene's trees, and the list is
+ * made again after), and one object removed (the slots are no longer the
+ * engine's input: the engine's find). */
+static void kept_entry_list_follows_whole_scene_moves(void)
+{
+    const size_t n = 70000;
+    const double edge = 0.0153; /* about one pair an object */
+    locd_engine *e1 = new_engine(1, NULL), *e2 = new_engine(2, NULL), *er = new_engine(2, NULL);
+    locd_scene *s[2] = {NULL, NULL};
+    locd_id *ids = malloc(n * sizeof *ids), *ids2 = malloc(n * sizeof *ids2), *before, *now;
+    float *f = malloc(n * 6 * sizeof *f);
+    size_t k, nbefore, nnow, nmove;
+    ts_rng r;
+    int frame, a, i;
+    ts_seed(&r, 717);
+    for (k = 0; k < n; k++)
+        for (a = 0; a < 3; a++) {
+            f[6 * k + a] = (float)ts_uniform(&r);
+            f[6 * k + 3 + a] = f[6 * k + a] + (float)edge;
+        }
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e1, NULL, &s[0]));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e2, NULL, &s[1]));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[0], f, n, NULL, ids));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[1], f, n, NULL, ids2));
+    TEST_ASSERT_EQUAL_MEMORY(ids, ids2, n * sizeof *ids);
+    before = malloc(2 * sizeof *before), nbefore = 0;
+    for (frame = 0; frame < 20; frame++) {
+        /* frame 0 adds; 6 sends everything anywhere; 10 takes object 123 out
+           of the grid, 13 back; 15 and 16 move a fifth; the others step */
+        nmove = frame == 15 || frame == 16 ? n / 5 : frame == 0 ? 0 : n;
+        for (k = 0; k < nmove; k++) {
+            float *b = f + 6 * k;
+            for (a = 0; a < 3; a++) {
+                float d = frame == 6 ? (float)ts_uniform(&r) - b[a] : (float)((ts_uniform(&r) - 0.5) * 0.06 * edge);
+                b[a] += d, b[a + 3] = b[a] + (float)edge;
+            }
+            if (k == 123 && (frame == 10 || frame == 13))
+                for (a = 0; a < 6; a++)
+                    b[a] += frame == 10 ? 5.0f : -5.0f;
+        }
+        for (i = 0; i < 2; i++)
+            if (nmove)
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[i], ids, f, nmove));
+        now = engine_rows(er, f, ids, n, &nnow);
+        TEST_ASSERT_TRUE(nnow > n / 2);
+        for (i = 0; i < 2; i++)
+            check_against(s[i], now, nnow, before, nbefore);
+        free(before);
+        before = now, nbefore = nnow;
+    }
+    /* one object removed: every slot is no longer live */
+    for (i = 0; i < 2; i++)
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s[i], &ids[n - 1], 1));
+    for (k = 0; k + 1 < n; k++)
+        f[6 * k] += 0.25f * (float)edge, f[6 * k + 3] += 0.25f * (float)edge;
+    for (i = 0; i < 2; i++)
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[i], ids, f, n - 1));
+    now = engine_rows(er, f, ids, n - 1, &nnow);
+    for (i = 0; i < 2; i++)
+        check_against(s[i], now, nnow, before, nbefore);
+    free(before), free(now);
+    locd_scene_destroy(s[0]);
+    locd_scene_destroy(s[1]);
+    locd_engine_destroy(e1);
+    locd_engine_destroy(e2);
+    locd_engine_destroy(er);
+    free(f), free(ids), free(ids2);
+}
+
 /* Adds n boxes (dynamic, or static) to scene and model. */
 static void add_boxes(locd_scene *s, model *m, const double *b, size_t n, int stat, locd_id *ids)
 {
@@ -2077,6 +2208,7 @@ static const lt_test tests[] = {
     LT_TEST(large_scene_threads_and_fresh),
     LT_TEST(large_moves_on_the_pool),
     LT_TEST(whole_scene_moves_in_slot_order),
+    LT_TEST(kept_entry_list_follows_whole_scene_moves),
     LT_TEST(from_scratch_follows_adds_removes_and_filters),
     LT_TEST(bad_batches_change_nothing),
     LT_TEST(levels_2_and_3_are_unsupported),

@@ -54,6 +54,7 @@ typedef struct lc_job_ctx {
     size_t need[LC_MAX_THREADS];
     int overflow[LC_MAX_THREADS];
     const uint64_t *sorted;
+    const uint64_t *qbox; /* the packed boxes the sweep reads: ip->qbox's, or the caller's */
     locd_status status[LC_MAX_THREADS];
     uint64_t cursor;  /* slices taken << LC_SLICE_POS_BITS | next entry (atomic) */
     uint32_t nslices; /* taken, once the sweep is over */
@@ -102,8 +103,8 @@ static void task_encode(void *arg, uint32_t t, uint32_t k)
 static locd_status sweep_part(lc_job_ctx *c, size_t b, size_t e, lc_sweep_out *o)
 {
     if (c->f64)
-        return lc_sweep_range_f64(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, c->plan.total, b, e, o);
-    return lc_sweep_range_f32(&c->grid, c->boxes, c->ip->qbox.data, c->sorted, c->plan.total, b, e, o);
+        return lc_sweep_range_f64(&c->grid, c->boxes, c->qbox, c->sorted, c->plan.total, b, e, o);
+    return lc_sweep_range_f32(&c->grid, c->boxes, c->qbox, c->sorted, c->plan.total, b, e, o);
 }
 
 /* Asks the engine's stop hook (if any) with the pairs found so far; the
@@ -394,6 +395,8 @@ static locd_status sweep(lc_job_ctx *c, locd_stats *stats, size_t *npairs)
     locd_status st = LOCD_OK;
     uint32_t t, s;
     lend_dead_entries(c);
+    if (!c->qbox)
+        c->qbox = c->ip->qbox.data;
     for (t = 0; t < c->plan.k; t++) {
         c->ip->sw[t].split = (uint32_t)c->split;
         c->ip->sw[t].stop = c->e->stop.flag;
@@ -486,26 +489,11 @@ static locd_status validate_only(locd_engine *e, const void *boxes, size_t n, in
     return LOCD_OK;
 }
 
-/* One octree over all n objects; with split > 0 the sweep keeps only the
- * pairs across [0, split) and [split, n) (lc_sweep_out.split). */
-static locd_status inproc_run(locd_engine *e, const void *boxes, size_t n, size_t split, int f64, uint32_t flags,
-                              locd_pairs *out, locd_stats *stats)
+/* Ends a call: its status (a stop or a cancel named), the sweep
+ * buffers' loans and flags undone, its state freed. */
+static locd_status end_job(locd_engine *e, lc_job_ctx *c, locd_status st)
 {
-    lc_job_ctx *c;
-    locd_status st;
-    size_t npairs = 0;
     uint32_t t;
-
-    stats->objects = n;
-    if (n < 2)
-        return find_tiny(boxes, n, f64, ((const lc_inproc *)e->backend)->kernel, out, stats);
-    if (!(c = new_job(e, boxes, n, split, f64)))
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the call state");
-    stats->threads = c->plan.k;
-    if ((st = fit_grid(c, stats)) == LOCD_OK && !stop_requested(c, 0) && (st = encode(e, c, stats)) == LOCD_OK &&
-        !stop_requested(c, 0) && (st = sort_entries(e, c, stats)) == LOCD_OK && !stop_requested(c, 0) &&
-        (st = sweep(c, stats, &npairs)) == LOCD_OK && !stop_requested(c, npairs))
-        st = hand_over(e, c, flags, npairs, out, stats);
     if (st == LOCD_OK && c->stopped) /* *out is untouched: hand_over did not run */
         st = lc_error(c->stopped, "the find was stopped before it finished");
     else if (st == LOCD_ERR_CANCELLED) /* the sweep saw the stop flag (on a pool thread) */
@@ -517,6 +505,49 @@ static locd_status inproc_run(locd_engine *e, const void *boxes, size_t n, size_
     }
     lc_free(&e->alloc, c, sizeof *c);
     return st;
+}
+
+/* One octree over all n objects; with split > 0 the sweep keeps only the
+ * pairs across [0, split) and [split, n) (lc_sweep_out.split). */
+static locd_status inproc_run(locd_engine *e, const void *boxes, size_t n, size_t split, int f64, uint32_t flags,
+                              locd_pairs *out, locd_stats *stats)
+{
+    lc_job_ctx *c;
+    locd_status st;
+    size_t npairs = 0;
+
+    stats->objects = n;
+    if (n < 2)
+        return find_tiny(boxes, n, f64, ((const lc_inproc *)e->backend)->kernel, out, stats);
+    if (!(c = new_job(e, boxes, n, split, f64)))
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the call state");
+    stats->threads = c->plan.k;
+    if ((st = fit_grid(c, stats)) == LOCD_OK && !stop_requested(c, 0) && (st = encode(e, c, stats)) == LOCD_OK &&
+        !stop_requested(c, 0) && (st = sort_entries(e, c, stats)) == LOCD_OK && !stop_requested(c, 0) &&
+        (st = sweep(c, stats, &npairs)) == LOCD_OK && !stop_requested(c, npairs))
+        st = hand_over(e, c, flags, npairs, out, stats);
+    return end_job(e, c, st);
+}
+
+locd_status lc_inproc_sweep_sorted(locd_engine *e, const locd_grid *g, const float *boxes, const uint64_t *qbox,
+                                   size_t n, const uint64_t *sorted, size_t total, locd_pairs *out, locd_stats *stats)
+{
+    lc_job_ctx *c;
+    locd_status st;
+    size_t npairs = 0;
+    stats->objects = n;
+    if (!(c = new_job(e, boxes, n, 0, 0)))
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the call state");
+    stats->threads = c->plan.k;
+    stats->entries = total;
+    stats->depth = g->depth;
+    c->grid = *g;
+    c->qbox = qbox;
+    c->sorted = sorted;
+    c->plan.total = total;
+    if ((st = sweep(c, stats, &npairs)) == LOCD_OK && !stop_requested(c, npairs))
+        st = hand_over(e, c, 0, npairs, out, stats);
+    return end_job(e, c, st);
 }
 
 static locd_status inproc_find(locd_engine *e, const void *boxes, size_t n, int f64, uint32_t flags,

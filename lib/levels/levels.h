@@ -64,6 +64,14 @@ typedef struct lc_shm_ctl {
  * The thread pool of a level-1 engine and the kernel it chose; the scene
  * runs its steps on them while it holds the engine's busy flag. */
 lc_pool *lc_inproc_pool(struct locd_engine *e, int *kernel);
+/* The sweep and the hand-over of a level-1 find, on entries the caller
+ * encoded on grid g and sorted (the scene's kept list): boxes, their packed
+ * boxes qbox (2 per object, as the encode writes them) and the entries
+ * stay the caller's. The pairs and their order are those of a find whose
+ * own encode and sort gave the same entries. */
+locd_status lc_inproc_sweep_sorted(struct locd_engine *e, const locd_grid *g, const float *boxes,
+                                   const uint64_t *qbox, size_t n, const uint64_t *sorted, size_t total,
+                                   locd_pairs *out, locd_stats *stats);
 
 /* ---- planning (plan.c): the work split levels 1 and 2 share ----
  * n objects go in k shares of near-equal size (contiguous, in order: the

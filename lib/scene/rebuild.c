@@ -399,7 +399,10 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     }
     memset(&st_find, 0, sizeof st_find);
     st_find.size = sizeof st_find;
-    st = s->engine->ops->find(s->engine, in, n, f64, 0, found, &st_find);
+    if (ordered && !f64 && n >= LC_KEPT_MIN)
+        st = lc_kept_find(s, n, found, &st_find);
+    else
+        st = s->engine->ops->find(s->engine, in, n, f64, 0, found, &st_find);
     if (st == LOCD_OK)
         st = lc_plist_reserve(a, out, found->count ? found->count : 1);
     if (st == LOCD_OK)

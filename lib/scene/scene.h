@@ -112,6 +112,25 @@ typedef struct lc_tree {
     size_t per_level[32];
 } lc_tree;
 
+/* The from-scratch path's entry list, kept from one update to the next
+ * (kept_list.c): the last update's entries on grid g, in slot order (share
+ * t of k in its region of reg[cur], plan[cur]) and sorted (sorted[cur],
+ * total of them); the other buffers are the next update's. */
+typedef struct lc_kept {
+    int valid;
+    locd_grid g;
+    size_t n;           /* objects (the slots, all live) */
+    uint32_t k;         /* shares: lc_chunk_begin(n, t, k) */
+    int cur;
+    lc_buf reg[2];      /* uint64 */
+    lc_plan plan[2];
+    lc_buf sorted[2];   /* uint64 */
+    size_t total;
+    lc_buf qbox;        /* uint64, 2 per object: the packed boxes of the last encode (the sweep's) */
+    lc_buf delta;       /* uint64: the changed objects' old and new entries, and their sort's scratch */
+    double per_object;  /* entries per object to plan the next encode with (0: none yet) */
+} lc_kept;
+
 /* A sorted pair list: rows of two ids. */
 typedef struct lc_plist {
     lc_buf rows; /* locd_id, two a row */
@@ -200,6 +219,7 @@ struct locd_scene {
     locd_pairs found;              /* from scratch: the engine's pairs, and the ordering's scratch */
     lc_buf order_buf;              /* (bytes), kept from one from-scratch update to the next for the same reason */
     lc_buf order_runs;             /* uint64: the pair order's per-thread bucket buffers (rebuild.c) */
+    lc_kept kept;                  /* the from-scratch path's entries, kept (kept_list.c) */
     int show_pairs, show_events;   /* the flags of the last update */
     locd_scene_stats stats;
 };
@@ -448,6 +468,16 @@ void lc_tree_edit_undo(lc_tree *t, lc_tree_edit *e);
 /* Makes the edit t's state (t takes e->out's buffers). */
 void lc_tree_edit_commit(const locd_allocator *a, lc_tree *t, lc_tree_edit *e);
 void lc_tree_edit_free(const locd_allocator *a, lc_tree_edit *e);
+/* ---- the from-scratch path's kept entry list (kept_list.c) ---- */
+/* From this many objects on, a from-scratch update keeps its entries. */
+#define LC_KEPT_MIN 65536
+/* The pairs of the n boxes s->fbox (every slot live, in id order, floats
+ * exactly) as the engine's find gives them, from the kept entries brought
+ * up to date. A failure leaves the list to be made again, nothing else. */
+locd_status lc_kept_find(locd_scene *s, size_t n, locd_pairs *out, locd_stats *stats);
+/* Frees the list (a scene whose updates no longer go from scratch). */
+void lc_kept_release(locd_scene *s);
+
 /* A grid fitted to the live boxes with a margin, with index bits for twice the slots. */
 locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g);
 /* 1 if box b quantizes inside the root cube without clamping. */
