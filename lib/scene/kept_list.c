@@ -399,10 +399,15 @@ locd_status lc_kept_find(locd_scene *s, size_t n, locd_pairs *out, locd_stats *s
     memset(c, 0, sizeof *c);
     c->s = s, c->l = l, c->boxes = s->fbox, c->n = n;
     c->k = s->threads > 1 ? s->threads : 1;
-    kept_run(c, 0, c->k);
     lc_bounds_init(&all);
-    for (t = 0; t < c->k; t++)
-        lc_bounds_merge(&all, &c->bounds[t]);
+    if (s->fbox_bounds_ok) { /* the move that wrote every box found them */
+        for (t = 0; t < 3; t++)
+            all.lo[t] = s->fbox_lo[t], all.hi[t] = s->fbox_hi[t];
+    } else {
+        kept_run(c, 0, c->k);
+        for (t = 0; t < c->k; t++)
+            lc_bounds_merge(&all, &c->bounds[t]);
+    }
     memcpy(room, all.lo, sizeof all.lo);
     memcpy(room + 3, all.hi, sizeof all.hi);
     fresh = !l->valid || l->n != n || l->k != c->k || !lc_grid_holds(&l->g, room);

@@ -28,6 +28,7 @@ typedef struct move_ctx {
     int bad[LC_MAX_THREADS];       /* a stale or repeated id, or a bad box, in the thread's range */
     int ascend[LC_MAX_THREADS];    /* pass 1: the range's ids ascend */
     int in_place[LC_MAX_THREADS];  /* pass 1: the id at position k has slot k, for every k of the range */
+    float lo[LC_MAX_THREADS][3], hi[LC_MAX_THREADS][3]; /* pass 1 with a spare: the range's bounds */
     size_t fresh[LC_MAX_THREADS];  /* pass 1: slots not dirty yet (right once no id repeats), then
                                       the dirty list's offset */
     int64_t inexact[LC_MAX_THREADS]; /* change of ninexact */
@@ -52,15 +53,22 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
     if (c->pass == 1) { /* ids live, boxes valid */
         const size_t first = i;
         size_t fresh = 0;
-        int bad = 0, ascend = 1, in_place = 1;
+        int bad = 0, ascend = 1, in_place = 1, a;
+        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
         for (; i < e; i++) {
             int64_t slot = lc_scene_slot(s, c->ids[i]);
             if (slot < 0 || !box_ok(c, i)) {
                 bad = 1;
                 break;
             }
-            if (c->spare) /* the box was just read: in the caches */
-                memcpy(c->spare + 6 * i, (const float *)c->boxes + 6 * i, 6 * sizeof(float));
+            if (c->spare) { /* the box was just read: in the caches */
+                const float *b = (const float *)c->boxes + 6 * i;
+                memcpy(c->spare + 6 * i, b, 6 * sizeof(float));
+                for (a = 0; a < 3; a++) {
+                    lo[a] = b[a] < lo[a] ? b[a] : lo[a];
+                    hi[a] = b[a + 3] > hi[a] ? b[a + 3] : hi[a];
+                }
+            }
             ascend &= i == first || c->ids[i] > c->ids[i - 1];
             in_place &= (size_t)slot == i;
             fresh += !(s->flags[slot] & LC_SLOT_DIRTY);
@@ -69,6 +77,8 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
         c->ascend[t] = ascend;
         c->in_place[t] = in_place;
         c->fresh[t] = fresh;
+        memcpy(c->lo[t], lo, sizeof lo);
+        memcpy(c->hi[t], hi, sizeof hi);
     } else if (c->pass == 4) { /* each slot stamped with its position */
         for (; i < e; i++) /* a repeated id stamps one slot from two threads: relaxed atomics, no race */
             __atomic_store_n(&s->stamp[LC_ID_SLOT(c->ids[i])], c->base + (uint32_t)i, __ATOMIC_RELAXED);
@@ -193,9 +203,18 @@ static locd_status move_on_pool(locd_scene *s, const locd_id *ids, const void *b
         off += f;
     }
     if (c.spare && batch_in_place(&c, k)) {
+        int a;
         s->fbox_spare = s->fbox; /* the old boxes: the next such move's spare */
         s->fbox = c.spare;
         c.swapped = 1;
+        for (a = 0; a < 3; a++) { /* every box was read: their bounds */
+            s->fbox_lo[a] = c.lo[0][a], s->fbox_hi[a] = c.hi[0][a];
+            for (t = 1; t < k; t++) {
+                s->fbox_lo[a] = c.lo[t][a] < s->fbox_lo[a] ? c.lo[t][a] : s->fbox_lo[a];
+                s->fbox_hi[a] = c.hi[t][a] > s->fbox_hi[a] ? c.hi[t][a] : s->fbox_hi[a];
+            }
+        }
+        s->fbox_bounds_ok = 1;
     }
     c.pass = 3;
     lc_pool_run(s->pool, k, task_move, &c);

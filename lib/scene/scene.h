@@ -169,6 +169,9 @@ struct locd_scene {
                            slot order (move.c): such a move writes it while it checks the batch and then
                            swaps it with fbox, one pass over the boxes instead of two */
     size_t fbox_spare_cap;
+    int fbox_bounds_ok;  /* fbox_lo, fbox_hi bound every box: set by such a move (it reads every box), cleared by
+                            any other move or add; the kept entry list's grid check then needs no pass of its own */
+    float fbox_lo[3], fbox_hi[3];
     uint64_t *cat, *mask, *group, *user;
     uint8_t *flags;
     uint32_t *stamp;     /* duplicate check of a batch */
