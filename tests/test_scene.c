@@ -1485,10 +1485,28 @@ static void whole_scene_moves_in_slot_order(void)
     for (k = 0; k < n; k++)
         pos[k] = k;
     for (round = 0; round < 3; round++) {
+        if (round == 1) { /* some slots dirty already: the dirty list must take each once */
+            size_t few[3] = {0, 60001, n - 1};
+            jitter_boxes(&m, ids1, few, 3, &r, mv, f);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s1, mv, f, 3));
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s2, mv, f, 3));
+        }
         jitter_boxes(&m, ids1, pos, n, &r, mv, f);
         TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s1, mv, f, n));
         TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s2, mv, f, n));
         update_both(e1, s1, s2, &m);
+        if (round == 1) { /* a few moved after (one at the threads' split): every slot must have left
+                             the dirty list, or its move would be missed */
+            size_t few[2] = {n / 2, 70000};
+            locd_scene_stats st;
+            jitter_boxes(&m, ids1, few, 2, &r, mv, f);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s1, mv, f, 2));
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s2, mv, f, 2));
+            update_both(e1, s1, s2, &m);
+            locd_scene_stats_init(&st);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s2, &st));
+            TEST_ASSERT_EQUAL_UINT64(2, st.moved);
+        }
     }
     /* a bad batch in slot order: the spare takes the boxes up to the bad
        one (in each thread's range), and nothing changes */

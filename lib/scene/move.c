@@ -92,17 +92,24 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
             }
         }
         c->bad[t] = bad;
+    } else if (c->swapped) { /* the boxes are in; position k is slot k: its flags, and the dirty list */
+        uint32_t *dirty = (uint32_t *)s->dirty.data + c->fresh[t];
+        uint8_t *fl = s->flags;
+        int64_t inexact = 0;
+        for (; i < e; i++) {
+            const uint8_t f = fl[i];
+            inexact -= (f & LC_SLOT_INEXACT) != 0; /* float boxes: exact */
+            fl[i] = (uint8_t)((f & ~LC_SLOT_INEXACT) | LC_SLOT_DIRTY);
+            if (!(f & LC_SLOT_DIRTY)) /* (a store past the thread's part would be the next thread's) */
+                *dirty++ = (uint32_t)i;
+        }
+        c->inexact[t] = inexact;
     } else { /* the boxes, and the slots new to the dirty list at the thread's offset */
         uint32_t *dirty = (uint32_t *)s->dirty.data + c->fresh[t];
         int64_t inexact = 0;
         for (; i < e; i++) {
             uint32_t slot = LC_ID_SLOT(c->ids[i]);
-            if (c->swapped) { /* float boxes: exact */
-                inexact -= (s->flags[slot] & LC_SLOT_INEXACT) != 0;
-                s->flags[slot] &= (uint8_t)~LC_SLOT_INEXACT;
-            } else {
-                inexact += lc_scene_put_box(s, slot, c->boxes, c->f64, i);
-            }
+            inexact += lc_scene_put_box(s, slot, c->boxes, c->f64, i);
             if (!(s->flags[slot] & LC_SLOT_DIRTY)) {
                 s->flags[slot] |= LC_SLOT_DIRTY;
                 *dirty++ = slot;
