@@ -218,6 +218,12 @@ lc_pool *lc_inproc_pool(locd_engine *e, int *kernel)
     return ip->pool;
 }
 
+uint64_t *lc_inproc_qbox(locd_engine *e, size_t n)
+{
+    lc_inproc *ip = e->backend;
+    return lc_buf_reserve(&e->alloc, &ip->qbox, 2 * sizeof(uint64_t), n ? n : 1) == LOCD_OK ? ip->qbox.data : NULL;
+}
+
 static locd_status inproc_open(locd_engine *e)
 {
     lc_inproc *ip = lc_alloc(&e->alloc, sizeof *ip);
@@ -542,7 +548,7 @@ locd_status lc_inproc_sweep_sorted(locd_engine *e, const locd_grid *g, const flo
     stats->entries = total;
     stats->depth = g->depth;
     c->grid = *g;
-    c->qbox = qbox;
+    c->qbox = qbox ? qbox : c->ip->qbox.data;
     c->sorted = sorted;
     c->plan.total = total;
     if ((st = sweep(c, stats, &npairs)) == LOCD_OK && !stop_requested(c, npairs))

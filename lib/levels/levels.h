@@ -64,6 +64,10 @@ typedef struct lc_shm_ctl {
  * The thread pool of a level-1 engine and the kernel it chose; the scene
  * runs its steps on them while it holds the engine's busy flag. */
 lc_pool *lc_inproc_pool(struct locd_engine *e, int *kernel);
+/* The engine's buffer of packed boxes, room for n objects (NULL: no
+ * memory): scratch of each call, which the scene's kept list fills before
+ * it sweeps (while it holds the engine). */
+uint64_t *lc_inproc_qbox(struct locd_engine *e, size_t n);
 /* The sweep and the hand-over of a level-1 find, on entries the caller
  * encoded on grid g and sorted (the scene's kept list): boxes, their packed
  * boxes qbox (2 per object, as the encode writes them) and the entries

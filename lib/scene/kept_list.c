@@ -47,6 +47,7 @@ typedef struct kept_ctx {
     int overflow[LC_MAX_THREADS];
     uint64_t *del, *add; /* per share t: dcap[t] entries at doff[t] */
     size_t doff[LC_MAX_THREADS + 1], dcap[LC_MAX_THREADS], ndel[LC_MAX_THREADS], nadd[LC_MAX_THREADS];
+    uint64_t *qbox; /* the engine's packed boxes buffer (lc_inproc_qbox) */
     uint64_t *dels, *adds, *scratch; /* all shares' deltas, then sorted */
     size_t nd, na;
     const uint64_t *old;
@@ -63,7 +64,6 @@ void lc_kept_release(locd_scene *s)
         lc_buf_release(s->alloc, &l->reg[b], sizeof(uint64_t));
         lc_buf_release(s->alloc, &l->sorted[b], sizeof(uint64_t));
     }
-    lc_buf_release(s->alloc, &l->qbox, 2 * sizeof(uint64_t));
     lc_buf_release(s->alloc, &l->delta, sizeof(uint64_t));
     memset(l, 0, sizeof *l);
 }
@@ -85,7 +85,7 @@ static void encode_share(kept_ctx *c, uint32_t t)
     lc_plan *p = &c->l->plan[c->nw];
     const size_t b = share_begin(c, t), e = share_begin(c, t + 1);
     size_t w = lc_encode_f32(&c->l->g, c->boxes, b, e - b, (uint64_t *)c->l->reg[c->nw].data + p->off[t], p->cap[t],
-                             &c->need[t], c->l->qbox.data, c->s->kernel);
+                             &c->need[t], c->qbox, c->s->kernel);
     c->overflow[t] = w == (size_t)-1;
     if (w != (size_t)-1)
         p->cnt[t] = w;
@@ -265,7 +265,7 @@ static locd_status fit_grid(kept_ctx *c, const lc_bounds *all)
 
 /* Every box encoded into the regions of buffer nw (sized from the entries
  * per object seen last, redone with exact sizes when a share overflows),
- * the packed boxes into qbox. */
+ * the packed boxes into the engine's buffer (the sweep's next). */
 static locd_status encode_all(kept_ctx *c)
 {
     lc_kept *l = c->l;
@@ -274,7 +274,7 @@ static locd_status encode_all(kept_ctx *c)
     uint32_t t;
     p->k = c->k;
     lc_plan_regions(p, c->n, l->per_object);
-    if (lc_buf_reserve(a, &l->qbox, 2 * sizeof(uint64_t), c->n) != LOCD_OK)
+    if (!(c->qbox = lc_inproc_qbox(c->s->engine, c->n)))
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's kept entry list");
     for (;;) {
         if (lc_buf_reserve(a, &l->reg[c->nw], sizeof(uint64_t), lc_plan_layout(p)) != LOCD_OK)
@@ -427,7 +427,7 @@ locd_status lc_kept_find(locd_scene *s, size_t n, locd_pairs *out, locd_stats *s
     if (st != LOCD_OK)
         goto done;
     l->cur = c->nw, l->total = l->plan[c->nw].total, l->n = n, l->k = c->k, l->valid = 1;
-    st = lc_inproc_sweep_sorted(s->engine, &l->g, c->boxes, l->qbox.data, n, l->sorted[l->cur].data, l->total, out,
+    st = lc_inproc_sweep_sorted(s->engine, &l->g, c->boxes, c->qbox, n, l->sorted[l->cur].data, l->total, out,
                                 stats);
 done:
     lc_free(s->alloc, c, sizeof *c);

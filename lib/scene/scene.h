@@ -126,7 +126,6 @@ typedef struct lc_kept {
     lc_plan plan[2];
     lc_buf sorted[2];   /* uint64 */
     size_t total;
-    lc_buf qbox;        /* uint64, 2 per object: the packed boxes of the last encode (the sweep's) */
     lc_buf delta;       /* uint64: the changed objects' old and new entries, and their sort's scratch */
     double per_object;  /* entries per object to plan the next encode with (0: none yet) */
 } lc_kept;

@@ -856,9 +856,9 @@ static locd_status relist(upd *u)
     size_t k, nq = 0;
     locd_status st;
     double t0 = lc_now_ms();
+    lc_kept_release(s); /* the updates go on incrementally: its memory back, before the lists take theirs */
     if ((st = build_lists(u)) != LOCD_OK)
         return st;
-    lc_kept_release(s); /* the updates go on incrementally: its memory back */
     g = &s->grid;
     lc_adj_build(s); /* on failure the scene goes on without partner lists */
     if ((st = buf_room(u, 0, 8 * s->ndirty + 1)) != LOCD_OK)
