@@ -73,6 +73,12 @@ def run_grid(args, exe, locd, results):
                 f.write(json.dumps(line) + "\n")
 
 
+def warmup_of(results):
+    """The warm-up frames of the runs (frames_peers --warmup; none before it had the option)."""
+    w = {json.loads(t).get("warmup", 0) for t in (results / "frames.jsonl").read_text().splitlines()}
+    return "/".join(str(x) for x in sorted(w))
+
+
 def load(results):
     rows = {}
     for text in (results / "frames.jsonl").read_text().splitlines():
@@ -109,10 +115,13 @@ def report(args, results, img_dir, meta):
              "`collide(static manager)`; statics in a manager of their own). Bullet's tree margin is an "
              "absolute 0.05, made for unit-sized boxes: Bullet gets the scene scaled by the power of two that brings "
              "the mean edge nearest to 1 (exact in floating point: the same overlaps). The systems take turns within "
-             "each frame; figures are medians per frame (of %d interleaved repetitions of the grid). "
+             "each frame; figures are medians per frame (of %d interleaved repetitions of the grid), after %s "
+             "warm-up frames that every system runs and that are not counted (a kept broad phase touches its "
+             "memory for the first time in its first frames: locd's rotating pair lists and kept entry list, the "
+             "peers' pair caches). "
              "locd runs on %s threads, and on one thread in a second scene (like for like: Bullet and FCL have no "
              "threads on these paths)." % (
-                 meta["reps"], meta.get("threads", "?")))
+                 meta["reps"], warmup_of(results), meta.get("threads", "?")))
     L.append("")
     L.append("| n | static | moving | moved / frame | locd update | rebuild | update / rebuild | locd update, 1 thread "
              "| Bullet Dbvt | FCL DynamicAABBTree | best peer / locd update | best peer / locd 1 thread |")
@@ -175,7 +184,8 @@ def report(args, results, img_dir, meta):
     L.append("")
     L.append("One row by hand: `locd gen uniform 1000000 --seed 1 -o u.aabb && locd frames u.aabb --moving 0.01 "
              "--frames 10 --threads 2` (add `--static 0.9`, `--check`), or "
-             "`build-bench/bench/frames_peers u.aabb --moving 0.01 --static 0 --frames 10`.")
+             "`build-bench/bench/frames_peers u.aabb --moving 0.01 --static 0 --frames 10` (2 warm-up frames first: "
+             "`--warmup`).")
     L.append("")
     (results / "frames.md").write_text("\n".join(L))
     plot(table, img_dir / "frames.png", meta)

@@ -2,7 +2,7 @@
 // paths of Bullet's btDbvtBroadphase and FCL's DynamicAABBTreeCollisionManager.
 //
 //   frames_peers SCENE.aabb --moving P --frames F [--static S] [--threads T]
-//                [--seed N] [--peers locd,rebuild,bullet,fcl]
+//                [--seed N] [--warmup W] [--peers locd,rebuild,bullet,fcl]
 //
 // Every system is built once from the scene and then kept across frames, as
 // a game or a simulation keeps its broad phase. Each frame, the workload of
@@ -24,7 +24,10 @@
 //            collide(static manager) (dynamic x static): statics live in a
 //            manager of their own, built once, so static pairs cost nothing
 // and it prints one JSON line: the median ms per frame of each system, and the
-// pairs each one holds after the last frame. locd uses T threads; Bullet and
+// pairs each one holds after the last frame. The first W frames (--warmup,
+// 2 by default) run the same way and are not counted: each system's first
+// frames touch memory for the first time (locd's rotating pair lists and kept
+// entry list, the peers' pair caches), which a kept broad phase pays once. locd uses T threads; Bullet and
 // FCL have no threads on these paths (one core).
 #include "peers.h"
 
@@ -298,7 +301,7 @@ struct fcl_sys : system_base {
 struct args {
     const char *scene = nullptr;
     double moving = -1.0, static_frac = 0.0;
-    std::size_t frames = 0;
+    std::size_t frames = 0, warmup = 2;
     std::uint32_t threads = 0;
     std::uint64_t seed = 1;
     std::string peers = "locd,locd_1t,rebuild,bullet,fcl";
@@ -313,7 +316,8 @@ args parse(int argc, char **argv)
         const char *v = i + 1 < argc ? argv[i + 1] : nullptr;
         if (o == "--help" || o == "-h") {
             std::printf("usage: frames_peers SCENE.aabb --moving P --frames F [--static S] [--threads T] [--seed N]\n"
-                        "                    [--peers locd,locd_1t,rebuild,bullet,fcl] [--label TEXT]\n");
+                        "                    [--warmup W] [--peers locd,locd_1t,rebuild,bullet,fcl] [--label TEXT]\n"
+                        "  --warmup W  frames run first and not counted (default 2)\n");
             std::exit(0);
         }
         if (o.rfind("--", 0) == 0 && !v)
@@ -324,6 +328,8 @@ args parse(int argc, char **argv)
             a.static_frac = std::atof(argv[++i]);
         else if (o == "--frames")
             a.frames = (std::size_t)std::atol(argv[++i]);
+        else if (o == "--warmup")
+            a.warmup = (std::size_t)std::atol(argv[++i]);
         else if (o == "--threads")
             a.threads = (std::uint32_t)std::atol(argv[++i]);
         else if (o == "--seed")
@@ -387,7 +393,10 @@ int main(int argc, char **argv)
             t0 = peer_now_ms(), add(new bullet_sys(m, boxes.data()), t0);
         if (wants(a, "fcl"))
             t0 = peer_now_ms(), add(new fcl_sys(m, boxes.data()), t0);
-        for (std::size_t f = 0; f < a.frames; f++) {
+        for (std::size_t f = 0; f < a.warmup + a.frames; f++) {
+            if (f == a.warmup)
+                for (auto &x : sys)
+                    x->ms.clear();
             frames_motion_step(&m, boxes.data());
             for (std::size_t k = 0; k < sys.size(); k++)
                 sys[(f + k) % sys.size()]->frame(m, boxes.data());
@@ -403,8 +412,8 @@ int main(int argc, char **argv)
     locd_stats_init(&st);
     locd_engine_stats(eng, &st);
     std::printf("{\"label\":\"%s\",\"n\":%zu,\"static_fraction\":%.4g,\"moving\":%.4g,\"moved_per_frame\":%zu,"
-                "\"frames\":%zu,\"threads\":%u,\"seed\":%llu,\"cpu\":\"%s\",\"kernel\":\"%s\",\"systems\":{",
-                a.label.c_str(), sc.n, a.static_frac, a.moving, m.moved, a.frames, st.threads,
+                "\"frames\":%zu,\"warmup\":%zu,\"threads\":%u,\"seed\":%llu,\"cpu\":\"%s\",\"kernel\":\"%s\",\"systems\":{",
+                a.label.c_str(), sc.n, a.static_frac, a.moving, m.moved, a.frames, a.warmup, st.threads,
                 (unsigned long long)a.seed, cpu, kernel && *kernel ? kernel : "auto");
     for (std::size_t k = 0; k < sys.size(); k++)
         std::printf("%s\"%s\":{\"ms\":%.4f,\"setup_ms\":%.2f,\"pairs\":%zu}", k ? "," : "", sys[k]->name(),
