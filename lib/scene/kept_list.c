@@ -162,14 +162,7 @@ static size_t gallop(const uint64_t *v, size_t lo, size_t hi, uint64_t x)
         step *= 2;
     }
     b = a + step < hi ? a + step : hi;
-    while (a < b) {
-        size_t m = a + (b - a) / 2;
-        if (v[m] < x)
-            a = m + 1;
-        else
-            b = m;
-    }
-    return a;
+    return a + lc_lower_bound(v + a, b - a, x);
 }
 
 /* Share t of the old sorted list, less its deleted entries, merged with
