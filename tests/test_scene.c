@@ -1602,14 +1602,14 @@ static size_t rows_minus(const locd_id *a, size_t na, const locd_id *b, size_t n
     return w;
 }
 
-/* The scene's pairs, created and lost after an update, against the
- * reference rows now and before. */
-static void check_against(locd_scene *s, const locd_id *now, size_t nnow, const locd_id *before, size_t nbefore)
+/* The scene's pairs, created and lost of its last update against the
+ * reference rows now and before it. */
+static void check_lists_against(locd_scene *s, const locd_id *now, size_t nnow, const locd_id *before,
+                                size_t nbefore)
 {
     const locd_id *p;
     size_t np, nw;
     locd_id *want = malloc((nnow + nbefore + 1) * 2 * sizeof *want);
-    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_pairs(s, &p, &np));
     same_rows("pairs against the engine's find", now, nnow, p, np);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_created(s, &p, &np));
@@ -1619,6 +1619,13 @@ static void check_against(locd_scene *s, const locd_id *now, size_t nnow, const 
     nw = rows_minus(before, nbefore, now, nnow, want);
     same_rows("lost against the engine's finds", want, nw, p, np);
     free(want);
+}
+
+/* An update, then its lists against the reference rows now and before. */
+static void check_against(locd_scene *s, const locd_id *now, size_t nnow, const locd_id *before, size_t nbefore)
+{
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS));
+    check_lists_against(s, now, nnow, before, nbefore);
 }
 
 /* A from-scratch update of 65,536 objects or more keeps its entries for the
@@ -1695,6 +1702,77 @@ static void kept_entry_list_follows_whole_scene_moves(void)
     locd_engine_destroy(e2);
     locd_engine_destroy(er);
     free(f), free(ids), free(ids2);
+}
+
+/* Every allocation of a move of every object and of the update after it
+ * fails in turn, on a scene large enough for the kept entry list (small
+ * steps: its merge; every object far: its full sort; after a failure: a
+ * list made again). The failing call gives LOCD_ERR_NO_MEMORY (or absorbs
+ * the failure) and the next working update's pairs, created and lost are
+ * the engine's own find's, against the last working update. */
+static void kept_entry_list_allocation_failures(void)
+{
+    const size_t n = 70000;
+    const double edge = 0.0153;
+    locd_engine *e = new_engine(2, fa_allocator()), *er = new_engine(2, NULL);
+    locd_scene *s = NULL;
+    locd_id *ids = malloc(n * sizeof *ids), *before, *now;
+    float *f = malloc(n * 6 * sizeof *f), *g = malloc(n * 6 * sizeof *g);
+    size_t k, nbefore, nnow;
+    ts_rng r;
+    int a, far, failed_calls = 0;
+    uint64_t fail;
+    ts_seed(&r, 818);
+    for (k = 0; k < n; k++)
+        for (a = 0; a < 3; a++) {
+            f[6 * k + a] = (float)ts_uniform(&r);
+            f[6 * k + 3 + a] = f[6 * k + a] + (float)edge;
+        }
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n, NULL, ids));
+    before = engine_rows(er, f, ids, n, &nbefore);
+    check_against(s, before, nbefore, NULL, 0);
+    for (far = 0; far < 2; far++)
+        for (fail = 1;; fail++) {
+            locd_status st;
+            fa_counts c;
+            int moved;
+            for (k = 0; k < n; k++)
+                for (a = 0; a < 3; a++) {
+                    float d = far ? (float)ts_uniform(&r) - f[6 * k + a] : (float)((ts_uniform(&r) - 0.5) * 0.06 * edge);
+                    g[6 * k + a] = f[6 * k + a] + d, g[6 * k + 3 + a] = g[6 * k + a] + (float)edge;
+                }
+            fa_arm(fail, 0);
+            st = locd_scene_move_f32(s, ids, g, n);
+            moved = st == LOCD_OK;
+            if (moved)
+                st = locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS);
+            fa_counts_get(&c);
+            fa_arm(0, 0);
+            if (moved)
+                memcpy(f, g, n * 6 * sizeof *f);
+            now = engine_rows(er, f, ids, n, &nnow);
+            if (st == LOCD_OK) { /* no failure, or one absorbed: the update is exact */
+                TEST_ASSERT_TRUE(moved);
+                check_lists_against(s, now, nnow, before, nbefore);
+            } else { /* the next working update takes the failed one's place */
+                TEST_ASSERT_EQUAL_INT(LOCD_ERR_NO_MEMORY, st);
+                failed_calls++;
+                check_against(s, now, nnow, before, nbefore);
+            }
+            free(before);
+            before = now, nbefore = nnow;
+            if (c.failures == 0)
+                break;
+        }
+    LT_PRINT("kept entry list: %d failed calls, each left the scene as before\n", failed_calls);
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    locd_engine_destroy(er);
+    free(before), free(f), free(g), free(ids);
+    /* the buffers are kept from frame to frame: a move and an update of a
+       warm scene allocate a few blocks only, but some */
+    TEST_ASSERT_TRUE(failed_calls >= 4);
 }
 
 /* Adds n boxes (dynamic, or static) to scene and model. */
@@ -2227,6 +2305,7 @@ static const lt_test tests[] = {
     LT_TEST(large_moves_on_the_pool),
     LT_TEST(whole_scene_moves_in_slot_order),
     LT_TEST(kept_entry_list_follows_whole_scene_moves),
+    LT_TEST(kept_entry_list_allocation_failures),
     LT_TEST(from_scratch_follows_adds_removes_and_filters),
     LT_TEST(bad_batches_change_nothing),
     LT_TEST(levels_2_and_3_are_unsupported),
