@@ -1485,7 +1485,8 @@ static void whole_scene_moves_in_slot_order(void)
     for (k = 0; k < n; k++)
         pos[k] = k;
     for (round = 0; round < 3; round++) {
-        if (round == 1) { /* some slots dirty already: the dirty list must take each once */
+        if (round == 1) { /* some slots dirty already: the move counts only the others as new to the
+                             dirty list, and sets every slot's flag */
             size_t few[3] = {0, 60001, n - 1};
             jitter_boxes(&m, ids1, few, 3, &r, mv, f);
             TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s1, mv, f, 3));
@@ -1499,6 +1500,9 @@ static void whole_scene_moves_in_slot_order(void)
                              the dirty list, or its move would be missed */
             size_t few[2] = {n / 2, 70000};
             locd_scene_stats st;
+            locd_scene_stats_init(&st);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s2, &st));
+            TEST_ASSERT_EQUAL_UINT64(n, st.moved);
             jitter_boxes(&m, ids1, few, 2, &r, mv, f);
             TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s1, mv, f, 2));
             TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s2, mv, f, 2));

@@ -548,7 +548,7 @@ locd_status lc_inproc_sweep_sorted(locd_engine *e, const locd_grid *g, const flo
     stats->entries = total;
     stats->depth = g->depth;
     c->grid = *g;
-    c->qbox = qbox ? qbox : c->ip->qbox.data;
+    c->qbox = qbox; /* NULL: the engine's own (sweep) */
     c->sorted = sorted;
     c->plan.total = total;
     if ((st = sweep(c, stats, &npairs)) == LOCD_OK && !stop_requested(c, npairs))

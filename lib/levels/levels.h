@@ -70,8 +70,8 @@ lc_pool *lc_inproc_pool(struct locd_engine *e, int *kernel);
 uint64_t *lc_inproc_qbox(struct locd_engine *e, size_t n);
 /* The sweep and the hand-over of a level-1 find, on entries the caller
  * encoded on grid g and sorted (the scene's kept list): boxes, their packed
- * boxes qbox (2 per object, as the encode writes them) and the entries
- * stay the caller's. The pairs and their order are those of a find whose
+ * boxes qbox (2 per object, as the encode writes them; NULL: the engine's
+ * buffer, lc_inproc_qbox's) and the entries stay the caller's. The pairs and their order are those of a find whose
  * own encode and sort gave the same entries. */
 locd_status lc_inproc_sweep_sorted(struct locd_engine *e, const locd_grid *g, const float *boxes,
                                    const uint64_t *qbox, size_t n, const uint64_t *sorted, size_t total,

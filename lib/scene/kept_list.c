@@ -311,13 +311,12 @@ static locd_status sort_all(kept_ctx *c)
 
 /* The deltas of every share, one after another (slot order), sorted;
  * 0 when they did not fit their shares' room (sort them all instead). */
-static locd_status collect_deltas(kept_ctx *c, int *fits)
+static int collect_deltas(kept_ctx *c)
 {
     uint32_t t;
-    *fits = 0;
     kept_run(c, 2, c->k);
     if (any_overflow(c))
-        return LOCD_OK;
+        return 0;
     c->nd = c->na = 0;
     for (t = 0; t < c->k; t++) { /* share 0's part is in place already */
         memmove(c->del + c->nd, c->del + c->doff[t], c->ndel[t] * sizeof *c->del);
@@ -326,8 +325,7 @@ static locd_status collect_deltas(kept_ctx *c, int *fits)
     }
     c->dels = c->del, c->adds = c->add;
     kept_run(c, 3, c->k > 1 ? 2 : 1);
-    *fits = 1;
-    return LOCD_OK;
+    return 1;
 }
 
 /* sorted[!nw] less the deletions, with the additions, into sorted[nw],
@@ -336,7 +334,7 @@ static locd_status merge_deltas(kept_ctx *c)
 {
     lc_kept *l = c->l;
     const locd_allocator *a = c->s->alloc;
-    const size_t total = l->total - c->nd + c->na;
+    const size_t old_total = l->plan[l->cur].total, total = old_total - c->nd + c->na;
     uint32_t t;
     if (total != l->plan[c->nw].total) /* cannot happen: the deltas are whole objects' entries */
         return lc_error(LOCD_ERR_INTERNAL, "the kept entry list's changes do not add up");
@@ -345,8 +343,8 @@ static locd_status merge_deltas(kept_ctx *c)
     c->old = l->sorted[!c->nw].data, c->out = l->sorted[c->nw].data;
     c->ob[0] = c->d0[0] = c->a0[0] = 0;
     for (t = 1; t < c->k; t++) {
-        c->ob[t] = lc_chunk_begin(l->total, t, c->k);
-        if (c->ob[t] < l->total) {
+        c->ob[t] = lc_chunk_begin(old_total, t, c->k);
+        if (c->ob[t] < old_total) {
             const uint64_t v = c->old[c->ob[t]];
             c->d0[t] = lc_lower_bound(c->dels, c->nd, v);
             c->a0[t] = lc_lower_bound(c->adds, c->na, v);
@@ -354,7 +352,7 @@ static locd_status merge_deltas(kept_ctx *c)
             c->d0[t] = c->nd, c->a0[t] = c->na;
         }
     }
-    c->ob[c->k] = l->total, c->d0[c->k] = c->nd, c->a0[c->k] = c->na;
+    c->ob[c->k] = old_total, c->d0[c->k] = c->nd, c->a0[c->k] = c->na;
     kept_run(c, 4, c->k);
     return LOCD_OK;
 }
@@ -403,7 +401,7 @@ locd_status lc_kept_find(locd_scene *s, size_t n, locd_pairs *out, locd_stats *s
     }
     memcpy(room, all.lo, sizeof all.lo);
     memcpy(room + 3, all.hi, sizeof all.hi);
-    fresh = !l->valid || l->n != n || l->k != c->k || !lc_grid_holds(&l->g, room);
+    fresh = !l->valid || l->n != n || l->plan[l->cur].k != c->k || !lc_grid_holds(&l->g, room);
     l->valid = 0; /* until this update's list is whole */
     if (fresh) {
         l->per_object = l->per_object > 0.0 ? l->per_object : lc_entries_per_object_guess(s->engine->cfg.cell_bias);
@@ -414,14 +412,14 @@ locd_status lc_kept_find(locd_scene *s, size_t n, locd_pairs *out, locd_stats *s
     if ((st = encode_all(c)) != LOCD_OK)
         goto done;
     if (!fresh && (st = delta_room(c)) == LOCD_OK)
-        st = collect_deltas(c, &fits);
+        fits = collect_deltas(c);
     if (st == LOCD_OK)
         st = fits ? merge_deltas(c) : sort_all(c);
     if (st != LOCD_OK)
         goto done;
-    l->cur = c->nw, l->total = l->plan[c->nw].total, l->n = n, l->k = c->k, l->valid = 1;
-    st = lc_inproc_sweep_sorted(s->engine, &l->g, c->boxes, c->qbox, n, l->sorted[l->cur].data, l->total, out,
-                                stats);
+    l->cur = c->nw, l->n = n, l->valid = 1;
+    st = lc_inproc_sweep_sorted(s->engine, &l->g, c->boxes, c->qbox, n, l->sorted[l->cur].data,
+                                l->plan[l->cur].total, out, stats);
 done:
     lc_free(s->alloc, c, sizeof *c);
     return st;

@@ -114,18 +114,17 @@ typedef struct lc_tree {
 
 /* The from-scratch path's entry list, kept from one update to the next
  * (kept_list.c): the last update's entries on grid g, in slot order (share
- * t of k in its region of reg[cur], plan[cur]) and sorted (sorted[cur],
- * total of them); the other buffers are the next update's. */
+ * t of plan[cur].k, lc_chunk_begin(n, t, k), in its region of reg[cur])
+ * and sorted (sorted[cur], plan[cur].total of them); the other buffers are
+ * the next update's. */
 typedef struct lc_kept {
     int valid;
     locd_grid g;
     size_t n;           /* objects (the slots, all live) */
-    uint32_t k;         /* shares: lc_chunk_begin(n, t, k) */
     int cur;
     lc_buf reg[2];      /* uint64 */
     lc_plan plan[2];
     lc_buf sorted[2];   /* uint64 */
-    size_t total;
     lc_buf delta;       /* uint64: the changed objects' old and new entries, and their sort's scratch */
     double per_object;  /* entries per object to plan the next encode with (0: none yet) */
 } lc_kept;
