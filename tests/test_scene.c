@@ -1708,6 +1708,103 @@ static void kept_entry_list_follows_whole_scene_moves(void)
     free(f), free(ids), free(ids2);
 }
 
+/* The engine's pairs of f as rows of ids, less those of two objects whose
+ * index is a multiple of `grouped` (one group), or all of them (0). */
+static locd_id *engine_rows_grouped(locd_engine *e, const float *f, const locd_id *ids, size_t n, uint32_t grouped,
+                                    size_t *count)
+{
+    locd_pairs *p = NULL;
+    const uint32_t *v;
+    locd_id *rows;
+    size_t k, np, w = 0;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &p));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_find_pairs_f32(e, f, n, LOCD_FIND_SORTED, p));
+    np = locd_pairs_count(p), v = locd_pairs_data(p);
+    rows = malloc((np + 1) * 2 * sizeof *rows);
+    for (k = 0; k < np; k++)
+        if (!grouped || v[2 * k] % grouped || v[2 * k + 1] % grouped)
+            rows[2 * w] = ids[v[2 * k]], rows[2 * w + 1] = ids[v[2 * k + 1]], w++;
+    locd_pairs_destroy(p);
+    *count = w;
+    return rows;
+}
+
+/* With the kept entry list, the pair order takes the sweep's pairs as it
+ * finds them, into bucket regions sized from the previous update's counts
+ * (lib/scene/pair_order.c). The pair counts here jump between updates:
+ * a bucket outgrows its region (its extra pairs spill), the spill area
+ * overflows (the list is swept again and its gathered pairs ordered), the
+ * counts fall back; with a group filter (pairs dropped in the sink) and
+ * without, on one thread and two. Every update against the engine's find. */
+static void kept_entry_list_pair_counts_jump(void)
+{
+    const size_t n = 70000;
+    const double edge = 0.0153;
+    locd_engine *e[2], *er = new_engine(2, NULL);
+    locd_scene *s[2] = {NULL, NULL};
+    locd_id *ids = malloc(n * sizeof *ids), *ids2 = malloc(n * sizeof *ids2), *before, *now;
+    float *f = malloc(n * 6 * sizeof *f), *home = malloc(n * 6 * sizeof *f);
+    uint64_t *groups = malloc(n * sizeof *groups);
+    size_t k, nbefore, nnow;
+    ts_rng r;
+    int frame, a, i;
+    uint32_t grouped;
+    for (grouped = 0; grouped <= 5; grouped += 5) {
+        ts_seed(&r, 919 + grouped);
+        for (k = 0; k < n; k++)
+            for (a = 0; a < 3; a++) {
+                home[6 * k + a] = (float)ts_uniform(&r);
+                home[6 * k + 3 + a] = home[6 * k + a] + (float)edge;
+            }
+        memcpy(f, home, n * 6 * sizeof *f);
+        for (i = 0; i < 2; i++) {
+            e[i] = new_engine((uint32_t)i + 1, NULL);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e[i], NULL, &s[i]));
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[i], f, n, NULL, i ? ids2 : ids));
+        }
+        TEST_ASSERT_EQUAL_MEMORY(ids, ids2, n * sizeof *ids);
+        if (grouped) {
+            for (k = 0; k < n; k++)
+                groups[k] = k % grouped ? 0 : 7;
+            for (i = 0; i < 2; i++)
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_filter(s[i], ids, n, NULL, NULL, groups));
+        }
+        before = malloc(2 * sizeof *before), nbefore = 0;
+        for (frame = 0; frame < 9; frame++) {
+            /* 2, 3: the first 120 objects (one bucket) in one spot, about
+               7,000 pairs where the bucket had a few hundred: they spill;
+               5, 6: the first 1,500 in one spot, a million pairs: the spill
+               area overflows, then the regions are that large; 8: all home */
+            const size_t crowd = frame == 2 || frame == 3 ? 120 : frame == 5 || frame == 6 ? 1500 : 0;
+            for (k = 0; frame && k < n; k++) {
+                float *b = f + 6 * k;
+                for (a = 0; a < 3; a++) {
+                    b[a] = k < crowd ? 0.5f + (float)((ts_uniform(&r) - 0.5) * edge)
+                                     : home[6 * k + a] + (float)((ts_uniform(&r) - 0.5) * 0.06 * edge);
+                    b[a + 3] = b[a] + (float)edge;
+                }
+            }
+            if (frame)
+                for (i = 0; i < 2; i++)
+                    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[i], ids, f, n));
+            now = engine_rows_grouped(er, f, ids, n, grouped, &nnow);
+            if (crowd) /* every two of the crowd overlap (but for a few of one group) */
+                TEST_ASSERT_TRUE(nnow > crowd * (crowd - 1) / 2 * 9 / 10);
+            for (i = 0; i < 2; i++)
+                check_against(s[i], now, nnow, before, nbefore);
+            free(before);
+            before = now, nbefore = nnow;
+        }
+        free(before);
+        for (i = 0; i < 2; i++) {
+            locd_scene_destroy(s[i]);
+            locd_engine_destroy(e[i]);
+        }
+    }
+    locd_engine_destroy(er);
+    free(f), free(home), free(ids), free(ids2), free(groups);
+}
+
 /* Every allocation of a move of every object and of the update after it
  * fails in turn, on a scene large enough for the kept entry list (small
  * steps: its merge; every object far: its full sort; after a failure: a
@@ -2309,6 +2406,7 @@ static const lt_test tests[] = {
     LT_TEST(large_moves_on_the_pool),
     LT_TEST(whole_scene_moves_in_slot_order),
     LT_TEST(kept_entry_list_follows_whole_scene_moves),
+    LT_TEST(kept_entry_list_pair_counts_jump),
     LT_TEST(kept_entry_list_allocation_failures),
     LT_TEST(from_scratch_follows_adds_removes_and_filters),
     LT_TEST(bad_batches_change_nothing),

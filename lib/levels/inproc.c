@@ -66,6 +66,8 @@ typedef struct lc_job_ctx {
     } slice[LC_MAX_SLICES];
     size_t npairs;
     uint32_t *dst;
+    const lc_pair_sink *sink; /* NULL: the pairs are handed over */
+    size_t sunk[LC_MAX_THREADS]; /* pairs each thread gave the sink */
     uint64_t swept; /* pairs found so far by all sweep threads (atomic; with a stop hook) */
     int stopped;    /* the stop hook's status (atomic), 0 while going on */
 } lc_job_ctx;
@@ -138,6 +140,29 @@ static locd_status sweep_blocks(lc_job_ctx *c, size_t b, size_t e, lc_sweep_out 
     return LOCD_OK;
 }
 
+/* The sweep of [b, e) in blocks of LC_SINK_BLOCK entries, each block's
+ * pairs given to the sink and dropped from o: they stay in the caches. */
+static locd_status sweep_to_sink(lc_job_ctx *c, uint32_t t, size_t b, size_t e, lc_sweep_out *o)
+{
+    size_t p, q;
+    for (p = b; p < e; p = q) {
+        locd_status st;
+        size_t found;
+        q = e - p > LC_SINK_BLOCK ? p + LC_SINK_BLOCK : e;
+        if ((st = sweep_part(c, p, q, o)) != LOCD_OK)
+            return st;
+        found = o->count;
+        st = found ? c->sink->fn(c->sink->arg, t, o->pairs.data, found) : LOCD_OK;
+        c->sunk[t] += found;
+        o->count = 0;
+        if (st != LOCD_OK)
+            return st;
+        if (stop_requested(c, __atomic_add_fetch(&c->swept, (uint64_t)found, __ATOMIC_RELAXED)))
+            return LOCD_OK; /* the caller sees c->stopped */
+    }
+    return LOCD_OK;
+}
+
 /* Takes the next slice [*b, *e) of the entries for a pool of k threads,
  * its number in *s; 0 when none is left. */
 static int take_slice(lc_job_ctx *c, uint32_t k, uint32_t *s, size_t *b, size_t *e)
@@ -177,7 +202,9 @@ static void task_sweep(void *arg, uint32_t t, uint32_t k)
     while (!__atomic_load_n(&c->failed, __ATOMIC_RELAXED) && !__atomic_load_n(&c->stopped, __ATOMIC_RELAXED) &&
            take_slice(c, k, &s, &b, &e)) {
         const size_t before = o->count;
-        const locd_status st = c->e->stop.check ? sweep_blocks(c, b, e, o) : sweep_part(c, b, e, o);
+        const locd_status st = c->sink             ? sweep_to_sink(c, t, b, e, o)
+                               : c->e->stop.check ? sweep_blocks(c, b, e, o)
+                                                  : sweep_part(c, b, e, o);
         c->slice[s].thread = t, c->slice[s].first = before, c->slice[s].count = o->count - before;
         if (st != LOCD_OK) {
             c->status[t] = st;
@@ -536,7 +563,8 @@ static locd_status inproc_run(locd_engine *e, const void *boxes, size_t n, size_
 }
 
 locd_status lc_inproc_sweep_sorted(locd_engine *e, const locd_grid *g, const float *boxes, const uint64_t *qbox,
-                                   size_t n, const uint64_t *sorted, size_t total, locd_pairs *out, locd_stats *stats)
+                                   size_t n, const uint64_t *sorted, size_t total, const lc_pair_sink *sink,
+                                   locd_pairs *out, locd_stats *stats)
 {
     lc_job_ctx *c;
     locd_status st;
@@ -551,8 +579,16 @@ locd_status lc_inproc_sweep_sorted(locd_engine *e, const locd_grid *g, const flo
     c->qbox = qbox; /* NULL: the engine's own (sweep) */
     c->sorted = sorted;
     c->plan.total = total;
-    if ((st = sweep(c, stats, &npairs)) == LOCD_OK && !stop_requested(c, npairs))
-        st = hand_over(e, c, 0, npairs, out, stats);
+    c->sink = sink;
+    if ((st = sweep(c, stats, &npairs)) == LOCD_OK && !stop_requested(c, npairs)) {
+        if (sink) {
+            uint32_t t;
+            for (t = 0; t < c->plan.k; t++)
+                stats->pairs += c->sunk[t];
+        } else {
+            st = hand_over(e, c, 0, npairs, out, stats);
+        }
+    }
     return end_job(e, c, st);
 }
 

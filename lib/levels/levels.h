@@ -68,14 +68,26 @@ lc_pool *lc_inproc_pool(struct locd_engine *e, int *kernel);
  * memory): scratch of each call, which the scene's kept list fills before
  * it sweeps (while it holds the engine). */
 uint64_t *lc_inproc_qbox(struct locd_engine *e, size_t n);
+/* Where a sweep's pairs can go instead of the hand-over: fn(arg, t, pairs,
+ * count) gets each block of about LC_SINK_BLOCK entries' pairs (i, j),
+ * i < j, two uint32 each, on pool thread t right after the block is swept,
+ * while they are in the caches. A status other than LOCD_OK stops the
+ * sweep and is returned as it is (no error is recorded for it). */
+typedef struct lc_pair_sink {
+    locd_status (*fn)(void *arg, uint32_t t, uint32_t *pairs, size_t count);
+    void *arg;
+} lc_pair_sink;
+#define LC_SINK_BLOCK ((size_t)1 << 15)
 /* The sweep and the hand-over of a level-1 find, on entries the caller
  * encoded on grid g and sorted (the scene's kept list): boxes, their packed
  * boxes qbox (2 per object, as the encode writes them; NULL: the engine's
- * buffer, lc_inproc_qbox's) and the entries stay the caller's. The pairs and their order are those of a find whose
- * own encode and sort gave the same entries. */
+ * buffer, lc_inproc_qbox's) and the entries stay the caller's. The pairs
+ * and their order are those of a find whose own encode and sort gave the
+ * same entries. With a sink, the pairs go to it, in no set order, and out
+ * is untouched (stats->pairs counts them). */
 locd_status lc_inproc_sweep_sorted(struct locd_engine *e, const locd_grid *g, const float *boxes,
                                    const uint64_t *qbox, size_t n, const uint64_t *sorted, size_t total,
-                                   locd_pairs *out, locd_stats *stats);
+                                   const lc_pair_sink *sink, locd_pairs *out, locd_stats *stats);
 
 /* ---- planning (plan.c): the work split levels 1 and 2 share ----
  * n objects go in k shares of near-equal size (contiguous, in order: the

@@ -376,7 +376,18 @@ static locd_status delta_room(kept_ctx *c)
     return LOCD_OK;
 }
 
-locd_status lc_kept_find(locd_scene *s, size_t n, locd_pairs *out, locd_stats *stats)
+locd_status lc_kept_sweep(locd_scene *s, size_t n, const lc_pair_sink *sink, locd_pairs *out, locd_stats *stats)
+{
+    const lc_kept *l = &s->kept;
+    /* the packed boxes the list's encode wrote (the buffer is reserved) */
+    const uint64_t *qbox = lc_inproc_qbox(s->engine, n);
+    if (!l->valid || l->n != n || !qbox)
+        return lc_error(LOCD_ERR_INTERNAL, "the kept entry list is not up to date");
+    return lc_inproc_sweep_sorted(s->engine, &l->g, s->fbox, qbox, n, l->sorted[l->cur].data, l->plan[l->cur].total,
+                                  sink, out, stats);
+}
+
+locd_status lc_kept_find(locd_scene *s, size_t n, const lc_pair_sink *sink, locd_pairs *out, locd_stats *stats)
 {
     lc_kept *l = &s->kept;
     kept_ctx *c = lc_alloc(s->alloc, sizeof *c);
@@ -418,8 +429,7 @@ locd_status lc_kept_find(locd_scene *s, size_t n, locd_pairs *out, locd_stats *s
     if (st != LOCD_OK)
         goto done;
     l->cur = c->nw, l->n = n, l->valid = 1;
-    st = lc_inproc_sweep_sorted(s->engine, &l->g, c->boxes, c->qbox, n, l->sorted[l->cur].data,
-                                l->plan[l->cur].total, out, stats);
+    st = lc_kept_sweep(s, n, sink, out, stats);
 done:
     lc_free(s->alloc, c, sizeof *c);
     return st;

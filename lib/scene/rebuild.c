@@ -52,292 +52,41 @@ static int slots_in_id_order(locd_scene *s)
     return s->order_known = 1 + affine;
 }
 
-/* The slot of the engine's index i: live[i], or i itself when live is
- * NULL (the slots in id order). */
-LC_INLINE uint32_t slot_of(const uint32_t *live, size_t i)
+/* The pairs of the n objects of a scene whose slots are in id order (ids
+ * idl, NULL when in arithmetic progression with the index) from the kept
+ * entry list, ordered into out: the sweep gives its pairs to the order as
+ * it finds them when the order has the counts of a previous one; when
+ * those prove too small, the list is swept again and its gathered pairs
+ * ordered. */
+static locd_status kept_pairs(locd_scene *s, size_t n, const locd_id *idl, lc_plist *out, uint64_t *candidates)
 {
-    return live ? live[i] : (uint32_t)i;
-}
-
-/* 1 when no two live objects can be filtered out: none static, no group,
- * and every category meets the AND of all masks. */
-static int filter_passes_all(locd_scene *s, const uint32_t *live, size_t n)
-{
-    uint64_t m = ~(uint64_t)0;
-    size_t k;
-    if (s->filter_known >= 0)
-        return s->filter_known;
-    s->filter_known = 0;
-    if (s->live_static)
-        return 0;
-    for (k = 0; k < n; k++) {
-        m &= s->mask[slot_of(live, k)];
-        if (s->group[slot_of(live, k)])
-            return 0;
+    lc_order *ord = NULL;
+    lc_pair_sink sink;
+    locd_stats st_find;
+    locd_status st;
+    memset(&st_find, 0, sizeof st_find);
+    st_find.size = sizeof st_find;
+    if (lc_scene_order_can_sink(s, n) && (st = lc_scene_order_open(s, n, idl, &ord, &sink)) != LOCD_OK)
+        return st;
+    st = lc_kept_find(s, n, ord ? &sink : NULL, &s->found, &st_find);
+    if (ord) {
+        if (st == LOCD_OK)
+            st = lc_scene_order_close(ord, out); /* (frees it) */
+        else
+            lc_scene_order_drop(ord);
+        if (st == LOCD_OK)
+            *candidates = st_find.pairs;
+        if (st != LC_ORDER_FULL)
+            return st;
+        /* more pairs than the regions and the spill area hold */
+        memset(&st_find, 0, sizeof st_find);
+        st_find.size = sizeof st_find;
+        st = lc_kept_sweep(s, n, NULL, &s->found, &st_find);
     }
-    for (k = 0; k < n; k++)
-        if (!(s->cat[slot_of(live, k)] & m))
-            return 0;
-    return s->filter_known = 1;
-}
-
-/* Ordering the engine's pairs (i, j), i < j, by (i, j): buckets of 2^shift
- * consecutive i (a few hundred buckets, so each thread's scatter writes a
- * few hundred streams and each bucket's sort runs in the cache), then
- * within a bucket a counting sort on i and an insertion sort of each i's
- * few j. Pairs the filter drops are dropped first. Each step is split over
- * the pool: pair ranges for the counts and the scatter, bucket ranges of
- * about equal pairs for the sort and the rows. */
-typedef struct order_ctx {
-    const locd_scene *s;
-    uint32_t *p;               /* the engine's pairs; filtered in place */
-    size_t np, n;
-    const uint32_t *live;      /* slot of index i (slot_of) */
-    const locd_id *idl;        /* id of index i; NULL when it is (serial0 + i) << 32 | i */
-    uint64_t serial0;
-    int all;                   /* no pair is filtered out */
-    uint32_t shift, nb;        /* bucket of i: i >> shift; nb buckets */
-    size_t pb[LC_MAX_THREADS + 1], kept[LC_MAX_THREADS];
-    size_t *cnt[LC_MAX_THREADS]; /* per thread: count then offset, per bucket */
-    size_t *start;             /* nb + 1: first pair of each bucket */
-    uint32_t bb[LC_MAX_THREADS + 1]; /* the threads' bucket ranges for the sort */
-    uint32_t *local[LC_MAX_THREADS]; /* per thread: 2^shift + 1 counters */
-    uint64_t *key;             /* np: (i << 32 | j) by bucket */
-    uint64_t *run[LC_MAX_THREADS]; /* per thread: a bucket's keys by i (the largest bucket's room) */
-    locd_id *rows;
-    int pass;
-} order_ctx;
-
-static void order_count(order_ctx *c, uint32_t t)
-{
-    size_t x, w = c->pb[t], *cnt = c->cnt[t];
-    uint32_t *p = c->p;
-    memset(cnt, 0, c->nb * sizeof *cnt);
-    if (c->all) { /* every pair kept: counts only, no store of each pair back in place */
-        for (x = c->pb[t]; x < c->pb[t + 1]; x++)
-            cnt[p[2 * x] >> c->shift]++;
-        c->kept[t] = c->pb[t + 1] - c->pb[t];
-        return;
-    }
-    for (x = c->pb[t]; x < c->pb[t + 1]; x++) {
-        uint32_t i = p[2 * x], j = p[2 * x + 1];
-        if (!lc_scene_may_pair(c->s, slot_of(c->live, i), slot_of(c->live, j)))
-            continue;
-        p[2 * w] = i, p[2 * w + 1] = j, w++;
-        cnt[i >> c->shift]++;
-    }
-    c->kept[t] = w - c->pb[t];
-}
-
-static void order_scatter(order_ctx *c, uint32_t t)
-{
-    /* in locals: the stores through key may alias c's fields, which the
-       loop would then read again on every step */
-    size_t x, *off = c->cnt[t];
-    const size_t end = c->pb[t] + c->kept[t];
-    const uint32_t *p = c->p, shift = c->shift;
-    uint64_t *key = c->key;
-    for (x = c->pb[t]; x < end; x++)
-        key[off[p[2 * x] >> shift]++] = (uint64_t)p[2 * x] << 32 | p[2 * x + 1];
-}
-
-/* Sorts v[0, n): an object's partners, a few as a rule (insertion sort),
- * all the others for a box over the whole scene (lc_sort_u64: no
- * quadratic case). */
-static void sort_run(uint64_t *v, size_t n)
-{
-    size_t x, y;
-    if (n > 32) {
-        lc_sort_u64(v, n);
-        return;
-    }
-    for (x = 1; x < n; x++) {
-        uint64_t e = v[x];
-        for (y = x; y > 0 && v[y - 1] > e; y--)
-            v[y] = v[y - 1];
-        v[y] = e;
-    }
-}
-
-#define LC_ORDER_RUN 32
-
-/* Bucket b: key[start[b], start[b+1]) to the thread's run buffer by i
- * (counting sort), each i's run sorted by j, then the rows at the same
- * positions. The run buffer holds the largest bucket: it stays in the
- * caches from one bucket to the next, where a buffer as long as the keys
- * (one region per bucket) was written and read back through memory. */
-static void order_bucket(order_ctx *c, uint32_t t, uint32_t b)
-{
-    const size_t lo = c->start[b], m = c->start[b + 1] - lo;
-    size_t x, y;
-    uint32_t span = 1u << c->shift, base = b << c->shift, *cnt = c->local[t], u, sum = 0;
-    const uint64_t *k = c->key + lo;
-    uint64_t *v = c->run[t];
-    locd_id *rows = c->rows + 2 * lo;
-    if (m > 1) {
-        memset(cnt, 0, (span + 1) * sizeof *cnt);
-        for (x = 0; x < m; x++)
-            cnt[(uint32_t)(k[x] >> 32) - base]++;
-        for (u = 0; u < span; u++) {
-            uint32_t n = cnt[u];
-            cnt[u] = sum;
-            sum += n;
-        }
-        for (x = 0; x < m; x++)
-            v[cnt[(uint32_t)(k[x] >> 32) - base]++] = k[x];
-        /* One compare-exchange pass first, with no branch: it carries the
-           largest key so far and leaves each i's run with its largest j
-           last, which sorts every run of one or two keys (most runs: an
-           object has about one partner of higher index in a sparse
-           scene). Keys of different i keep their order (v is in i order).
-           The insertion pass below then finds few keys out of place; run
-           alone, its test mispredicted on about half the keys of the runs
-           of two. */
-        {
-            uint64_t cur = v[0];
-            for (x = 1; x < m; x++) {
-                const uint64_t e = v[x];
-                v[x - 1] = cur < e ? cur : e;
-                cur = cur < e ? e : cur;
-            }
-            v[m - 1] = cur;
-        }
-        /* Each i's run by j: v is in i order, so one insertion pass over
-           the whole bucket moves each key back within its own run only
-           (a few places: an object has a few partners), with one compare a
-           key, well predicted after the pass above; a walk over the 2^shift
-           runs took a branch per i whatever its run's length. A run longer than
-           LC_ORDER_RUN (a box over much of the scene) is sorted on its own
-           (no quadratic case). */
-        for (x = 1; x < m; x++) {
-            const uint64_t e = v[x];
-            if (v[x - 1] <= e)
-                continue;
-            for (y = x; y > 0 && v[y - 1] > e && x - y < LC_ORDER_RUN; y--)
-                v[y] = v[y - 1];
-            v[y] = e;
-            if (x - y == LC_ORDER_RUN && y > 0 && v[y - 1] > e) { /* a long run: sort all of it */
-                const uint32_t i = (uint32_t)(e >> 32);
-                size_t a = i - base ? cnt[i - base - 1] : 0, z = cnt[i - base];
-                sort_run(v + a, z - a);
-                x = z - 1;
-            }
-        }
-    } else if (m) {
-        v[0] = k[0];
-    }
-    if (!c->idl) { /* ids in arithmetic progression with the index */
-        const uint64_t s0 = c->serial0;
-        for (x = 0; x < m; x++) {
-            const uint64_t i = v[x] >> 32, j = (uint32_t)v[x];
-            rows[2 * x] = (s0 + i) << 32 | i, rows[2 * x + 1] = (s0 + j) << 32 | j;
-        }
-        return;
-    }
-    /* j's id is a cache miss each (j is anywhere): asked for ahead */
-    for (x = 0; x < m; x++) {
-        if (x + 16 < m)
-            __builtin_prefetch(c->idl + (uint32_t)v[x + 16]);
-        rows[2 * x] = c->idl[v[x] >> 32], rows[2 * x + 1] = c->idl[(uint32_t)v[x]];
-    }
-}
-
-static void task_order(void *arg, uint32_t t, uint32_t k)
-{
-    order_ctx *c = arg;
-    uint32_t b;
-    (void)k;
-    if (c->pass == 1)
-        order_count(c, t);
-    else if (c->pass == 2)
-        order_scatter(c, t);
-    else
-        for (b = c->bb[t]; b < c->bb[t + 1]; b++)
-            order_bucket(c, t, b);
-}
-
-static void order_run(lc_pool *pool, uint32_t kk, order_ctx *c, int pass)
-{
-    c->pass = pass;
-    if (kk > 1)
-        lc_pool_run(pool, kk, task_order, c);
-    else
-        task_order(c, 0, 1);
-}
-
-/* The pairs p[0, np) of the objects live[0, n) ordered into rows of ids;
- * returns the rows written (those the filter keeps). */
-static locd_status order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint32_t *live, const locd_id *idl,
-                               size_t n, locd_id *rows, size_t *written)
-{
-    const locd_allocator *a = s->alloc;
-    uint32_t kk = s->threads > 1 && np > 65536 ? s->threads : 1, t, b, bits = 0;
-    order_ctx *c = lc_alloc(a, sizeof *c);
-    size_t scratch, total = 0, w = 0, x, most = 1;
-    void *mem;
-    locd_status st = LOCD_OK;
-    if (!c)
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
-    memset(c, 0, sizeof *c);
-    while (bits < 32 && ((size_t)1 << bits) < n)
-        bits++;
-    /* at most 512 buckets: the scatter's streams stay few enough for the
-       caches (2,048 and 256 were slower at 10^6 pairs: commit ebbfef4) */
-    c->shift = bits > 9 ? bits - 9 : 0;
-    c->nb = (uint32_t)(((n ? n - 1 : 0) >> c->shift) + 1);
-    c->s = s, c->p = p, c->np = np, c->n = n, c->live = live, c->idl = idl, c->rows = rows;
-    c->serial0 = n ? LC_ID_SERIAL(s->id[slot_of(live, 0)]) : 0;
-    c->all = filter_passes_all(s, live, n);
-    scratch = np * sizeof(uint64_t) + (kk + 1) * (c->nb + 1) * sizeof(size_t) +
-              kk * (((size_t)1 << c->shift) + 1) * sizeof(uint32_t);
-    if (lc_buf_reserve(a, &s->order_buf, 1, scratch) != LOCD_OK) {
-        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
-        goto done;
-    }
-    mem = s->order_buf.data;
-    c->key = mem;
-    c->start = (size_t *)(c->key + np);
-    for (t = 0; t < kk; t++)
-        c->cnt[t] = c->start + (c->nb + 1) * (t + 1);
-    for (t = 0; t < kk; t++)
-        c->local[t] = (uint32_t *)(c->start + (kk + 1) * (c->nb + 1)) + t * (((size_t)1 << c->shift) + 1);
-    for (t = 0; t <= kk; t++)
-        c->pb[t] = np * t / kk;
-    order_run(s->pool, kk, c, 1);
-    /* offsets: bucket-major, thread-minor */
-    for (b = 0; b < c->nb; b++) {
-        c->start[b] = total;
-        for (t = 0; t < kk; t++) {
-            size_t m = c->cnt[t][b];
-            c->cnt[t][b] = total;
-            total += m;
-        }
-    }
-    c->start[c->nb] = total;
-    for (b = 0; b < c->nb; b++)
-        if (c->start[b + 1] - c->start[b] > most)
-            most = c->start[b + 1] - c->start[b];
-    if (lc_buf_reserve(a, &s->order_runs, sizeof(uint64_t), kk * most) != LOCD_OK) {
-        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the rebuild's pair order");
-        goto done;
-    }
-    for (t = 0; t < kk; t++)
-        c->run[t] = (uint64_t *)s->order_runs.data + t * most;
-    order_run(s->pool, kk, c, 2);
-    /* bucket ranges of about total / kk pairs each */
-    c->bb[0] = 0;
-    for (t = 1, b = 0; t < kk; t++) {
-        while (b < c->nb && c->start[b] < total * t / kk)
-            b++;
-        c->bb[t] = b;
-    }
-    c->bb[kk] = c->nb;
-    order_run(s->pool, kk, c, 3);
-    for (x = 0; x < kk; x++)
-        w += c->kept[x];
-    *written = w;
-done:
-    lc_free(a, c, sizeof *c);
+    if (st == LOCD_OK)
+        st = lc_scene_order_pairs(s, s->found.data, s->found.count, NULL, idl, n, out);
+    if (st == LOCD_OK)
+        *candidates = s->found.count;
     return st;
 }
 
@@ -346,7 +95,7 @@ done:
 locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *candidates)
 {
     const locd_allocator *a = s->alloc;
-    size_t n = 0, k, w = 0, cap = s->nslots ? s->nslots : 1, ncap = (size_t)s->serial + 1;
+    size_t n = 0, k, cap = s->nslots ? s->nslots : 1, ncap = (size_t)s->serial + 1;
     const int ordered = slots_in_id_order(s);
     /* live: the slot of each index in id order; none when that is the index */
     uint32_t *live = ordered ? NULL : lc_alloc(a, cap * sizeof *live),
@@ -399,18 +148,15 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
     }
     memset(&st_find, 0, sizeof st_find);
     st_find.size = sizeof st_find;
-    if (ordered && !f64 && n >= LC_KEPT_MIN)
-        st = lc_kept_find(s, n, found, &st_find);
-    else
-        st = s->engine->ops->find(s->engine, in, n, f64, 0, found, &st_find);
-    if (st == LOCD_OK)
-        st = lc_plist_reserve(a, out, found->count ? found->count : 1);
-    if (st == LOCD_OK)
-        st = order_pairs(s, found->data, found->count, live, ordered == 2 ? NULL : idl, n, out->rows.data, &w);
-    if (st == LOCD_OK) {
-        out->count = w;
-        *candidates = found->count;
+    if (ordered && !f64 && n >= LC_KEPT_MIN) {
+        st = kept_pairs(s, n, ordered == 2 ? NULL : idl, out, candidates);
+        goto done;
     }
+    st = s->engine->ops->find(s->engine, in, n, f64, 0, found, &st_find);
+    if (st == LOCD_OK)
+        st = lc_scene_order_pairs(s, found->data, found->count, live, ordered == 2 ? NULL : idl, n, out);
+    if (st == LOCD_OK)
+        *candidates = found->count;
 done:
     if (!ordered) {
         lc_free(a, live, cap * sizeof *live);

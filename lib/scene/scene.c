@@ -85,6 +85,7 @@ void locd_scene_destroy(locd_scene *s)
     lc_pairs_fini_embedded(&s->found);
     lc_buf_release(a, &s->order_buf, 1);
     lc_buf_release(a, &s->order_runs, sizeof(uint64_t));
+    lc_buf_release(a, &s->order_last, sizeof(uint32_t));
     lc_kept_release(s);
     s->magic = LC_MAGIC_DEAD;
     lc_free(a, s, sizeof *s);

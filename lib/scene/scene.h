@@ -219,7 +219,9 @@ struct locd_scene {
     int order_known, filter_known;
     locd_pairs found;              /* from scratch: the engine's pairs, and the ordering's scratch */
     lc_buf order_buf;              /* (bytes), kept from one from-scratch update to the next for the same reason */
-    lc_buf order_runs;             /* uint64: the pair order's per-thread bucket buffers (rebuild.c) */
+    lc_buf order_runs;             /* uint64: the pair order's per-thread bucket buffers (pair_order.c) */
+    lc_buf order_last;             /* uint32: the last order's pairs per bucket (its regions' sizes next time) */
+    size_t order_last_n;           /* and its objects (0: none) */
     lc_kept kept;                  /* the from-scratch path's entries, kept (kept_list.c) */
     int show_pairs, show_events;   /* the flags of the last update */
     locd_scene_stats stats;
@@ -474,8 +476,36 @@ void lc_tree_edit_free(const locd_allocator *a, lc_tree_edit *e);
 #define LC_KEPT_MIN 65536
 /* The pairs of the n boxes s->fbox (every slot live, in id order, floats
  * exactly) as the engine's find gives them, from the kept entries brought
- * up to date. A failure leaves the list to be made again, nothing else. */
-locd_status lc_kept_find(locd_scene *s, size_t n, locd_pairs *out, locd_stats *stats);
+ * up to date: into out, or to the sink (when not NULL) as the sweep finds
+ * them. A failure leaves the list to be made again, nothing else; a
+ * failure of the sweep alone (the sink's LC_ORDER_FULL) leaves it up to
+ * date, for lc_kept_sweep. */
+locd_status lc_kept_find(locd_scene *s, size_t n, const lc_pair_sink *sink, locd_pairs *out, locd_stats *stats);
+/* The sweep alone, of the list lc_kept_find brought up to date (the
+ * engine's packed boxes untouched since): its pairs to the sink (when not
+ * NULL) or to out. */
+locd_status lc_kept_sweep(locd_scene *s, size_t n, const lc_pair_sink *sink, locd_pairs *out, locd_stats *stats);
+
+/* ---- the pair order of a from-scratch update (pair_order.c) ----
+ * The engine's pairs (i, j), i < j, of the objects live[0, n) (NULL: the
+ * slots in id order) filtered and ordered into the rows of out (ids idl[i],
+ * NULL when they are (serial of the first + i) << 32 | i): from pairs p[0,
+ * np) gathered, */
+locd_status lc_scene_order_pairs(locd_scene *s, uint32_t *p, size_t np, const uint32_t *live, const locd_id *idl,
+                           size_t n, lc_plist *out);
+/* or from the sweep as it finds them (slots in id order): an order opened
+ * before the sweep gives the sink the sweep writes to, and closed after it
+ * writes the rows. It sizes its buckets from the counts of the previous
+ * order, so it can open only after an order of as many objects
+ * (lc_scene_order_can_sink). Close (or drop, after a failed sweep) frees it.
+ * LC_ORDER_FULL, from the sweep or the close: the pairs outgrew the room
+ * (nothing written): sweep again into gathered pairs. */
+typedef struct lc_order lc_order;
+#define LC_ORDER_FULL (-1000)
+int lc_scene_order_can_sink(const locd_scene *s, size_t n);
+locd_status lc_scene_order_open(locd_scene *s, size_t n, const locd_id *idl, lc_order **o, lc_pair_sink *sink);
+locd_status lc_scene_order_close(lc_order *o, lc_plist *out);
+void lc_scene_order_drop(lc_order *o);
 /* Frees the list (a scene whose updates no longer go from scratch). */
 void lc_kept_release(locd_scene *s);
 
