@@ -8,10 +8,16 @@
  * (the scene's slots all live, ids ascending: the usual simulation frame)
  * copies its boxes to the spare box array while the checks read them, and
  * the arrays are swapped once all passed: the boxes are read once, not
- * twice. The result is the serial loop's (scene.c): the same boxes, flags
+ * twice. Such a batch's first pass goes a chunk at a time through
+ * branch-free loops over its ids and floats (check_chunk_in_place), and
+ * its copy bypasses the caches; a chunk where any test fails takes the
+ * general loop, which finds the failing position. The result is the serial loop's (scene.c): the same boxes, flags
  * and dirty list in batch order; a bad batch changes nothing and its
  * error is the serial checks' own. */
 #include "scene/scene.h"
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 /* Below this many objects a move runs on the calling thread. */
 #define LC_MOVE_PARALLEL_MIN 65536
@@ -45,6 +51,103 @@ LC_INLINE int box_ok(const move_ctx *c, size_t i)
     return lc_scene_box_fault(b, &a) == LOCD_OK;
 }
 
+/* What pass 1 finds in a thread's range. */
+typedef struct pass1 {
+    int bad, ascend, in_place;
+    size_t fresh;
+    float lo[3], hi[3];
+} pass1;
+
+/* Pass 1 over positions [i, e) of a range starting at `first`, one box at
+ * a time: any batch. Stops at the first bad position. */
+static void check_boxes(const move_ctx *c, size_t first, size_t i, size_t e, pass1 *r)
+{
+    const locd_scene *s = c->s;
+    int a;
+    for (; i < e; i++) {
+        int64_t slot = lc_scene_slot(s, c->ids[i]);
+        if (slot < 0 || !box_ok(c, i)) {
+            r->bad = 1;
+            return;
+        }
+        if (c->spare) { /* the box was just read: in the caches */
+            const float *b = (const float *)c->boxes + 6 * i;
+            memcpy(c->spare + 6 * i, b, 6 * sizeof(float));
+            for (a = 0; a < 3; a++) {
+                r->lo[a] = b[a] < r->lo[a] ? b[a] : r->lo[a];
+                r->hi[a] = b[a + 3] > r->hi[a] ? b[a + 3] : r->hi[a];
+            }
+        }
+        r->ascend &= i == first || c->ids[i] > c->ids[i - 1];
+        r->in_place &= (size_t)slot == i;
+        r->fresh += !(s->flags[slot] & LC_SLOT_DIRTY);
+    }
+}
+
+#define LC_MOVE_CHUNK 512
+
+/* n floats from src to dst, past the caches where the target has stores
+ * for that: the spare array is read by the next update, after all of it
+ * has been written. */
+static void copy_floats(float *dst, const float *src, size_t n)
+{
+#if defined(__SSE2__)
+    size_t k = 0;
+    while (k < n && ((uintptr_t)(dst + k) & 15))
+        dst[k] = src[k], k++;
+    for (; k + 4 <= n; k += 4)
+        _mm_stream_ps(dst + k, _mm_loadu_ps(src + k));
+    for (; k < n; k++)
+        dst[k] = src[k];
+#else
+    memcpy(dst, src, n * sizeof *dst);
+#endif
+}
+
+/* Pass 1 over positions [i, e) of a float batch of every slot (spare set),
+ * when each id there is its slot's own in slot order and each box is
+ * finite with min <= max: branch-free loops over floats (a float compares
+ * as its double does), which the compiler can vectorize. Returns 0, with
+ * *r unchanged, when any position fails a test: check_boxes then takes
+ * the chunk and finds out which. */
+static int check_chunk_in_place(const move_ctx *c, size_t first, size_t i, size_t e, pass1 *r)
+{
+    const locd_scene *s = c->s;
+    const locd_id *ids = c->ids, *own = s->id;
+    const uint8_t *fl = s->flags;
+    const float *b = (const float *)c->boxes + 6 * i;
+    const size_t m = e - i;
+    float lo[3], hi[3];
+    size_t k, fresh = 0;
+    unsigned ok = 1;
+    int a;
+    for (k = i; k < e; k++)
+        ok &= (ids[k] == own[k]) & (fl[k] & LC_SLOT_LIVE);
+    for (k = i > first ? i : first + 1; k < e; k++)
+        ok &= ids[k] > ids[k - 1];
+    for (k = 0; k < 6 * m; k++)
+        ok &= fabsf(b[k]) <= FLT_MAX;
+    for (a = 0; a < 3; a++)
+        lo[a] = r->lo[a], hi[a] = r->hi[a];
+    for (k = 0; k < m; k++) {
+        const float *q = b + 6 * k;
+        for (a = 0; a < 3; a++) {
+            ok &= q[a] <= q[a + 3];
+            lo[a] = q[a] < lo[a] ? q[a] : lo[a];
+            hi[a] = q[a + 3] > hi[a] ? q[a + 3] : hi[a];
+        }
+    }
+    if (!ok)
+        return 0;
+    for (k = i; k < e; k++)
+        fresh += !(fl[k] & LC_SLOT_DIRTY);
+    copy_floats(c->spare + 6 * i, b, 6 * m);
+    for (a = 0; a < 3; a++)
+        r->lo[a] = lo[a], r->hi[a] = hi[a];
+    r->fresh += fresh;
+    return 1;
+}
+
 static void task_move(void *arg, uint32_t t, uint32_t k)
 {
     move_ctx *c = arg;
@@ -52,33 +155,22 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
     size_t i = c->n * t / k, e = c->n * (t + 1) / k;
     if (c->pass == 1) { /* ids live, boxes valid */
         const size_t first = i;
-        size_t fresh = 0;
-        int bad = 0, ascend = 1, in_place = 1, a;
-        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-        for (; i < e; i++) {
-            int64_t slot = lc_scene_slot(s, c->ids[i]);
-            if (slot < 0 || !box_ok(c, i)) {
-                bad = 1;
-                break;
-            }
-            if (c->spare) { /* the box was just read: in the caches */
-                const float *b = (const float *)c->boxes + 6 * i;
-                memcpy(c->spare + 6 * i, b, 6 * sizeof(float));
-                for (a = 0; a < 3; a++) {
-                    lo[a] = b[a] < lo[a] ? b[a] : lo[a];
-                    hi[a] = b[a + 3] > hi[a] ? b[a + 3] : hi[a];
-                }
-            }
-            ascend &= i == first || c->ids[i] > c->ids[i - 1];
-            in_place &= (size_t)slot == i;
-            fresh += !(s->flags[slot] & LC_SLOT_DIRTY);
+        pass1 r = {0, 1, 1, 0, {INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+        while (i < e && !r.bad) {
+            const size_t end = e - i > LC_MOVE_CHUNK ? i + LC_MOVE_CHUNK : e;
+            if (!c->spare || !r.in_place || !r.ascend || !check_chunk_in_place(c, first, i, end, &r))
+                check_boxes(c, first, i, end, &r);
+            i = end;
         }
-        c->bad[t] = bad;
-        c->ascend[t] = ascend;
-        c->in_place[t] = in_place;
-        c->fresh[t] = fresh;
-        memcpy(c->lo[t], lo, sizeof lo);
-        memcpy(c->hi[t], hi, sizeof hi);
+#if defined(__SSE2__)
+        _mm_sfence();
+#endif
+        c->bad[t] = r.bad;
+        c->ascend[t] = r.ascend;
+        c->in_place[t] = r.in_place;
+        c->fresh[t] = r.fresh;
+        memcpy(c->lo[t], r.lo, sizeof r.lo);
+        memcpy(c->hi[t], r.hi, sizeof r.hi);
     } else if (c->pass == 4) { /* each slot stamped with its position */
         for (; i < e; i++) /* a repeated id stamps one slot from two threads: relaxed atomics, no race */
             __atomic_store_n(&s->stamp[LC_ID_SLOT(c->ids[i])], c->base + (uint32_t)i, __ATOMIC_RELAXED);
