@@ -1526,6 +1526,17 @@ static void whole_scene_moves_in_slot_order(void)
         TEST_ASSERT_EQUAL_INT64(90000, locd_last_error_index());
         TEST_ASSERT_TRUE(h1 == pairs_hash(s1));
         TEST_ASSERT_TRUE(h2 == pairs_hash(s2));
+        /* the ids ascending but one naming the next slot with its own serial
+           (the slots' ids are consecutive: the move checks them without
+           reading them) */
+        f[6 * 90000 + 2] = f[6 * 90000 + 5] - 0.001f;
+        mv[70000] += 1;
+        TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_move_f32(s1, mv, f, n));
+        TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_move_f32(s2, mv, f, n));
+        TEST_ASSERT_EQUAL_INT64(70000, locd_last_error_index());
+        TEST_ASSERT_TRUE(h1 == pairs_hash(s1));
+        TEST_ASSERT_TRUE(h2 == pairs_hash(s2));
+        mv[70000] -= 1;
         free(keep.o);
     }
     /* a fifth of the objects, then (from scratch) every box is read: the

@@ -121,8 +121,15 @@ static int check_chunk_in_place(const move_ctx *c, size_t first, size_t i, size_
     size_t k, fresh = 0;
     unsigned ok = 1;
     int a;
-    for (k = i; k < e; k++)
-        ok &= (ids[k] == own[k]) & (fl[k] & LC_SLOT_LIVE);
+    if (s->order_known == 2) { /* every slot live, slot k's id (serial0 + k) << 32 | k: no read of the ids */
+        locd_id want = ((uint64_t)(LC_ID_SERIAL(own[0]) + i) << 32) | i;
+        const locd_id step = ((uint64_t)1 << 32) | 1;
+        for (k = i; k < e; k++, want += step)
+            ok &= ids[k] == want;
+    } else {
+        for (k = i; k < e; k++)
+            ok &= (ids[k] == own[k]) & (fl[k] & LC_SLOT_LIVE);
+    }
     for (k = i > first ? i : first + 1; k < e; k++)
         ok &= ids[k] > ids[k - 1];
     for (k = 0; k < 6 * m; k++)
