@@ -9,13 +9,14 @@
  * The keys (i << 32 | j) reach their buckets one of two ways:
  * - from the engine's gathered pairs (lc_scene_order_pairs): a count pass and a
  *   scatter pass, each split over the pool by pair ranges;
- * - from the sweep itself (lc_scene_order_open): each thread stages the
- *   keys of every block the sweep gives it in a small buffer per bucket and
- *   moves them 16 at a time into the bucket's region, sized from the
- *   previous order's counts. A region that fills up sends the rest to a
- *   spill area; a spill area that fills up makes the caller sweep again
- *   and take the first way. No pass reads the pairs again: they are
- *   bucketed while the sweep's block of them is in the caches.
+ * - from the sweep itself (lc_scene_order_open): the thread that swept a
+ *   block counts its pairs by bucket, claims that many places in each
+ *   bucket's region (one atomic add a bucket and block) and writes the
+ *   keys there. The regions are sized from the previous order's counts; a
+ *   region that fills up sends the rest to a spill area, and a spill area
+ *   that fills up makes the caller sweep again and take the first way. No
+ *   pass reads the pairs again: they are bucketed while the block is in
+ *   the caches.
  * Either way the buckets' sort and the rows follow, split over the pool by
  * bucket ranges of about equal pairs. A bucket's keys arrive in any order
  * (the threads' interleaving); its sort makes the rows the same. */
@@ -75,7 +76,8 @@ struct lc_order {
     int pass;
     /* from the sweep (sink) only */
     int sink;
-    uint32_t *cap, *cur;       /* nb: each region's room, and keys written or claimed (atomic) */
+    uint32_t *cap;             /* nb: each region's room */
+    size_t *cur;               /* nb: keys claimed in each region, spilled ones too (atomic) */
     uint64_t *spill, *spill_by; /* keys past their region's room, as they came and by bucket */
     size_t spill_cap, nspill;  /* nspill: claimed (atomic) */
     size_t *sst;               /* nb + 1: bucket b's spilled keys at spill_by + sst[b] */
@@ -406,7 +408,8 @@ static void scatter_block_spill(const lc_order *c, uint64_t **dst, uint64_t **sd
 static locd_status order_sink(void *arg, uint32_t t, uint32_t *p, size_t np)
 {
     lc_order *c = arg;
-    uint32_t *h = c->hist[t], *room = h + c->nb, b, spill = 0;
+    uint32_t *h = c->hist[t], *room = h + c->nb, b;
+    int spill = 0;
     uint64_t **dst = c->dst[t], **sdst = dst + c->nb;
     const uint32_t shift = c->shift;
     size_t x, m = np;
@@ -421,11 +424,12 @@ static locd_status order_sink(void *arg, uint32_t t, uint32_t *p, size_t np)
     for (x = 0; x < m; x++)
         h[p[2 * x] >> shift]++;
     for (b = 0; b < c->nb; b++) {
-        uint32_t at, fits;
+        size_t at;
+        uint32_t fits;
         if (!h[b])
             continue;
-        at = __atomic_fetch_add(&c->cur[b], h[b], __ATOMIC_RELAXED);
-        fits = at >= c->cap[b] ? 0 : (c->cap[b] - at < h[b] ? c->cap[b] - at : h[b]);
+        at = __atomic_fetch_add(&c->cur[b], (size_t)h[b], __ATOMIC_RELAXED);
+        fits = at >= c->cap[b] ? 0 : (uint32_t)(c->cap[b] - at < h[b] ? c->cap[b] - at : h[b]);
         dst[b] = c->key + c->kst[b] + at;
         room[b] = fits;
         if (fits < h[b]) { /* the rest to the spill area */
@@ -443,6 +447,12 @@ static locd_status order_sink(void *arg, uint32_t t, uint32_t *p, size_t np)
     else
         scatter_block(c, dst, p, m);
     return LOCD_OK;
+}
+
+/* A region's room for a bucket that had `last` pairs: 1/16 more, and 16. */
+LC_INLINE uint32_t region_room(uint32_t last)
+{
+    return last + last / 16 + 16;
 }
 
 int lc_scene_order_can_sink(const locd_scene *s, size_t n)
@@ -468,10 +478,10 @@ locd_status lc_scene_order_open(locd_scene *s, size_t n, const locd_id *idl, lc_
     c->sink = 1;
     /* room: the last counts and 1/16 more, spilling up to 1/16 of them */
     for (b = 0; b < c->nb; b++)
-        region += last[b] + last[b] / 16 + 16;
+        region += region_room(last[b]);
     c->spill_cap = np_guess / 16 + 4096;
-    scratch = (region + 2 * c->spill_cap) * sizeof(uint64_t) + 3 * (c->nb + 1) * sizeof(size_t) +
-              kk * 2 * (size_t)c->nb * sizeof(uint64_t *) + 2 * c->nb * sizeof(uint32_t) +
+    scratch = (region + 2 * c->spill_cap) * sizeof(uint64_t) + (4 * c->nb + 3) * sizeof(size_t) +
+              kk * 2 * (size_t)c->nb * sizeof(uint64_t *) + c->nb * sizeof(uint32_t) +
               kk * 2 * (size_t)c->nb * sizeof(uint32_t) + kk * (((size_t)1 << c->shift) + 1) * sizeof(uint32_t);
     if (lc_buf_reserve(a, &s->order_buf, 1, scratch) != LOCD_OK) {
         lc_free(a, c, sizeof *c);
@@ -485,17 +495,17 @@ locd_status lc_scene_order_open(locd_scene *s, size_t n, const locd_id *idl, lc_
     c->start = (size_t *)mem, mem += (c->nb + 1) * sizeof(size_t);
     c->kst = (size_t *)mem, mem += (c->nb + 1) * sizeof(size_t);
     c->sst = (size_t *)mem, mem += (c->nb + 1) * sizeof(size_t);
+    c->cur = (size_t *)mem, mem += c->nb * sizeof(size_t);
     for (t = 0; t < kk; t++)
         c->dst[t] = (uint64_t **)mem, mem += 2 * (size_t)c->nb * sizeof(uint64_t *);
     c->cap = (uint32_t *)mem, mem += c->nb * sizeof(uint32_t);
-    c->cur = (uint32_t *)mem, mem += c->nb * sizeof(uint32_t);
     for (t = 0; t < kk; t++)
         c->hist[t] = (uint32_t *)mem, mem += 2 * (size_t)c->nb * sizeof(uint32_t);
     for (t = 0; t < kk; t++)
         c->local[t] = (uint32_t *)mem, mem += (((size_t)1 << c->shift) + 1) * sizeof(uint32_t);
     c->kst[0] = 0;
     for (b = 0; b < c->nb; b++) {
-        c->cap[b] = last[b] + last[b] / 16 + 16;
+        c->cap[b] = region_room(last[b]);
         c->cur[b] = 0;
         c->kst[b + 1] = c->kst[b] + c->cap[b];
     }
