@@ -71,8 +71,9 @@ uint64_t *lc_inproc_qbox(struct locd_engine *e, size_t n);
 /* Where a sweep's pairs can go instead of the hand-over: fn(arg, t, pairs,
  * count) gets each block of about LC_SINK_BLOCK entries' pairs (i, j),
  * i < j, two uint32 each, on pool thread t right after the block is swept,
- * while they are in the caches. A status other than LOCD_OK stops the
- * sweep and is returned as it is (no error is recorded for it). */
+ * while they are in the caches; it may overwrite them (the sweep drops them
+ * after). A status other than LOCD_OK stops the sweep and is returned as it
+ * is (no error is recorded for it). */
 typedef struct lc_pair_sink {
     locd_status (*fn)(void *arg, uint32_t t, uint32_t *pairs, size_t count);
     void *arg;

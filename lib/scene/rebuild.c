@@ -64,8 +64,7 @@ static locd_status kept_pairs(locd_scene *s, size_t n, const locd_id *idl, lc_pl
     lc_pair_sink sink;
     locd_stats st_find;
     locd_status st;
-    memset(&st_find, 0, sizeof st_find);
-    st_find.size = sizeof st_find;
+    locd_stats_init(&st_find);
     if (lc_scene_order_can_sink(s, n) && (st = lc_scene_order_open(s, n, idl, &ord, &sink)) != LOCD_OK)
         return st;
     st = lc_kept_find(s, n, ord ? &sink : NULL, &s->found, &st_find);
@@ -79,8 +78,7 @@ static locd_status kept_pairs(locd_scene *s, size_t n, const locd_id *idl, lc_pl
         if (st != LC_ORDER_FULL)
             return st;
         /* more pairs than the regions and the spill area hold */
-        memset(&st_find, 0, sizeof st_find);
-        st_find.size = sizeof st_find;
+        locd_stats_init(&st_find);
         st = lc_kept_sweep(s, n, NULL, &s->found, &st_find);
     }
     if (st == LOCD_OK)
@@ -146,12 +144,11 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
             memcpy(boxes + 6 * k, s->box + 6 * (size_t)live[k], 6 * sizeof *boxes);
         in = boxes;
     }
-    memset(&st_find, 0, sizeof st_find);
-    st_find.size = sizeof st_find;
     if (ordered && !f64 && n >= LC_KEPT_MIN) {
         st = kept_pairs(s, n, ordered == 2 ? NULL : idl, out, candidates);
         goto done;
     }
+    locd_stats_init(&st_find);
     st = s->engine->ops->find(s->engine, in, n, f64, 0, found, &st_find);
     if (st == LOCD_OK)
         st = lc_scene_order_pairs(s, found->data, found->count, live, ordered == 2 ? NULL : idl, n, out);
