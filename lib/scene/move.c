@@ -11,9 +11,10 @@
  * twice. Such a batch's first pass goes a chunk at a time through
  * branch-free loops over its ids and floats (check_chunk_in_place), and
  * its copy bypasses the caches; a chunk where any test fails takes the
- * general loop, which finds the failing position. The result is the serial loop's (scene.c): the same boxes, flags
- * and dirty list in batch order; a bad batch changes nothing and its
- * error is the serial checks' own. */
+ * general loop, which finds the failing position. The result is the
+ * serial loop's (scene.c): the same boxes, flags and dirty list in batch
+ * order; a bad batch changes nothing and its error is the serial checks'
+ * own. */
 #include "scene/scene.h"
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -105,11 +106,11 @@ static void copy_floats(float *dst, const float *src, size_t n)
 }
 
 /* Pass 1 over positions [i, e) of a float batch of every slot (spare set),
- * when each id there is its slot's own in slot order and each box is
- * finite with min <= max: branch-free loops over floats (a float compares
- * as its double does), which the compiler can vectorize. Returns 0, with
- * *r unchanged, when any position fails a test: check_boxes then takes
- * the chunk and finds out which. */
+ * when each id there is its slot's own in slot order (ids ascending) and
+ * each box is finite with min <= max: branch-free loops over ids and
+ * floats (a float compares as its double does), which the compiler can
+ * vectorize. Returns 0, with *r unchanged, when any position fails a
+ * test: check_boxes then takes the chunk and finds out which. */
 static int check_chunk_in_place(const move_ctx *c, size_t first, size_t i, size_t e, pass1 *r)
 {
     const locd_scene *s = c->s;
