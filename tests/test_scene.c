@@ -1583,21 +1583,24 @@ static void whole_scene_moves_in_slot_order(void)
 
 /* The pairs of boxes f[0, n) as rows of ids[] (ascending with the index),
  * found by the engine's own find: a reference that shares no code with
- * the scene's kept entry list. */
-static locd_id *engine_rows(locd_engine *e, const float *f, const locd_id *ids, size_t n, size_t *count)
+ * the scene's kept entry list. With `grouped` > 0, less the pairs of two
+ * objects whose index is a multiple of it (one group). */
+static locd_id *engine_rows(locd_engine *e, const float *f, const locd_id *ids, size_t n, uint32_t grouped,
+                            size_t *count)
 {
     locd_pairs *p = NULL;
     const uint32_t *v;
     locd_id *rows;
-    size_t k, np;
+    size_t k, np, w = 0;
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &p));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_find_pairs_f32(e, f, n, LOCD_FIND_SORTED, p));
     np = locd_pairs_count(p), v = locd_pairs_data(p);
     rows = malloc((np + 1) * 2 * sizeof *rows);
     for (k = 0; k < np; k++)
-        rows[2 * k] = ids[v[2 * k]], rows[2 * k + 1] = ids[v[2 * k + 1]];
+        if (!grouped || v[2 * k] % grouped || v[2 * k + 1] % grouped)
+            rows[2 * w] = ids[v[2 * k]], rows[2 * w + 1] = ids[v[2 * k + 1]], w++;
     locd_pairs_destroy(p);
-    *count = np;
+    *count = w;
     return rows;
 }
 
@@ -1693,7 +1696,7 @@ static void kept_entry_list_follows_whole_scene_moves(void)
         for (i = 0; i < 2; i++)
             if (nmove)
                 TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[i], ids, f, nmove));
-        now = engine_rows(er, f, ids, n, &nnow);
+        now = engine_rows(er, f, ids, n, 0, &nnow);
         TEST_ASSERT_TRUE(nnow > n / 2);
         for (i = 0; i < 2; i++)
             check_against(s[i], now, nnow, before, nbefore);
@@ -1707,7 +1710,7 @@ static void kept_entry_list_follows_whole_scene_moves(void)
         f[6 * k] += 0.25f * (float)edge, f[6 * k + 3] += 0.25f * (float)edge;
     for (i = 0; i < 2; i++)
         TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[i], ids, f, n - 1));
-    now = engine_rows(er, f, ids, n - 1, &nnow);
+    now = engine_rows(er, f, ids, n - 1, 0, &nnow);
     for (i = 0; i < 2; i++)
         check_against(s[i], now, nnow, before, nbefore);
     free(before), free(now);
@@ -1717,27 +1720,6 @@ static void kept_entry_list_follows_whole_scene_moves(void)
     locd_engine_destroy(e2);
     locd_engine_destroy(er);
     free(f), free(ids), free(ids2);
-}
-
-/* The engine's pairs of f as rows of ids, less those of two objects whose
- * index is a multiple of `grouped` (one group), or all of them (0). */
-static locd_id *engine_rows_grouped(locd_engine *e, const float *f, const locd_id *ids, size_t n, uint32_t grouped,
-                                    size_t *count)
-{
-    locd_pairs *p = NULL;
-    const uint32_t *v;
-    locd_id *rows;
-    size_t k, np, w = 0;
-    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &p));
-    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_find_pairs_f32(e, f, n, LOCD_FIND_SORTED, p));
-    np = locd_pairs_count(p), v = locd_pairs_data(p);
-    rows = malloc((np + 1) * 2 * sizeof *rows);
-    for (k = 0; k < np; k++)
-        if (!grouped || v[2 * k] % grouped || v[2 * k + 1] % grouped)
-            rows[2 * w] = ids[v[2 * k]], rows[2 * w + 1] = ids[v[2 * k + 1]], w++;
-    locd_pairs_destroy(p);
-    *count = w;
-    return rows;
 }
 
 /* With the kept entry list, the pair order takes the sweep's pairs as it
@@ -1798,7 +1780,7 @@ static void kept_entry_list_pair_counts_jump(void)
             if (frame)
                 for (i = 0; i < 2; i++)
                     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[i], ids, f, n));
-            now = engine_rows_grouped(er, f, ids, n, grouped, &nnow);
+            now = engine_rows(er, f, ids, n, grouped, &nnow);
             if (crowd) /* every two of the crowd overlap (but for a few of one group) */
                 TEST_ASSERT_TRUE(nnow > crowd * (crowd - 1) / 2 * 9 / 10);
             for (i = 0; i < 2; i++)
@@ -1842,7 +1824,7 @@ static void kept_entry_list_allocation_failures(void)
         }
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n, NULL, ids));
-    before = engine_rows(er, f, ids, n, &nbefore);
+    before = engine_rows(er, f, ids, n, 0, &nbefore);
     check_against(s, before, nbefore, NULL, 0);
     for (far = 0; far < 2; far++)
         for (fail = 1;; fail++) {
@@ -1863,7 +1845,7 @@ static void kept_entry_list_allocation_failures(void)
             fa_arm(0, 0);
             if (moved)
                 memcpy(f, g, n * 6 * sizeof *f);
-            now = engine_rows(er, f, ids, n, &nnow);
+            now = engine_rows(er, f, ids, n, 0, &nnow);
             if (st == LOCD_OK) { /* no failure, or one absorbed: the update is exact */
                 TEST_ASSERT_TRUE(moved);
                 check_lists_against(s, now, nnow, before, nbefore);

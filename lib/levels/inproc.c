@@ -122,45 +122,40 @@ static int stop_requested(lc_job_ctx *c, uint64_t pairs)
     return st;
 }
 
-/* The sweep of [b, e) in blocks, asking the stop hook between them. */
-static locd_status sweep_blocks(lc_job_ctx *c, size_t b, size_t e, lc_sweep_out *o)
+/* The sweep of [b, e) on thread t in blocks of `step` entries (each end
+ * moved forward to a cell start, as a slice's), asking the stop hook
+ * between them. With a sink, each block's pairs go to it and are dropped
+ * from o: they are handed over while in the caches. */
+static locd_status sweep_blocks(lc_job_ctx *c, uint32_t t, size_t b, size_t e, size_t step, lc_sweep_out *o)
 {
-    size_t p, q, step = (e - b) / LC_STOP_BLOCKS + 1;
-    if (step < LC_STOP_BLOCK)
-        step = LC_STOP_BLOCK;
+    size_t p, q;
     for (p = b; p < e; p = q) {
-        size_t before = o->count;
+        const size_t before = o->count;
+        size_t found;
         locd_status st;
         q = e - p > step ? p + step : e;
         if ((st = sweep_part(c, p, q, o)) != LOCD_OK)
             return st;
-        if (stop_requested(c, __atomic_add_fetch(&c->swept, (uint64_t)(o->count - before), __ATOMIC_RELAXED)))
-            return LOCD_OK; /* inproc_run sees c->stopped */
-    }
-    return LOCD_OK;
-}
-
-/* The sweep of [b, e) in blocks of LC_SINK_BLOCK entries, each block's
- * pairs given to the sink and dropped from o: they stay in the caches. */
-static locd_status sweep_to_sink(lc_job_ctx *c, uint32_t t, size_t b, size_t e, lc_sweep_out *o)
-{
-    size_t p, q;
-    for (p = b; p < e; p = q) {
-        locd_status st;
-        size_t found;
-        q = e - p > LC_SINK_BLOCK ? p + LC_SINK_BLOCK : e;
-        if ((st = sweep_part(c, p, q, o)) != LOCD_OK)
-            return st;
-        found = o->count;
-        st = found ? c->sink->fn(c->sink->arg, t, o->pairs.data, found) : LOCD_OK;
-        c->sunk[t] += found;
-        o->count = 0;
-        if (st != LOCD_OK)
-            return st;
+        found = o->count - before;
+        if (c->sink) {
+            st = found ? c->sink->fn(c->sink->arg, t, (uint32_t *)o->pairs.data + 2 * before, found) : LOCD_OK;
+            c->sunk[t] += found;
+            o->count = before;
+            if (st != LOCD_OK)
+                return st;
+        }
         if (stop_requested(c, __atomic_add_fetch(&c->swept, (uint64_t)found, __ATOMIC_RELAXED)))
             return LOCD_OK; /* the caller sees c->stopped */
     }
     return LOCD_OK;
+}
+
+/* The block size of the stop hook's blocks over [b, e): at most
+ * LC_STOP_BLOCKS of them, each at least LC_STOP_BLOCK entries. */
+static size_t stop_step(size_t b, size_t e)
+{
+    const size_t step = (e - b) / LC_STOP_BLOCKS + 1;
+    return step < LC_STOP_BLOCK ? LC_STOP_BLOCK : step;
 }
 
 /* Takes the next slice [*b, *e) of the entries for a pool of k threads,
@@ -202,8 +197,8 @@ static void task_sweep(void *arg, uint32_t t, uint32_t k)
     while (!__atomic_load_n(&c->failed, __ATOMIC_RELAXED) && !__atomic_load_n(&c->stopped, __ATOMIC_RELAXED) &&
            take_slice(c, k, &s, &b, &e)) {
         const size_t before = o->count;
-        const locd_status st = c->sink             ? sweep_to_sink(c, t, b, e, o)
-                               : c->e->stop.check ? sweep_blocks(c, b, e, o)
+        const locd_status st = c->sink             ? sweep_blocks(c, t, b, e, LC_SINK_BLOCK, o)
+                               : c->e->stop.check ? sweep_blocks(c, t, b, e, stop_step(b, e), o)
                                                   : sweep_part(c, b, e, o);
         c->slice[s].thread = t, c->slice[s].first = before, c->slice[s].count = o->count - before;
         if (st != LOCD_OK) {
