@@ -1722,6 +1722,89 @@ static void kept_entry_list_follows_whole_scene_moves(void)
     free(f), free(ids), free(ids2);
 }
 
+/* Boxes of edge `edge` at random corners in the unit cube, or (jitter)
+ * each one's corner stepped by up to `jitter` on each axis. */
+static void cube_boxes(ts_rng *r, float *f, size_t n, double edge, double jitter)
+{
+    size_t k;
+    int a;
+    for (k = 0; k < n; k++)
+        for (a = 0; a < 3; a++) {
+            f[6 * k + a] = jitter > 0.0 ? f[6 * k + a] + (float)((ts_uniform(r) - 0.5) * jitter)
+                                        : (float)ts_uniform(r);
+            f[6 * k + 3 + a] = f[6 * k + a] + (float)edge;
+        }
+}
+
+/* A move of every object in slot order encodes the boxes for the next
+ * update into the engine's packed-box buffer as it reads them (move.c,
+ * kept_list.c). That update must encode them again when anything could
+ * have written that buffer or changed a box since: another scene's move or
+ * update on the same engine, a find of the engine, a later move of a few
+ * objects. Two scenes share one two-thread engine; every update against
+ * another engine's find. */
+static void whole_scene_move_encodes_for_the_update(void)
+{
+    const size_t n = 70000, few = 100;
+    const double edge = 0.0153, step = 0.06 * edge; /* about one pair an object; a small step */
+    locd_engine *e2 = new_engine(2, NULL), *er = new_engine(2, NULL);
+    locd_scene *s[2] = {NULL, NULL};
+    locd_id *ids[2], *before[2] = {NULL, NULL}, *now;
+    locd_pairs *p = NULL;
+    float *f[2];
+    size_t nbefore[2] = {0, 0}, nnow, k;
+    ts_rng r;
+    int round, i, order;
+    ts_seed(&r, 919);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_pairs_create(NULL, &p));
+    for (i = 0; i < 2; i++) {
+        ids[i] = malloc(n * sizeof *ids[i]), f[i] = malloc(n * 6 * sizeof *f[i]);
+        cube_boxes(&r, f[i], n, edge, 0.0);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e2, NULL, &s[i]));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[i], f[i], n, NULL, ids[i]));
+    }
+    /* rounds: 0 the first updates; then scene 0 moves every object and
+       1 nothing else happens (the move's encode is the update's), 2 scene 1
+       moves every object too, 3 the engine finds the pairs of scene 1's
+       boxes, 4 scene 0 moves every object again, 5 scene 0 moves a few
+       objects elsewhere, 6 scene 1 moves every object and updates first */
+    for (round = 0; round < 7; round++) {
+        const int both = round == 0 || round == 2 || round == 6;
+        if (round > 0) {
+            cube_boxes(&r, f[0], n, edge, step);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[0], ids[0], f[0], n));
+        }
+        if (round == 2 || round == 6) {
+            cube_boxes(&r, f[1], n, edge, step);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[1], ids[1], f[1], n));
+        } else if (round == 3) {
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_engine_find_pairs_f32(e2, f[1], n, 0, p));
+        } else if (round == 4) {
+            cube_boxes(&r, f[0], n, edge, step);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[0], ids[0], f[0], n));
+        } else if (round == 5) {
+            for (k = 0; k < few * 6; k++) /* elsewhere in the list's grid (out of it, the list is made again) */
+                f[0][k] = k % 6 < 3 ? (float)(0.1 + 0.8 * ts_uniform(&r)) : f[0][k - 3] + (float)edge;
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[0], ids[0], f[0], few));
+        }
+        for (order = 0; order < (both ? 2 : 1); order++) {
+            i = round == 6 ? 1 - order : order;
+            now = engine_rows(er, f[i], ids[i], n, 0, &nnow);
+            TEST_ASSERT_TRUE(nnow > n / 2);
+            check_against(s[i], now, nnow, before[i], nbefore[i]);
+            free(before[i]);
+            before[i] = now, nbefore[i] = nnow;
+        }
+    }
+    for (i = 0; i < 2; i++) {
+        locd_scene_destroy(s[i]);
+        free(before[i]), free(ids[i]), free(f[i]);
+    }
+    locd_pairs_destroy(p);
+    locd_engine_destroy(e2);
+    locd_engine_destroy(er);
+}
+
 /* With the kept entry list, the pair order takes the sweep's pairs as it
  * finds them, into bucket regions sized from the previous update's counts
  * (lib/scene/pair_order.c). The pair counts here jump between updates:
@@ -2400,6 +2483,7 @@ static const lt_test tests[] = {
     LT_TEST(whole_scene_moves_in_slot_order),
     LT_TEST(kept_entry_list_follows_whole_scene_moves),
     LT_TEST(kept_entry_list_pair_counts_jump),
+    LT_TEST(whole_scene_move_encodes_for_the_update),
     LT_TEST(kept_entry_list_allocation_failures),
     LT_TEST(from_scratch_follows_adds_removes_and_filters),
     LT_TEST(bad_batches_change_nothing),

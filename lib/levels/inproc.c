@@ -38,6 +38,7 @@ typedef struct lc_inproc {
     lc_sweep_out sw[LC_MAX_THREADS];
     double per_object; /* entries per object seen last time */
     int kernel;        /* LC_KERNEL_*, chosen when the engine is created */
+    uint64_t qbox_epoch; /* finds and lc_inproc_qbox calls so far: qbox's writers (lc_inproc_qbox_epoch) */
 } lc_inproc;
 
 typedef struct lc_job_ctx {
@@ -240,9 +241,15 @@ lc_pool *lc_inproc_pool(locd_engine *e, int *kernel)
     return ip->pool;
 }
 
+uint64_t lc_inproc_qbox_epoch(const locd_engine *e)
+{
+    return ((const lc_inproc *)e->backend)->qbox_epoch;
+}
+
 uint64_t *lc_inproc_qbox(locd_engine *e, size_t n)
 {
     lc_inproc *ip = e->backend;
+    ip->qbox_epoch++; /* handed out to be written */
     return lc_buf_reserve(&e->alloc, &ip->qbox, 2 * sizeof(uint64_t), n ? n : 1) == LOCD_OK ? ip->qbox.data : NULL;
 }
 
@@ -370,6 +377,7 @@ static locd_status encode(locd_engine *e, lc_job_ctx *c, locd_stats *stats)
 {
     locd_status st;
     lc_plan_regions(&c->plan, c->n, c->ip->per_object);
+    c->ip->qbox_epoch++;
     do {
         if ((st = layout(e, c)) != LOCD_OK)
             return st;

@@ -65,9 +65,14 @@ typedef struct lc_shm_ctl {
  * runs its steps on them while it holds the engine's busy flag. */
 lc_pool *lc_inproc_pool(struct locd_engine *e, int *kernel);
 /* The engine's buffer of packed boxes, room for n objects (NULL: no
- * memory): scratch of each call, which the scene's kept list fills before
- * it sweeps (while it holds the engine). */
+ * memory): scratch of each call, which the scene fills for its kept list's
+ * sweep (the list's encode, or a move of every object) while it holds the
+ * engine. */
 uint64_t *lc_inproc_qbox(struct locd_engine *e, size_t n);
+/* Counts that buffer's writers: the engine's finds and the calls of
+ * lc_inproc_qbox. The same count before and after some work means nobody
+ * else could write the buffer in between. */
+uint64_t lc_inproc_qbox_epoch(const struct locd_engine *e);
 /* Where a sweep's pairs can go instead of the hand-over: fn(arg, t, pairs,
  * count) gets each block of about LC_SINK_BLOCK entries' pairs (i, j),
  * i < j, two uint32 each, on pool thread t right after the block is swept,

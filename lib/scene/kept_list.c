@@ -23,6 +23,15 @@
  * the pair order (rebuild.c) sorts them, so the sweep's order does not
  * matter.
  *
+ * A move of every object in slot order (move.c) can do the encode ahead,
+ * chunk by chunk as it checks and copies the boxes (lc_kept_pre_*): the
+ * entries go to the regions this update would write, the packed boxes to
+ * the engine's buffer. The update takes them when nothing could have
+ * changed them since: any add, move or remove clears the mark, and a
+ * count of the buffer's writers (lc_inproc_qbox_epoch) shows whether a
+ * find of the engine or another scene on it wrote the packed boxes. They
+ * are then the update's own encode's, on the same grid.
+ *
  * Used when the slots are the engine's input as they are (every slot live,
  * in id order), every box is a float exactly, and there are at least
  * LC_KEPT_MIN objects. */
@@ -376,6 +385,42 @@ static locd_status delta_room(kept_ctx *c)
     return LOCD_OK;
 }
 
+int lc_kept_pre_open(locd_scene *s, size_t n, uint32_t k)
+{
+    lc_kept *l = &s->kept;
+    lc_plan *p = &l->plan[!l->cur];
+    uint32_t t;
+    l->pre = 0;
+    if (!l->valid || l->n != n || l->plan[l->cur].k != k || !(l->per_object > 0.0))
+        return 0;
+    p->k = k;
+    lc_plan_regions(p, n, l->per_object);
+    if (lc_buf_reserve(s->alloc, &l->reg[!l->cur], sizeof(uint64_t), lc_plan_layout(p)) != LOCD_OK ||
+        !(l->pre_qbox = lc_inproc_qbox(s->engine, n)))
+        return 0;
+    for (t = 0; t < k; t++)
+        p->cnt[t] = 0;
+    return 1;
+}
+
+int lc_kept_pre_chunk(locd_scene *s, uint32_t t, const float *boxes, size_t first, size_t count)
+{
+    lc_kept *l = &s->kept;
+    lc_plan *p = &l->plan[!l->cur];
+    size_t need, w = lc_encode_f32(&l->g, boxes, first, count, (uint64_t *)l->reg[!l->cur].data + p->off[t] + p->cnt[t],
+                                   p->cap[t] - p->cnt[t], &need, l->pre_qbox, s->kernel);
+    if (w == (size_t)-1)
+        return 0;
+    p->cnt[t] += w;
+    return 1;
+}
+
+void lc_kept_pre_close(locd_scene *s)
+{
+    s->kept.pre = 1;
+    s->kept.pre_epoch = lc_inproc_qbox_epoch(s->engine);
+}
+
 locd_status lc_kept_sweep(locd_scene *s, size_t n, const lc_pair_sink *sink, locd_pairs *out, locd_stats *stats)
 {
     const lc_kept *l = &s->kept;
@@ -394,7 +439,7 @@ locd_status lc_kept_find(locd_scene *s, size_t n, const lc_pair_sink *sink, locd
     lc_bounds all;
     locd_status st;
     uint32_t t;
-    int fresh, fits = 0;
+    int fresh, fits = 0, pre = l->pre && l->pre_epoch == lc_inproc_qbox_epoch(s->engine);
     double room[6];
     if (!c)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's kept entry list");
@@ -414,14 +459,19 @@ locd_status lc_kept_find(locd_scene *s, size_t n, const lc_pair_sink *sink, locd
     memcpy(room + 3, all.hi, sizeof all.hi);
     fresh = !l->valid || l->n != n || l->plan[l->cur].k != c->k || !lc_grid_holds(&l->g, room);
     l->valid = 0; /* until this update's list is whole */
+    l->pre = 0;
     if (fresh) {
         l->per_object = l->per_object > 0.0 ? l->per_object : lc_entries_per_object_guess(s->engine->cfg.cell_bias);
         if ((st = fit_grid(c, &all)) != LOCD_OK)
             goto done;
     }
     c->nw = fresh ? l->cur : !l->cur;
-    if ((st = encode_all(c)) != LOCD_OK)
+    if (!fresh && pre) { /* the move encoded the boxes (lc_kept_pre_open's checks hold still) */
+        c->qbox = l->pre_qbox;
+        l->per_object = lc_plan_finish(&l->plan[c->nw], n);
+    } else if ((st = encode_all(c)) != LOCD_OK) {
         goto done;
+    }
     if (!fresh && (st = delta_room(c)) == LOCD_OK)
         fits = collect_deltas(c);
     if (st == LOCD_OK)

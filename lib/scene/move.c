@@ -11,7 +11,12 @@
  * twice. Such a batch's first pass goes a chunk at a time through
  * branch-free loops over its ids and floats (check_chunk_in_place), and
  * its copy bypasses the caches; a chunk where any test fails takes the
- * general loop, which finds the failing position. The result is the
+ * general loop, which finds the failing position. When the scene keeps its
+ * from-scratch entry list (kept_list.c), each chunk that passed is also
+ * encoded for the next update while it is in the caches
+ * (lc_kept_pre_chunk): the update then does not read the boxes again to
+ * encode them. The ranges are the ones the update's encode would take
+ * (lc_chunk_begin). The result is the
  * serial loop's (scene.c): the same boxes, flags and dirty list in batch
  * order; a bad batch changes nothing and its error is the serial checks'
  * own. */
@@ -31,6 +36,8 @@ typedef struct move_ctx {
     size_t n;
     uint32_t base;                 /* stamp of position k: base + k */
     float *spare;                  /* pass 1 copies box k to spare[6 k, 6 k + 6) (f32 batches of every slot) */
+    int pre;                       /* pass 1 also encodes the boxes for the next update (lc_kept_pre_open) */
+    int pre_ok[LC_MAX_THREADS];    /* pass 1: every chunk of the range was encoded */
     int swapped;                   /* pass 3: the spare holds the boxes and is fbox now */
     int bad[LC_MAX_THREADS];       /* a stale or repeated id, or a bad box, in the thread's range */
     int ascend[LC_MAX_THREADS];    /* pass 1: the range's ids ascend */
@@ -160,16 +167,23 @@ static void task_move(void *arg, uint32_t t, uint32_t k)
 {
     move_ctx *c = arg;
     locd_scene *s = c->s;
-    size_t i = c->n * t / k, e = c->n * (t + 1) / k;
+    size_t i = lc_chunk_begin(c->n, t, k), e = lc_chunk_begin(c->n, t + 1, k);
     if (c->pass == 1) { /* ids live, boxes valid */
         const size_t first = i;
         pass1 r = {0, 1, 1, 0, {INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+        int pre = c->pre;
         while (i < e && !r.bad) {
             const size_t end = e - i > LC_MOVE_CHUNK ? i + LC_MOVE_CHUNK : e;
-            if (!c->spare || !r.in_place || !r.ascend || !check_chunk_in_place(c, first, i, end, &r))
+            if (c->spare && r.in_place && r.ascend && check_chunk_in_place(c, first, i, end, &r)) {
+                /* the chunk's boxes are in the caches: encode them now */
+                pre = pre && lc_kept_pre_chunk(s, t, (const float *)c->boxes, i, end - i);
+            } else {
                 check_boxes(c, first, i, end, &r);
+                pre = 0;
+            }
             i = end;
         }
+        c->pre_ok[t] = pre;
 #if defined(__SSE2__)
         _mm_sfence();
 #endif
@@ -226,7 +240,7 @@ static int batch_ascends(const move_ctx *c, uint32_t k)
 {
     uint32_t t;
     for (t = 0; t < k; t++) {
-        const size_t first = c->n * t / k;
+        const size_t first = lc_chunk_begin(c->n, t, k);
         if (!c->ascend[t] || (t && c->ids[first] <= c->ids[first - 1]))
             return 0;
     }
@@ -287,6 +301,7 @@ static locd_status move_on_pool(locd_scene *s, const locd_id *ids, const void *b
     c.base = s->stamp_now + 1;
     s->stamp_now += (uint32_t)n;
     c.spare = spare_boxes(s, f64, n);
+    c.pre = c.spare && lc_kept_pre_open(s, n, k);
     c.pass = 1;
     lc_pool_run(s->pool, k, task_move, &c);
     if (!any_bad(&c, k) && !batch_ascends(&c, k)) {
@@ -322,6 +337,10 @@ static locd_status move_on_pool(locd_scene *s, const locd_id *ids, const void *b
             }
         }
         s->fbox_bounds_ok = 1;
+        for (t = 0; t < k && c.pre; t++)
+            c.pre = c.pre_ok[t];
+        if (c.pre)
+            lc_kept_pre_close(s);
     }
     c.pass = 3;
     lc_pool_run(s->pool, k, task_move, &c);

@@ -127,7 +127,7 @@ static locd_status add_common(locd_scene *s, const void *boxes, int f64, size_t 
     if ((st = lc_scene_reserve(s, n)) != LOCD_OK || (st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK ||
         (f64 && (st = lc_scene_need_doubles(s, boxes, n)) != LOCD_OK))
         return st;
-    s->fbox_bounds_ok = 0;
+    s->fbox_bounds_ok = s->kept.pre = 0;
     for (i = 0; i < n; i++) {
         uint32_t slot = lc_scene_take_slot(s);
         s->id[slot] = (locd_id)(++s->serial) << 32 | slot;
@@ -167,7 +167,7 @@ static locd_status move_common(locd_scene *s, const locd_id *ids, const void *bo
     size_t i;
     if ((st = lc_scene_check_handle(s)) != LOCD_OK)
         return st;
-    s->fbox_bounds_ok = 0; /* a move of every object in slot order sets them again */
+    s->fbox_bounds_ok = s->kept.pre = 0; /* a move of every object in slot order sets them again */
     if (lc_scene_move_parallel(s, ids, boxes, f64, n, &st)) {
         if (st == LOCD_OK)
             lc_clear_error();
@@ -207,6 +207,7 @@ locd_status locd_scene_remove(locd_scene *s, const locd_id *ids, size_t n)
     if ((st = lc_scene_check_handle(s)) != LOCD_OK || (st = lc_scene_check_ids(s, ids, n)) != LOCD_OK ||
         (st = lc_scene_reserve_lists(s, 0, n)) != LOCD_OK)
         return st;
+    s->kept.pre = 0;
     for (i = 0; i < n; i++) {
         uint32_t slot = LC_ID_SLOT(ids[i]);
         if (s->flags[slot] & LC_SLOT_STATIC)

@@ -126,6 +126,14 @@ typedef struct lc_kept {
     lc_plan plan[2];
     lc_buf sorted[2];   /* uint64 */
     lc_buf delta;       /* uint64: the changed objects' old and new entries, and their sort's scratch */
+    /* A move of every object in slot order encoded the boxes into
+       reg[!cur] on g as it read them (lc_kept_pre_*): the next update's
+       encode is done, unless the scene changed since (every add, move and
+       remove clears pre) or a find of the engine wrote its packed boxes
+       (pre_epoch). */
+    int pre;
+    uint64_t pre_epoch;
+    uint64_t *pre_qbox; /* the engine's packed boxes, which that move wrote */
     double per_object;  /* entries per object to plan the next encode with (0: none yet) */
 } lc_kept;
 
@@ -481,6 +489,17 @@ void lc_tree_edit_free(const locd_allocator *a, lc_tree_edit *e);
  * failure of the sweep alone (the sink's LC_ORDER_FULL) leaves it up to
  * date, for lc_kept_sweep. */
 locd_status lc_kept_find(locd_scene *s, size_t n, const lc_pair_sink *sink, locd_pairs *out, locd_stats *stats);
+/* The encode of the next update, done by a move of every object in slot
+ * order as it reads the boxes (move.c), in the shares the update's own
+ * encode would take. lc_kept_pre_open makes room for n objects in k
+ * shares: 0 when there is no list to go on with (the update makes one) or
+ * no memory. lc_kept_pre_chunk encodes boxes [first, first + count) of the
+ * batch (position = slot) as share t's next ones: 0 when its region is
+ * full. lc_kept_pre_close, once every share's boxes were all encoded in
+ * order, makes them the next update's (lc_kept_find). */
+int lc_kept_pre_open(locd_scene *s, size_t n, uint32_t k);
+int lc_kept_pre_chunk(locd_scene *s, uint32_t t, const float *boxes, size_t first, size_t count);
+void lc_kept_pre_close(locd_scene *s);
 /* The sweep alone, of the list lc_kept_find brought up to date (the
  * engine's packed boxes untouched since): its pairs to the sink (when not
  * NULL) or to out. */
