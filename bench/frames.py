@@ -141,7 +141,7 @@ def report(args, results, img_dir, meta):
              (0.9, 0.01, 0.05, "90% static, 1% moving: at most 5% of a rebuild")]
     L.append("Issue 14's goals at n = %s (update / rebuild, medians of this run, where each of locd's frames "
              "follows Bullet's and FCL's and finds the caches holding their trees; the issue states the ratios "
-             "for `locd frames`, whose figures are in [scene.md](scene.md#the-pair-order-takes-the-sweeps-pairs-where-the-goals-stand)):"
+             "for `locd frames`, whose figures are in [scene.md](scene.md#the-move-encodes-the-boxes-where-the-goals-stand)):"
              % bench_run.fmt_n(big))
     L.append("")
     for st, mv, goal, text in goals:
