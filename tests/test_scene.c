@@ -1646,6 +1646,20 @@ static void check_against(locd_scene *s, const locd_id *now, size_t nnow, const 
     check_lists_against(s, now, nnow, before, nbefore);
 }
 
+/* Boxes of edge `edge` at random corners in the unit cube, or (jitter)
+ * each one's corner stepped by up to `jitter` on each axis. */
+static void cube_boxes(ts_rng *r, float *f, size_t n, double edge, double jitter)
+{
+    size_t k;
+    int a;
+    for (k = 0; k < n; k++)
+        for (a = 0; a < 3; a++) {
+            f[6 * k + a] = jitter > 0.0 ? f[6 * k + a] + (float)((ts_uniform(r) - 0.5) * jitter)
+                                        : (float)ts_uniform(r);
+            f[6 * k + 3 + a] = f[6 * k + a] + (float)edge;
+        }
+}
+
 /* A from-scratch update of 65,536 objects or more keeps its entries for the
  * next one (lib/scene/kept_list.c): it encodes every box again and merges
  * the entries of the objects whose cells changed into the sorted list. The
@@ -1668,11 +1682,7 @@ static void kept_entry_list_follows_whole_scene_moves(void)
     ts_rng r;
     int frame, a, i;
     ts_seed(&r, 717);
-    for (k = 0; k < n; k++)
-        for (a = 0; a < 3; a++) {
-            f[6 * k + a] = (float)ts_uniform(&r);
-            f[6 * k + 3 + a] = f[6 * k + a] + (float)edge;
-        }
+    cube_boxes(&r, f, n, edge, 0.0);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e1, NULL, &s[0]));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e2, NULL, &s[1]));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[0], f, n, NULL, ids));
@@ -1720,20 +1730,6 @@ static void kept_entry_list_follows_whole_scene_moves(void)
     locd_engine_destroy(e2);
     locd_engine_destroy(er);
     free(f), free(ids), free(ids2);
-}
-
-/* Boxes of edge `edge` at random corners in the unit cube, or (jitter)
- * each one's corner stepped by up to `jitter` on each axis. */
-static void cube_boxes(ts_rng *r, float *f, size_t n, double edge, double jitter)
-{
-    size_t k;
-    int a;
-    for (k = 0; k < n; k++)
-        for (a = 0; a < 3; a++) {
-            f[6 * k + a] = jitter > 0.0 ? f[6 * k + a] + (float)((ts_uniform(r) - 0.5) * jitter)
-                                        : (float)ts_uniform(r);
-            f[6 * k + 3 + a] = f[6 * k + a] + (float)edge;
-        }
 }
 
 /* A move of every object in slot order encodes the boxes for the next
