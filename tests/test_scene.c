@@ -1823,11 +1823,7 @@ static void kept_entry_list_pair_counts_jump(void)
     uint32_t grouped;
     for (grouped = 0; grouped <= 5; grouped += 5) {
         ts_seed(&r, 919 + grouped);
-        for (k = 0; k < n; k++)
-            for (a = 0; a < 3; a++) {
-                home[6 * k + a] = (float)ts_uniform(&r);
-                home[6 * k + 3 + a] = home[6 * k + a] + (float)edge;
-            }
+        cube_boxes(&r, home, n, edge, 0.0);
         memcpy(f, home, n * 6 * sizeof *f);
         for (i = 0; i < 2; i++) {
             e[i] = new_engine((uint32_t)i + 1, NULL);
@@ -1896,11 +1892,7 @@ static void kept_entry_list_allocation_failures(void)
     int a, far, failed_calls = 0;
     uint64_t fail;
     ts_seed(&r, 818);
-    for (k = 0; k < n; k++)
-        for (a = 0; a < 3; a++) {
-            f[6 * k + a] = (float)ts_uniform(&r);
-            f[6 * k + 3 + a] = f[6 * k + a] + (float)edge;
-        }
+    cube_boxes(&r, f, n, edge, 0.0);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n, NULL, ids));
     before = engine_rows(er, f, ids, n, 0, &nbefore);
