@@ -391,7 +391,7 @@ int lc_kept_pre_open(locd_scene *s, size_t n, uint32_t k)
     lc_plan *p = &l->plan[!l->cur];
     uint32_t t;
     l->pre = 0;
-    if (!l->valid || l->n != n || l->plan[l->cur].k != k || !(l->per_object > 0.0))
+    if (!l->valid || l->n != n || l->plan[l->cur].k != k) /* (a valid list has its per_object) */
         return 0;
     p->k = k;
     lc_plan_regions(p, n, l->per_object);
@@ -467,7 +467,6 @@ locd_status lc_kept_find(locd_scene *s, size_t n, const lc_pair_sink *sink, locd
     }
     c->nw = fresh ? l->cur : !l->cur;
     if (!fresh && pre) { /* the move encoded the boxes (lc_kept_pre_open's checks hold still) */
-        c->qbox = l->pre_qbox;
         l->per_object = lc_plan_finish(&l->plan[c->nw], n);
     } else if ((st = encode_all(c)) != LOCD_OK) {
         goto done;

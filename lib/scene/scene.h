@@ -129,11 +129,11 @@ typedef struct lc_kept {
     /* A move of every object in slot order encoded the boxes into
        reg[!cur] on g as it read them (lc_kept_pre_*): the next update's
        encode is done, unless the scene changed since (every add, move and
-       remove clears pre) or a find of the engine wrote its packed boxes
-       (pre_epoch). */
+       remove clears pre) or anything else wrote the engine's packed boxes
+       (pre_epoch against lc_inproc_qbox_epoch). */
     int pre;
     uint64_t pre_epoch;
-    uint64_t *pre_qbox; /* the engine's packed boxes, which that move wrote */
+    uint64_t *pre_qbox; /* the engine's packed boxes, which that move writes (lc_kept_pre_chunk) */
     double per_object;  /* entries per object to plan the next encode with (0: none yet) */
 } lc_kept;
 
