@@ -1732,6 +1732,85 @@ static void kept_entry_list_follows_whole_scene_moves(void)
     free(f), free(ids), free(ids2);
 }
 
+/* The created and lost lists of a from-scratch update are one merge of the
+ * new rows with the previous ones, split over the pool by key range
+ * (update.c, events_full): a thread's share of the previous set starts at
+ * the key of the first row of its share of the new rows. Previous rows
+ * whose first id is below the first live one, above the last one, or
+ * between two threads' shares are lost rows too: objects removed at both
+ * ends, and every other one in a band around the middle of the ids (where
+ * the two shares meet). Also every pair gone at once and all back. Two
+ * threads, more than 65,536 pairs, each update against the engine's find. */
+static void from_scratch_events_at_the_ends(void)
+{
+    const size_t n = 70000, cut = 500, band = 3000;
+    const double edge = 0.02; /* about two pairs an object */
+    locd_engine *e = new_engine(2, NULL), *er = new_engine(2, NULL);
+    locd_scene *s = NULL;
+    locd_id *ids = malloc(n * sizeof *ids), *gone = malloc(n * sizeof *gone), *lid = malloc(n * sizeof *lid), *before,
+            *now;
+    float *f = malloc(n * 6 * sizeof *f), *far = malloc(n * 6 * sizeof *far), *lf = malloc(n * 6 * sizeof *lf);
+    size_t k, nbefore, nnow, ngone = 0, nlive = 0;
+    locd_scene_stats st;
+    ts_rng r;
+    int frame, a;
+    ts_seed(&r, 4242);
+    cube_boxes(&r, f, n, edge, 0.0);
+    for (k = 0; k < n; k++) /* a lattice of spacing 2 edge: no two boxes meet */
+        for (a = 0; a < 3; a++) {
+            const size_t c = a == 0 ? k % 42 : a == 1 ? k / 42 % 42 : k / (42 * 42);
+            far[6 * k + a] = (float)(2.0 * edge * (double)c);
+            far[6 * k + 3 + a] = far[6 * k + a] + (float)edge;
+        }
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n, NULL, ids));
+    before = malloc(2 * sizeof *before), nbefore = 0;
+    /* 0: the first update; 1: a step; 2: every pair gone; 3: all back */
+    for (frame = 0; frame < 4; frame++) {
+        const float *in = frame == 2 ? far : f;
+        if (frame == 1)
+            cube_boxes(&r, f, n, edge, 0.05 * edge);
+        if (frame)
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s, ids, in, n));
+        now = engine_rows(er, in, ids, n, 0, &nnow);
+        TEST_ASSERT_TRUE(frame == 2 ? nnow == 0 : nnow > 65536);
+        check_against(s, now, nnow, before, nbefore);
+        locd_scene_stats_init(&st);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
+        TEST_ASSERT_EQUAL_UINT32(1, st.rebuilt);
+        free(before);
+        before = now, nbefore = nnow;
+    }
+    /* the first and last ids, and every other one in the band */
+    for (k = 0; k < n; k++)
+        if (k < cut || k >= n - cut || (k >= n / 2 - band && k < n / 2 + band && k % 2))
+            gone[ngone++] = ids[k];
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, gone, ngone));
+    for (frame = 0; frame < 2; frame++) {
+        cube_boxes(&r, f, n, edge, 0.05 * edge);
+        nlive = 0;
+        for (k = 0; k < n; k++)
+            if (!(k < cut || k >= n - cut || (k >= n / 2 - band && k < n / 2 + band && k % 2))) {
+                memcpy(lf + 6 * nlive, f + 6 * k, 6 * sizeof *f);
+                lid[nlive++] = ids[k];
+            }
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s, lid, lf, nlive));
+        now = engine_rows(er, lf, lid, nlive, 0, &nnow);
+        TEST_ASSERT_TRUE(nnow > 65536);
+        check_against(s, now, nnow, before, nbefore);
+        locd_scene_stats_init(&st);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
+        TEST_ASSERT_EQUAL_UINT32(1, st.rebuilt);
+        free(before);
+        before = now, nbefore = nnow;
+    }
+    free(before);
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    locd_engine_destroy(er);
+    free(ids), free(gone), free(lid), free(f), free(far), free(lf);
+}
+
 /* A move of every object in slot order encodes the boxes for the next
  * update into the engine's packed-box buffer as it reads them (move.c,
  * kept_list.c). That update must encode them again when anything could
@@ -2473,6 +2552,7 @@ static const lt_test tests[] = {
     LT_TEST(kept_entry_list_pair_counts_jump),
     LT_TEST(whole_scene_move_encodes_for_the_update),
     LT_TEST(kept_entry_list_allocation_failures),
+    LT_TEST(from_scratch_events_at_the_ends),
     LT_TEST(from_scratch_follows_adds_removes_and_filters),
     LT_TEST(bad_batches_change_nothing),
     LT_TEST(levels_2_and_3_are_unsupported),
