@@ -1522,6 +1522,7 @@ static void whole_scene_moves_in_slot_order(void)
         jitter_boxes(&keep, ids1, pos, n, &r, mv, f);
         f[6 * 90000 + 2] = NAN;
         TEST_ASSERT_EQUAL_INT(LOCD_ERR_NONFINITE, locd_scene_move_f32(s1, mv, f, n));
+        TEST_ASSERT_EQUAL_INT64(90000, locd_last_error_index());
         TEST_ASSERT_EQUAL_INT(LOCD_ERR_NONFINITE, locd_scene_move_f32(s2, mv, f, n));
         TEST_ASSERT_EQUAL_INT64(90000, locd_last_error_index());
         TEST_ASSERT_TRUE(h1 == pairs_hash(s1));
@@ -1532,11 +1533,21 @@ static void whole_scene_moves_in_slot_order(void)
         f[6 * 90000 + 2] = f[6 * 90000 + 5] - 0.001f;
         mv[70000] += 1;
         TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_move_f32(s1, mv, f, n));
+        TEST_ASSERT_EQUAL_INT64(70000, locd_last_error_index());
         TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_move_f32(s2, mv, f, n));
         TEST_ASSERT_EQUAL_INT64(70000, locd_last_error_index());
         TEST_ASSERT_TRUE(h1 == pairs_hash(s1));
         TEST_ASSERT_TRUE(h2 == pairs_hash(s2));
         mv[70000] -= 1;
+        /* an id twice: the batch no longer ascends, and the stamps find it */
+        mv[50000] = mv[50001];
+        TEST_ASSERT_EQUAL_INT(LOCD_ERR_DUPLICATE_ID, locd_scene_move_f32(s1, mv, f, n));
+        TEST_ASSERT_EQUAL_INT64(50001, locd_last_error_index());
+        TEST_ASSERT_EQUAL_INT(LOCD_ERR_DUPLICATE_ID, locd_scene_move_f32(s2, mv, f, n));
+        TEST_ASSERT_EQUAL_INT64(50001, locd_last_error_index());
+        TEST_ASSERT_TRUE(h1 == pairs_hash(s1));
+        TEST_ASSERT_TRUE(h2 == pairs_hash(s2));
+        mv[50000] = ids1[50000];
         free(keep.o);
     }
     /* a fifth of the objects, then (from scratch) every box is read: the

@@ -16,7 +16,9 @@
  * encoded for the next update while it is in the caches
  * (lc_kept_pre_chunk): the update then does not read the boxes again to
  * encode them. The ranges are the ones the update's encode would take
- * (lc_chunk_begin). The result is the
+ * (lc_chunk_begin). A scene of one thread takes these passes for such a
+ * batch too, on the caller's thread (the pool runs a task of one there).
+ * The result is the
  * serial loop's (scene.c): the same boxes, flags and dirty list in batch
  * order; a bad batch changes nothing and its error is the serial checks'
  * own. */
@@ -257,12 +259,20 @@ static int batch_in_place(const move_ctx *c, uint32_t k)
     return 1;
 }
 
+/* 1 when a batch of n boxes may be a move of every object in slot order
+ * with float boxes (the ids are checked in pass 1): the spare array's
+ * case. */
+static int every_slot_f32(const locd_scene *s, int f64, size_t n)
+{
+    return !f64 && !s->keep_f64 && n == s->nslots && s->live == s->nslots;
+}
+
 /* The spare box array for a move of every object in slot order, or NULL
  * (another batch; doubles kept; no memory: the move then writes the boxes
  * in its last pass, as any other). */
 static float *spare_boxes(locd_scene *s, int f64, size_t n)
 {
-    if (f64 || s->keep_f64 || n != s->nslots || s->live != s->nslots)
+    if (!every_slot_f32(s, f64, n))
         return NULL;
     if (s->fbox_spare_cap != s->slot_cap) {
         lc_free(s->alloc, s->fbox_spare, s->fbox_spare_cap * 6 * sizeof(float));
@@ -354,7 +364,12 @@ static locd_status move_on_pool(locd_scene *s, const locd_id *ids, const void *b
 int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t n,
                            locd_status *st)
 {
-    if (s->threads < 2 || n < LC_MOVE_PARALLEL_MIN || n >= UINT32_MAX || !ids || !boxes)
+    if (n < LC_MOVE_PARALLEL_MIN || n >= UINT32_MAX || !ids || !boxes)
+        return 0;
+    /* One thread: the passes run on the caller's thread, which pays only
+       for a move of every object in slot order (one read of the boxes that
+       checks, copies and encodes them); the serial loop takes the rest. */
+    if (s->threads < 2 && !every_slot_f32(s, f64, n))
         return 0;
     /* The pool is the engine's: while a call runs on the engine it has the
        pool, and the caller's thread moves the objects itself. */

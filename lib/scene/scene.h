@@ -305,9 +305,10 @@ void lc_scene_slots_fini(locd_scene *s);
 /* Room for `more` entries in the dirty and removed lists. */
 locd_status lc_scene_reserve_lists(locd_scene *s, size_t more_dirty, size_t more_removed);
 
-/* A move of n objects split over the pool (move.c), when the scene has
- * threads and n is large: returns 1 and the status in *st, else 0 (the
- * caller moves them). */
+/* A move of n objects split over the pool (move.c), when n is large and
+ * the scene has threads or the batch may be every object in slot order
+ * (one thread: its passes on the caller's thread): returns 1 and the
+ * status in *st, else 0 (the caller moves them). */
 int lc_scene_move_parallel(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t n,
                            locd_status *st);
 
