@@ -1251,13 +1251,18 @@ static uint64_t pairs_hash(locd_scene *s)
 
 /* One bad batch given to both scenes: the same error at the same position,
  * and neither scene changed. */
-static void bad_move_both(locd_scene *s1, locd_scene *s2, const locd_id *mv, const double *b, size_t cnt,
+static locd_status move_any(locd_scene *s, const locd_id *mv, const void *b, int f64, size_t cnt)
+{
+    return f64 ? locd_scene_move_f64(s, mv, b, cnt) : locd_scene_move_f32(s, mv, b, cnt);
+}
+
+static void bad_move_both(locd_scene *s1, locd_scene *s2, const locd_id *mv, const void *b, int f64, size_t cnt,
                           locd_status want, int64_t at)
 {
     uint64_t h1 = pairs_hash(s1), h2 = pairs_hash(s2);
-    TEST_ASSERT_EQUAL_INT(want, locd_scene_move_f64(s1, mv, b, cnt));
+    TEST_ASSERT_EQUAL_INT(want, move_any(s1, mv, b, f64, cnt));
     TEST_ASSERT_EQUAL_INT64(at, locd_last_error_index());
-    TEST_ASSERT_EQUAL_INT(want, locd_scene_move_f64(s2, mv, b, cnt));
+    TEST_ASSERT_EQUAL_INT(want, move_any(s2, mv, b, f64, cnt));
     TEST_ASSERT_EQUAL_INT64(at, locd_last_error_index());
     TEST_ASSERT_TRUE(h1 == pairs_hash(s1));
     TEST_ASSERT_TRUE(h2 == pairs_hash(s2));
@@ -1389,30 +1394,30 @@ static void large_moves_on_the_pool(void)
     mv[30000] = ids1[10];                       /* repeated */
     mv[50000] = ids1[50000] + ((uint64_t)7 << 32); /* stale: wrong serial */
     b[6 * 20000 + 1] = NAN;
-    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_STALE_ID, 50000);
+    bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_STALE_ID, 50000);
     mv[50000] = ids1[50000];
-    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_DUPLICATE_ID, 30000);
+    bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_DUPLICATE_ID, 30000);
     b[6 * 20000 + 1] = m.o[20000].box[1];
-    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_DUPLICATE_ID, 30000); /* the only fault */
+    bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_DUPLICATE_ID, 30000); /* the only fault */
     mv[30000] = ids1[30000];
     mv[100000] = ids1[10]; /* repeated across the two threads' halves */
-    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_DUPLICATE_ID, 100000);
+    bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_DUPLICATE_ID, 100000);
     mv[100000] = ids1[100000];
     b[6 * 40000 + 4] = NAN;
     b[6 * 45000 + 0] = b[6 * 45000 + 3] + 1.0;
-    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_NONFINITE, 40000);
+    bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_NONFINITE, 40000);
     b[6 * 40000 + 4] = m.o[40000].box[4];
-    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_INVERTED_BOX, 45000);
+    bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_INVERTED_BOX, 45000);
     /* put right, the same batch moves (and changes the pairs) */
     b[6 * 45000 + 0] = m.o[45000].box[0];
     /* The batch's ids ascend, which lets the pool skip the repeat check
        (move.c): one repeat breaks that, at the threads' split or inside a
        range. */
     mv[half] = mv[half - 1];
-    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_DUPLICATE_ID, half);
+    bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_DUPLICATE_ID, half);
     mv[half] = ids1[half];
     mv[1001] = mv[1000];
-    bad_move_both(s1, s2, mv, b, n, LOCD_ERR_DUPLICATE_ID, 1001);
+    bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_DUPLICATE_ID, 1001);
     mv[1001] = ids1[1001];
     for (k = 0; k < n; k++)
         memcpy(m.o[k].box, b + 6 * k, 6 * sizeof *b);
@@ -1516,37 +1521,21 @@ static void whole_scene_moves_in_slot_order(void)
        one (in each thread's range), and nothing changes */
     {
         model keep = m;
-        uint64_t h1 = pairs_hash(s1), h2 = pairs_hash(s2);
         keep.o = malloc(n * sizeof *keep.o);
         memcpy(keep.o, m.o, n * sizeof *keep.o);
         jitter_boxes(&keep, ids1, pos, n, &r, mv, f);
         f[6 * 90000 + 2] = NAN;
-        TEST_ASSERT_EQUAL_INT(LOCD_ERR_NONFINITE, locd_scene_move_f32(s1, mv, f, n));
-        TEST_ASSERT_EQUAL_INT64(90000, locd_last_error_index());
-        TEST_ASSERT_EQUAL_INT(LOCD_ERR_NONFINITE, locd_scene_move_f32(s2, mv, f, n));
-        TEST_ASSERT_EQUAL_INT64(90000, locd_last_error_index());
-        TEST_ASSERT_TRUE(h1 == pairs_hash(s1));
-        TEST_ASSERT_TRUE(h2 == pairs_hash(s2));
+        bad_move_both(s1, s2, mv, f, 0, n, LOCD_ERR_NONFINITE, 90000);
         /* the ids ascending but one naming the next slot with its own serial
            (the slots' ids are consecutive: the move checks them without
            reading them) */
         f[6 * 90000 + 2] = f[6 * 90000 + 5] - 0.001f;
         mv[70000] += 1;
-        TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_move_f32(s1, mv, f, n));
-        TEST_ASSERT_EQUAL_INT64(70000, locd_last_error_index());
-        TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_move_f32(s2, mv, f, n));
-        TEST_ASSERT_EQUAL_INT64(70000, locd_last_error_index());
-        TEST_ASSERT_TRUE(h1 == pairs_hash(s1));
-        TEST_ASSERT_TRUE(h2 == pairs_hash(s2));
+        bad_move_both(s1, s2, mv, f, 0, n, LOCD_ERR_STALE_ID, 70000);
         mv[70000] -= 1;
         /* an id twice: the batch no longer ascends, and the stamps find it */
         mv[50000] = mv[50001];
-        TEST_ASSERT_EQUAL_INT(LOCD_ERR_DUPLICATE_ID, locd_scene_move_f32(s1, mv, f, n));
-        TEST_ASSERT_EQUAL_INT64(50001, locd_last_error_index());
-        TEST_ASSERT_EQUAL_INT(LOCD_ERR_DUPLICATE_ID, locd_scene_move_f32(s2, mv, f, n));
-        TEST_ASSERT_EQUAL_INT64(50001, locd_last_error_index());
-        TEST_ASSERT_TRUE(h1 == pairs_hash(s1));
-        TEST_ASSERT_TRUE(h2 == pairs_hash(s2));
+        bad_move_both(s1, s2, mv, f, 0, n, LOCD_ERR_DUPLICATE_ID, 50001);
         mv[50000] = ids1[50000];
         free(keep.o);
     }
