@@ -1741,17 +1741,40 @@ static void kept_entry_list_follows_whole_scene_moves(void)
  * ends, and every other one in a band around the middle of the ids (where
  * the two shares meet). Also every pair gone at once and all back. Two
  * threads, more than 65,536 pairs, each update against the engine's find. */
+/* An update of s checked against er's find of boxes f of ids[0, n) and
+ * the rows before it (*before, which then become those rows); it must be
+ * from scratch. Returns the pair count. */
+static size_t check_from_scratch(locd_scene *s, locd_engine *er, const float *f, const locd_id *ids, size_t n,
+                                 locd_id **before, size_t *nbefore)
+{
+    locd_scene_stats st;
+    size_t nnow;
+    locd_id *now = engine_rows(er, f, ids, n, 0, &nnow);
+    check_against(s, now, nnow, *before, *nbefore);
+    locd_scene_stats_init(&st);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
+    TEST_ASSERT_EQUAL_UINT32(1, st.rebuilt);
+    free(*before);
+    *before = now, *nbefore = nnow;
+    return nnow;
+}
+
+/* Object k of the ends test is removed: the first and last `cut` ids, and
+ * every other one in a band of 2 `band` ids around the middle. */
+static int end_removed(size_t k, size_t n, size_t cut, size_t band)
+{
+    return k < cut || k >= n - cut || (k >= n / 2 - band && k < n / 2 + band && k % 2);
+}
+
 static void from_scratch_events_at_the_ends(void)
 {
     const size_t n = 70000, cut = 500, band = 3000;
     const double edge = 0.02; /* about two pairs an object */
     locd_engine *e = new_engine(2, NULL), *er = new_engine(2, NULL);
     locd_scene *s = NULL;
-    locd_id *ids = malloc(n * sizeof *ids), *gone = malloc(n * sizeof *gone), *lid = malloc(n * sizeof *lid), *before,
-            *now;
+    locd_id *ids = malloc(n * sizeof *ids), *gone = malloc(n * sizeof *gone), *lid = malloc(n * sizeof *lid), *before;
     float *f = malloc(n * 6 * sizeof *f), *far = malloc(n * 6 * sizeof *far), *lf = malloc(n * 6 * sizeof *lf);
     size_t k, nbefore, nnow, ngone = 0, nlive = 0;
-    locd_scene_stats st;
     ts_rng r;
     int frame, a;
     ts_seed(&r, 4242);
@@ -1772,37 +1795,24 @@ static void from_scratch_events_at_the_ends(void)
             cube_boxes(&r, f, n, edge, 0.05 * edge);
         if (frame)
             TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s, ids, in, n));
-        now = engine_rows(er, in, ids, n, 0, &nnow);
+        nnow = check_from_scratch(s, er, in, ids, n, &before, &nbefore);
         TEST_ASSERT_TRUE(frame == 2 ? nnow == 0 : nnow > 65536);
-        check_against(s, now, nnow, before, nbefore);
-        locd_scene_stats_init(&st);
-        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
-        TEST_ASSERT_EQUAL_UINT32(1, st.rebuilt);
-        free(before);
-        before = now, nbefore = nnow;
     }
     /* the first and last ids, and every other one in the band */
     for (k = 0; k < n; k++)
-        if (k < cut || k >= n - cut || (k >= n / 2 - band && k < n / 2 + band && k % 2))
+        if (end_removed(k, n, cut, band))
             gone[ngone++] = ids[k];
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s, gone, ngone));
     for (frame = 0; frame < 2; frame++) {
         cube_boxes(&r, f, n, edge, 0.05 * edge);
         nlive = 0;
         for (k = 0; k < n; k++)
-            if (!(k < cut || k >= n - cut || (k >= n / 2 - band && k < n / 2 + band && k % 2))) {
+            if (!end_removed(k, n, cut, band)) {
                 memcpy(lf + 6 * nlive, f + 6 * k, 6 * sizeof *f);
                 lid[nlive++] = ids[k];
             }
         TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s, lid, lf, nlive));
-        now = engine_rows(er, lf, lid, nlive, 0, &nnow);
-        TEST_ASSERT_TRUE(nnow > 65536);
-        check_against(s, now, nnow, before, nbefore);
-        locd_scene_stats_init(&st);
-        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s, &st));
-        TEST_ASSERT_EQUAL_UINT32(1, st.rebuilt);
-        free(before);
-        before = now, nbefore = nnow;
+        TEST_ASSERT_TRUE(check_from_scratch(s, er, lf, lid, nlive, &before, &nbefore) > 65536);
     }
     free(before);
     locd_scene_destroy(s);
