@@ -1732,15 +1732,6 @@ static void kept_entry_list_follows_whole_scene_moves(void)
     free(f), free(ids), free(ids2);
 }
 
-/* The created and lost lists of a from-scratch update are one merge of the
- * new rows with the previous ones, split over the pool by key range
- * (update.c, events_full): a thread's share of the previous set starts at
- * the key of the first row of its share of the new rows. Previous rows
- * whose first id is below the first live one, above the last one, or
- * between two threads' shares are lost rows too: objects removed at both
- * ends, and every other one in a band around the middle of the ids (where
- * the two shares meet). Also every pair gone at once and all back. Two
- * threads, more than 65,536 pairs, each update against the engine's find. */
 /* An update of s checked against er's find of boxes f of ids[0, n) and
  * the rows before it (*before, which then become those rows); it must be
  * from scratch. Returns the pair count. */
@@ -1766,6 +1757,15 @@ static int end_removed(size_t k, size_t n, size_t cut, size_t band)
     return k < cut || k >= n - cut || (k >= n / 2 - band && k < n / 2 + band && k % 2);
 }
 
+/* The created and lost lists of a from-scratch update are one merge of the
+ * new rows with the previous ones, split over the pool by key range
+ * (update.c, events_full): a thread's share of the previous set starts at
+ * the key of the first row of its share of the new rows. Previous rows
+ * whose first id is below the first live one, above the last one, or
+ * between two threads' shares are lost rows too: objects removed at both
+ * ends, and every other one in a band around the middle of the ids (where
+ * the two shares meet). Also every pair gone at once and all back. Two
+ * threads, more than 65,536 pairs, each update against the engine's find. */
 static void from_scratch_events_at_the_ends(void)
 {
     const size_t n = 70000, cut = 500, band = 3000;
