@@ -1,5 +1,15 @@
 /* A fork-join thread pool that lives as long as its engine: threads are
- * created once, so a call costs a wake-up, not a pthread_create. */
+ * created once, so a call costs a wake-up, not a pthread_create.
+ *
+ * A wake-up through a condition variable costs tens of microseconds on a
+ * virtual machine (about 25 us each way on the one docs/benchmarks.md
+ * names), and a scene update runs the pool several times in a row with
+ * little serial work between: at 10^5 objects those wake-ups made two
+ * threads slower than one. So a thread that finished its part first
+ * waits by spinning for up to LC_POOL_SPIN_US (the workers for the next
+ * run, the caller for the workers) and only then sleeps on the condition
+ * variable. The spin is bounded: a pool idle between frames sleeps, and a
+ * machine with more threads than cores loses at most that much per run. */
 #include "core/core.h"
 
 #include <pthread.h>
@@ -9,15 +19,18 @@
 #include <unistd.h>
 #endif
 
+/* How long a thread spins before it sleeps. */
+#define LC_POOL_SPIN_US 50.0
+
 struct lc_pool {
     locd_allocator alloc;
     uint32_t size; /* threads including the caller */
     pthread_t *threads;
     pthread_mutex_t mu;
     pthread_cond_t start_cv, done_cv;
-    uint64_t generation;
-    uint32_t k, pending;
-    int stop;
+    uint64_t generation; /* atomic; bumped under mu, after fn, ctx, k and pending are set */
+    uint32_t k, pending; /* pending: atomic, workers yet to finish the run */
+    int stop;            /* under mu */
     lc_task_fn fn;
     void *ctx;
 };
@@ -27,6 +40,38 @@ typedef struct lc_worker_arg {
     uint32_t tid;
 } lc_worker_arg;
 
+/* A hint to the core that this is a spin loop (the other hardware thread
+ * of the core gets its resources). */
+LC_INLINE void cpu_relax(void)
+{
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+    __builtin_ia32_pause();
+#elif defined(__GNUC__) && defined(__aarch64__)
+    __asm__ __volatile__("yield");
+#endif
+}
+
+/* A bounded spin: spin_on() relaxes the core and says whether the spin
+ * may go on (LC_POOL_SPIN_US from its first call; the clock read once
+ * every 64 turns). */
+typedef struct lc_spin {
+    double end;
+    uint32_t turn;
+} lc_spin;
+
+static int spin_on(lc_spin *sp)
+{
+    if (!(sp->turn++ & 63)) {
+        const double t = lc_now_ms();
+        if (!sp->end)
+            sp->end = t + LC_POOL_SPIN_US / 1000.0;
+        else if (t >= sp->end)
+            return 0;
+    }
+    cpu_relax();
+    return 1;
+}
+
 static void *worker_main(void *arg)
 {
     lc_worker_arg *wa = arg;
@@ -34,27 +79,30 @@ static void *worker_main(void *arg)
     uint32_t tid = wa->tid;
     uint64_t seen = 0;
     for (;;) {
-        lc_task_fn fn;
-        void *ctx;
-        uint32_t k;
-        pthread_mutex_lock(&p->mu);
-        while (p->generation == seen && !p->stop)
-            pthread_cond_wait(&p->start_cv, &p->mu);
-        if (p->stop) {
+        lc_spin sp = {0, 0};
+        while (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && spin_on(&sp))
+            ;
+        if (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen) {
+            int stop;
+            pthread_mutex_lock(&p->mu);
+            while (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && !p->stop)
+                pthread_cond_wait(&p->start_cv, &p->mu);
+            stop = p->stop;
             pthread_mutex_unlock(&p->mu);
-            break;
+            if (stop)
+                break;
         }
-        seen = p->generation;
-        fn = p->fn;
-        ctx = p->ctx;
-        k = p->k;
-        pthread_mutex_unlock(&p->mu);
-        if (tid < k)
-            fn(ctx, tid, k);
-        pthread_mutex_lock(&p->mu);
-        if (--p->pending == 0)
+        /* fn, ctx and k were written before the generation (release), and
+           stay until this worker's part is counted done */
+        seen = __atomic_load_n(&p->generation, __ATOMIC_ACQUIRE);
+        if (tid < p->k)
+            p->fn(p->ctx, tid, p->k);
+        if (__atomic_sub_fetch(&p->pending, 1, __ATOMIC_ACQ_REL) == 0) {
+            /* the caller may be asleep: it checks pending under mu */
+            pthread_mutex_lock(&p->mu);
             pthread_cond_signal(&p->done_cv);
-        pthread_mutex_unlock(&p->mu);
+            pthread_mutex_unlock(&p->mu);
+        }
     }
     return NULL;
 }
@@ -139,6 +187,7 @@ void lc_pool_destroy(lc_pool *p)
 
 void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
 {
+    uint64_t g;
     if (k > p->size)
         k = p->size;
     if (k <= 1 || p->size == 1) {
@@ -149,13 +198,21 @@ void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
     p->fn = fn;
     p->ctx = ctx;
     p->k = k;
-    p->pending = p->size - 1;
-    p->generation++;
+    __atomic_store_n(&p->pending, p->size - 1, __ATOMIC_RELAXED);
+    g = __atomic_load_n(&p->generation, __ATOMIC_RELAXED) + 1;
+    __atomic_store_n(&p->generation, g, __ATOMIC_RELEASE);
     pthread_cond_broadcast(&p->start_cv);
     pthread_mutex_unlock(&p->mu);
     fn(ctx, 0, k);
-    pthread_mutex_lock(&p->mu);
-    while (p->pending)
-        pthread_cond_wait(&p->done_cv, &p->mu);
-    pthread_mutex_unlock(&p->mu);
+    {
+        lc_spin sp = {0, 0};
+        while (__atomic_load_n(&p->pending, __ATOMIC_ACQUIRE) && spin_on(&sp))
+            ;
+    }
+    if (__atomic_load_n(&p->pending, __ATOMIC_ACQUIRE)) {
+        pthread_mutex_lock(&p->mu);
+        while (__atomic_load_n(&p->pending, __ATOMIC_ACQUIRE))
+            pthread_cond_wait(&p->done_cv, &p->mu);
+        pthread_mutex_unlock(&p->mu);
+    }
 }
