@@ -1,10 +1,10 @@
 /* The level-1 thread pool (lib/core/pool.c): when lc_pool_run returns,
  * every part of the run has been done and its writes are visible to the
- * caller, whichever way each thread waited. A thread spins for a bounded
- * time, then sleeps on a condition variable; these tests drive each of the
- * four waits: workers that find the next run while they spin or only after
- * they slept, and a caller that finds the workers done while it spins or
- * only after it slept. Each run's parts write plain (non-atomic) memory,
+ * caller, whichever way each thread waited. A thread yields the CPU for a
+ * bounded time, then sleeps on a condition variable; these tests drive
+ * each of the four waits: workers that find the next run while they yield
+ * or only after they slept, and a caller that finds the workers done while
+ * it yields or only after it slept. Each run's parts write plain (non-atomic) memory,
  * which the caller then reads: under ThreadSanitizer (CI step 40-sanitize)
  * a missing happens-before edge is a reported race. */
 #include <stdint.h>
@@ -99,15 +99,15 @@ static void drive(uint32_t size, uint32_t runs, uint32_t gap_us, uint32_t nap_ti
     lc_pool_destroy(p);
 }
 
-/* Runs back to back: the workers find each run while they spin, the
- * caller finds them done while it spins (as a scene update's passes). */
+/* Runs back to back: the workers find each run while they yield, the
+ * caller finds them done while it yields (as a scene update's passes). */
 static void back_to_back_runs_finish_every_part(void)
 {
     drive(2, 20000, 0, LT_POOL_MAX, 0);
     drive(LT_POOL_MAX, 5000, 0, LT_POOL_MAX, 0); /* more threads than cores on a 2-core machine */
 }
 
-/* 2 ms between runs, past the workers' spin: each run wakes sleeping
+/* 2 ms between runs, past the workers' bounded wait: each run wakes sleeping
  * workers through the condition variable. */
 static void runs_wake_sleeping_workers(void)
 {
@@ -115,7 +115,7 @@ static void runs_wake_sleeping_workers(void)
     drive(3, 100, 2000, LT_POOL_MAX, 0);
 }
 
-/* A worker's part sleeps 2 ms, past the caller's spin: the caller sleeps
+/* A worker's part sleeps 2 ms, past the caller's bounded wait: the caller sleeps
  * until that worker's signal. */
 static void caller_sleeps_until_the_last_part(void)
 {
@@ -124,15 +124,15 @@ static void caller_sleeps_until_the_last_part(void)
 }
 
 /* The caller's own part is the slow one: the workers finish first and
- * spin (or sleep) for the next run. */
+ * wait (or sleep) for the next run. */
 static void caller_part_slowest(void)
 {
     drive(2, 200, 0, 0, 2000);
 }
 
 /* A pool made and destroyed at once, and one destroyed while its workers
- * spin after a run: destroy returns (the workers see the stop). */
-static void destroy_while_idle_or_spinning(void)
+ * wait after a run: destroy returns (the workers see the stop). */
+static void destroy_while_idle_or_waiting(void)
 {
     lc_pool *p = NULL;
     locd_allocator a;
@@ -158,7 +158,7 @@ int main(void)
         LT_TEST(runs_wake_sleeping_workers),
         LT_TEST(caller_sleeps_until_the_last_part),
         LT_TEST(caller_part_slowest),
-        LT_TEST(destroy_while_idle_or_spinning),
+        LT_TEST(destroy_while_idle_or_waiting),
     };
     return LT_RUN(tests);
 }

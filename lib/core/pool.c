@@ -2,25 +2,28 @@
  * created once, so a call costs a wake-up, not a pthread_create.
  *
  * A wake-up through a condition variable costs tens of microseconds on a
- * virtual machine (about 25 us each way on the one docs/benchmarks.md
- * names), and a scene update runs the pool several times in a row with
- * little serial work between: at 10^5 objects those wake-ups made two
- * threads slower than one. So a thread that finished its part first
- * waits by spinning for up to LC_POOL_SPIN_US (the workers for the next
- * run, the caller for the workers) and only then sleeps on the condition
- * variable. The spin is bounded: a pool idle between frames sleeps, and a
- * machine with more threads than cores loses at most that much per run. */
+ * virtual machine (about 25 us each way on the machine docs/benchmarks.md
+ * names), and a scene update or a find runs the pool several times in a
+ * row with little serial work between. So a thread that finished its part
+ * first waits for up to LC_POOL_WAIT_US before it sleeps on the condition
+ * variable: the workers for the next run, the caller for the workers. It
+ * waits by yielding the CPU (sched_yield), not by spinning on it: a thread
+ * that spun with `pause` kept the CPU from the thread it waited for
+ * whenever the two shared one (docs/benchmarks.md: one-shot finds of 10^4
+ * boxes then took 1.1-1.4 ms instead of 0.7). The wait is bounded: a pool
+ * idle between frames sleeps. */
 #include "core/core.h"
 
 #include <pthread.h>
 #ifdef _WIN32
 #include <windows.h>
 #else
+#include <sched.h>
 #include <unistd.h>
 #endif
 
-/* How long a thread spins before it sleeps. */
-#define LC_POOL_SPIN_US 50.0
+/* How long a thread waits by yielding before it sleeps. */
+#define LC_POOL_WAIT_US 50.0
 
 struct lc_pool {
     locd_allocator alloc;
@@ -40,35 +43,24 @@ typedef struct lc_worker_arg {
     uint32_t tid;
 } lc_worker_arg;
 
-/* A hint to the core that this is a spin loop (the other hardware thread
- * of the core gets its resources). */
-LC_INLINE void cpu_relax(void)
-{
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
-    __builtin_ia32_pause();
-#elif defined(__GNUC__) && defined(__aarch64__)
-    __asm__ __volatile__("yield");
-#endif
-}
-
-/* A bounded spin: spin_on() relaxes the core and says whether the spin
- * may go on (LC_POOL_SPIN_US from its first call; the clock read once
- * every 64 turns). */
-typedef struct lc_spin {
+/* A bounded wait: wait_on() yields the CPU once and says whether the wait
+ * may go on (LC_POOL_WAIT_US from its first call). */
+typedef struct lc_wait {
     double end;
-    uint32_t turn;
-} lc_spin;
+} lc_wait;
 
-static int spin_on(lc_spin *sp)
+static int wait_on(lc_wait *sp)
 {
-    if (!(sp->turn++ & 63)) {
-        const double t = lc_now_ms();
-        if (!sp->end)
-            sp->end = t + LC_POOL_SPIN_US / 1000.0;
-        else if (t >= sp->end)
-            return 0;
-    }
-    cpu_relax();
+    const double t = lc_now_ms();
+    if (!sp->end)
+        sp->end = t + LC_POOL_WAIT_US / 1000.0;
+    else if (t >= sp->end)
+        return 0;
+#ifdef _WIN32
+    SwitchToThread();
+#else
+    sched_yield();
+#endif
     return 1;
 }
 
@@ -79,8 +71,8 @@ static void *worker_main(void *arg)
     uint32_t tid = wa->tid;
     uint64_t seen = 0;
     for (;;) {
-        lc_spin sp = {0, 0};
-        while (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && spin_on(&sp))
+        lc_wait sp = {0};
+        while (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && wait_on(&sp))
             ;
         if (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen) {
             int stop;
@@ -205,8 +197,8 @@ void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
     pthread_mutex_unlock(&p->mu);
     fn(ctx, 0, k);
     {
-        lc_spin sp = {0, 0};
-        while (__atomic_load_n(&p->pending, __ATOMIC_ACQUIRE) && spin_on(&sp))
+        lc_wait sp = {0};
+        while (__atomic_load_n(&p->pending, __ATOMIC_ACQUIRE) && wait_on(&sp))
             ;
     }
     if (__atomic_load_n(&p->pending, __ATOMIC_ACQUIRE)) {
