@@ -2,9 +2,8 @@
  * created once, so a call costs a wake-up, not a pthread_create.
  *
  * A wake-up through a condition variable costs tens of microseconds on a
- * virtual machine (about 25 us each way on the machine docs/benchmarks.md
- * names), and a scene update or a find runs the pool several times in a
- * row with little serial work between. So a thread that finished its part
+ * virtual machine, and a scene update or a find runs the pool several
+ * times in a row with little serial work between. So a thread that finished its part
  * first waits for up to LC_POOL_WAIT_US before it sleeps on the condition
  * variable: the workers for the next run, the caller for the workers. It
  * waits by yielding the CPU (sched_yield), not by spinning on it: a thread
