@@ -1249,13 +1249,14 @@ static uint64_t pairs_hash(locd_scene *s)
     return h ^ locd_scene_count(s);
 }
 
-/* One bad batch given to both scenes: the same error at the same position,
- * and neither scene changed. */
+/* A move of float (f64 0) or double boxes. */
 static locd_status move_any(locd_scene *s, const locd_id *mv, const void *b, int f64, size_t cnt)
 {
     return f64 ? locd_scene_move_f64(s, mv, b, cnt) : locd_scene_move_f32(s, mv, b, cnt);
 }
 
+/* One bad batch given to both scenes: the same error at the same position,
+ * and neither scene changed. */
 static void bad_move_both(locd_scene *s1, locd_scene *s2, const locd_id *mv, const void *b, int f64, size_t cnt,
                           locd_status want, int64_t at)
 {
