@@ -348,6 +348,11 @@ static locd_engine *new_engine(uint32_t threads, const locd_allocator *alloc)
     return e;
 }
 
+/* The tests of the kept entry list (kept_list.c) make their scenes with
+ * this: their whole-scene moves of small steps would otherwise take the
+ * near-pair list (near_list.c), which has tests of its own. */
+static const locd_scene_config kept_cfg = {sizeof(locd_scene_config), LOCD_SCENE_NO_NEAR_LIST, 0};
+
 static void random_query(world *w, const locd_scene *s, const model *m)
 {
     double q[7];
@@ -1584,10 +1589,11 @@ static void whole_scene_moves_in_slot_order(void)
 
 /* The pairs of boxes f[0, n) as rows of ids[] (ascending with the index),
  * found by the engine's own find: a reference that shares no code with
- * the scene's kept entry list. With `grouped` > 0, less the pairs of two
- * objects whose index is a multiple of it (one group). */
-static locd_id *engine_rows(locd_engine *e, const float *f, const locd_id *ids, size_t n, uint32_t grouped,
-                            size_t *count)
+ * the scene's kept entry list or near-pair list. With `grouped` > 0, less
+ * the pairs of two objects whose index is a multiple of it (one group);
+ * less the pairs of two objects from index first_static on (static). */
+static locd_id *engine_rows_filtered(locd_engine *e, const float *f, const locd_id *ids, size_t n, uint32_t grouped,
+                                     size_t first_static, size_t *count)
 {
     locd_pairs *p = NULL;
     const uint32_t *v;
@@ -1598,11 +1604,18 @@ static locd_id *engine_rows(locd_engine *e, const float *f, const locd_id *ids, 
     np = locd_pairs_count(p), v = locd_pairs_data(p);
     rows = malloc((np + 1) * 2 * sizeof *rows);
     for (k = 0; k < np; k++)
-        if (!grouped || v[2 * k] % grouped || v[2 * k + 1] % grouped)
+        if ((!grouped || v[2 * k] % grouped || v[2 * k + 1] % grouped) &&
+            (v[2 * k] < first_static || v[2 * k + 1] < first_static))
             rows[2 * w] = ids[v[2 * k]], rows[2 * w + 1] = ids[v[2 * k + 1]], w++;
     locd_pairs_destroy(p);
     *count = w;
     return rows;
+}
+
+static locd_id *engine_rows(locd_engine *e, const float *f, const locd_id *ids, size_t n, uint32_t grouped,
+                            size_t *count)
+{
+    return engine_rows_filtered(e, f, ids, n, grouped, n, count);
 }
 
 /* Rows of a (sorted) not in b (sorted), into out; returns how many. */
@@ -1684,8 +1697,8 @@ static void kept_entry_list_follows_whole_scene_moves(void)
     int frame, a, i;
     ts_seed(&r, 717);
     cube_boxes(&r, f, n, edge, 0.0);
-    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e1, NULL, &s[0]));
-    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e2, NULL, &s[1]));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e1, &kept_cfg, &s[0]));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e2, &kept_cfg, &s[1]));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[0], f, n, NULL, ids));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[1], f, n, NULL, ids2));
     TEST_ASSERT_EQUAL_MEMORY(ids, ids2, n * sizeof *ids);
@@ -1846,7 +1859,7 @@ static void whole_scene_move_encodes_for_the_update(void)
     for (i = 0; i < 2; i++) {
         ids[i] = malloc(n * sizeof *ids[i]), f[i] = malloc(n * 6 * sizeof *f[i]);
         cube_boxes(&r, f[i], n, edge, 0.0);
-        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e2, NULL, &s[i]));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e2, &kept_cfg, &s[i]));
         TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[i], f[i], n, NULL, ids[i]));
     }
     /* rounds: 0 the first updates; then scene 0 moves every object and
@@ -1917,7 +1930,7 @@ static void kept_entry_list_pair_counts_jump(void)
         memcpy(f, home, n * 6 * sizeof *f);
         for (i = 0; i < 2; i++) {
             e[i] = new_engine((uint32_t)i + 1, NULL);
-            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e[i], NULL, &s[i]));
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e[i], &kept_cfg, &s[i]));
             TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[i], f, n, NULL, i ? ids2 : ids));
         }
         TEST_ASSERT_EQUAL_MEMORY(ids, ids2, n * sizeof *ids);
@@ -1969,7 +1982,7 @@ static void kept_entry_list_pair_counts_jump(void)
  * list made again). The failing call gives LOCD_ERR_NO_MEMORY (or absorbs
  * the failure) and the next working update's pairs, created and lost are
  * the engine's own find's, against the last working update. */
-static void kept_entry_list_allocation_failures(void)
+static void whole_scene_allocation_failures(const locd_scene_config *cfg, const char *what, int min_failed)
 {
     const size_t n = 70000;
     const double edge = 0.0153;
@@ -1983,7 +1996,7 @@ static void kept_entry_list_allocation_failures(void)
     uint64_t fail;
     ts_seed(&r, 818);
     cube_boxes(&r, f, n, edge, 0.0);
-    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, cfg, &s));
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n, NULL, ids));
     before = engine_rows(er, f, ids, n, 0, &nbefore);
     check_against(s, before, nbefore, NULL, 0);
@@ -2020,14 +2033,141 @@ static void kept_entry_list_allocation_failures(void)
             if (c.failures == 0)
                 break;
         }
-    LT_PRINT("kept entry list: %d failed calls, each left the scene as before\n", failed_calls);
+    LT_PRINT("%s: %d failed calls, each left the scene as before\n", what, failed_calls);
     locd_scene_destroy(s);
     locd_engine_destroy(e);
     locd_engine_destroy(er);
     free(before), free(f), free(g), free(ids);
     /* the buffers are kept from frame to frame: a move and an update of a
        warm scene allocate a few blocks only, but some */
-    TEST_ASSERT_TRUE(failed_calls >= 4);
+    TEST_ASSERT_TRUE(failed_calls >= min_failed);
+}
+
+static void kept_entry_list_allocation_failures(void)
+{
+    whole_scene_allocation_failures(&kept_cfg, "kept entry list", 4);
+}
+
+/* The same with the near-pair list (near_list.c): its build failing is
+ * absorbed (the update goes from scratch without it); a frame's pass
+ * failing fails the update and drops the list. */
+static void near_list_allocation_failures(void)
+{
+    whole_scene_allocation_failures(NULL, "near-pair list", 1);
+}
+
+/* What a frame of near_list_follows_whole_scene_moves does, and which
+ * path its update must take. */
+typedef struct near_frame {
+    const char *what;
+    int near; /* 1: from the near-pair list; 0: from scratch (with or without building it) */
+} near_frame;
+
+/* The near-pair list (near_list.c) serves whole-scene moves of small
+ * steps: a from-scratch update builds it, the next ones take it while every
+ * box stays inside its fat box. Three scenes (1, 2 and 3 threads: the pass's
+ * outputs closed up from one, two and three regions) go through each way,
+ * a quarter of the objects static and each update checked against the
+ * engine's own find (pairs, created, lost) and the path its statistics show:
+ * steps; one object out of its fat box (built again); every box shrunk to
+ * a point and back (a set that falls and grows past the rows' regions and
+ * the events': the rows written again, the events from the diff); a group
+ * filter set (built again with it); every object far twice (the second list
+ * served nothing: the next builds wait); an object removed (no list). */
+static void near_list_follows_whole_scene_moves(void)
+{
+    static const near_frame plan[] = {
+        {"first update", 0},   {"step: build", 0},         {"step", 1},           {"one object out", 0},
+        {"points", 1},         {"back", 1},                {"filter: build", 0},  {"step", 1},
+        {"all far: build", 0}, {"all far: no build", 0},   {"step: wait", 0},     {"step: build", 0},
+        {"step", 1},           {"step", 1},                {"remove one", 0},
+    };
+    const size_t n = 72000, nd = n - n / 4, nplan = sizeof plan / sizeof plan[0];
+    const double edge = 0.0153;
+    locd_engine *e[3], *er = new_engine(2, NULL);
+    locd_scene *s[3];
+    locd_scene_add_options o;
+    locd_id *ids = malloc(n * sizeof *ids), *ids2 = malloc(n * sizeof *ids2), *before, *now;
+    float *f = malloc(n * 6 * sizeof *f), *pt = malloc(n * 6 * sizeof *pt);
+    uint64_t *groups = malloc(n * sizeof *groups);
+    size_t k, nbefore, nnow, live = n;
+    uint32_t grouped = 0;
+    ts_rng r;
+    int i, a;
+    size_t frame;
+    ts_seed(&r, 1313);
+    cube_boxes(&r, f, n, edge, 0.0);
+    locd_scene_add_options_init(&o);
+    o.flags = LOCD_OBJECT_STATIC;
+    for (i = 0; i < 3; i++) {
+        e[i] = new_engine((uint32_t)i + 1, NULL);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e[i], NULL, &s[i]));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[i], f, nd, NULL, i ? ids2 : ids));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[i], f + 6 * nd, n - nd, &o, (i ? ids2 : ids) + nd));
+        if (i)
+            TEST_ASSERT_EQUAL_MEMORY(ids, ids2, n * sizeof *ids);
+    }
+    before = malloc(2 * sizeof *before), nbefore = 0;
+    for (frame = 0; frame < nplan; frame++) {
+        const char *w = plan[frame].what;
+        size_t moved = nd;
+        if (!strcmp(w, "points")) {
+            memcpy(pt, f, n * 6 * sizeof *f);
+            for (k = 0; k < nd; k++)
+                for (a = 0; a < 3; a++)
+                    f[6 * k + a] = f[6 * k + 3 + a] = 0.5f * (f[6 * k + a] + f[6 * k + 3 + a]);
+        } else if (!strcmp(w, "back")) {
+            memcpy(f, pt, n * 6 * sizeof *f);
+        } else if (!strncmp(w, "all far", 7)) {
+            cube_boxes(&r, f, nd, edge, 0.0);
+        } else if (frame) {
+            cube_boxes(&r, f, nd, edge, 0.06 * edge); /* steps of up to 0.03 edge: a fat box holds two */
+        } else {
+            moved = 0;
+        }
+        if (!strcmp(w, "one object out"))
+            for (a = 0; a < 3; a++)
+                f[6 * 777 + a] += (float)edge, f[6 * 777 + 3 + a] += (float)edge;
+        if (!strcmp(w, "filter: build")) {
+            grouped = 5;
+            for (k = 0; k < n; k++)
+                groups[k] = k % grouped ? 0 : 7;
+        }
+        for (i = 0; i < 3; i++) {
+            if (grouped && !strcmp(w, "filter: build"))
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_filter(s[i], ids, n, NULL, NULL, groups));
+            if (!strcmp(w, "remove one"))
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s[i], &ids[nd - 1], 1));
+            if (moved)
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[i], ids, f, !strcmp(w, "remove one") ? nd - 1 : nd));
+        }
+        if (!strcmp(w, "remove one")) { /* the reference without it: its box far away */
+            for (a = 0; a < 3; a++)
+                f[6 * (nd - 1) + a] = 100.0f, f[6 * (nd - 1) + 3 + a] = 100.0f;
+            live--;
+        }
+        now = engine_rows_filtered(er, f, ids, n, grouped, nd, &nnow);
+        TEST_ASSERT_TRUE(!strcmp(w, "points") ? nnow < n / 8 : nnow > n / 2);
+        for (i = 0; i < 3; i++) {
+            locd_scene_stats st;
+            check_against(s[i], now, nnow, before, nbefore);
+            locd_scene_stats_init(&st);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s[i], &st));
+            TEST_ASSERT_EQUAL_UINT64(live, st.objects);
+            if (plan[frame].near != (st.rebuilt == 0 && st.coasted == st.moved && st.entries == 0))
+                LT_FAIL("frame %zu (%s), %d threads: %s the near-pair list", frame, w, i + 1,
+                        plan[frame].near ? "not from" : "from");
+        }
+        free(before);
+        before = now, nbefore = nnow;
+    }
+    free(before);
+    for (i = 0; i < 3; i++) {
+        locd_scene_destroy(s[i]);
+        locd_engine_destroy(e[i]);
+    }
+    locd_engine_destroy(er);
+    free(f), free(pt), free(ids), free(ids2), free(groups);
 }
 
 /* Adds n boxes (dynamic, or static) to scene and model. */
@@ -2563,6 +2703,8 @@ static const lt_test tests[] = {
     LT_TEST(kept_entry_list_pair_counts_jump),
     LT_TEST(whole_scene_move_encodes_for_the_update),
     LT_TEST(kept_entry_list_allocation_failures),
+    LT_TEST(near_list_follows_whole_scene_moves),
+    LT_TEST(near_list_allocation_failures),
     LT_TEST(from_scratch_events_at_the_ends),
     LT_TEST(from_scratch_follows_adds_removes_and_filters),
     LT_TEST(bad_batches_change_nothing),

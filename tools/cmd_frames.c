@@ -33,8 +33,9 @@ static void usage(FILE *f)
                "  Puts the boxes in a locd scene (fraction S static, default 0), then for F frames moves a\n"
                "  random fraction P (0..1) of the non-static boxes by up to 3%% of the mean box edge per axis\n"
                "  and updates. Prints one JSON line: update_ms and rebuild_ms (medians per frame; the rebuild\n"
-               "  is a full find_pairs on the same boxes, interleaved with the updates), ratio, pairs (median\n"
-               "  per frame), created and lost (totals over the frames).\n"
+               "  is a full find_pairs on the same boxes, interleaved with the updates), ratio, their means\n"
+               "  (update_mean_ms, rebuild_mean_ms, ratio_mean), pairs (median per frame), created and lost\n"
+               "  (totals over the frames).\n"
                "  --check compares every frame with a from-scratch find (pairs, created, lost): exit 1 on a\n"
                "  difference. --threads defaults to every CPU, --seed to 1.\n");
 }
@@ -354,6 +355,18 @@ static void run_frames(frames_run *r)
     }
 }
 
+/* The mean of v[0, n): with the median, what a run of frames costs when
+ * some frames cost more than most (a scene's near-pair list is built again
+ * every few frames: docs/scene.md). */
+static double mean(const double *v, size_t n)
+{
+    double sum = 0.0;
+    size_t i;
+    for (i = 0; i < n; i++)
+        sum += v[i];
+    return n ? sum / (double)n : 0.0;
+}
+
 static void report(frames_run *r)
 {
     locd_scene_stats ss;
@@ -361,18 +374,21 @@ static void report(frames_run *r)
     const char *kernel = getenv("LOCD_KERNEL");
     size_t nstatic = r->sc.n - r->m.ndynamic;
     double up = cli_median(r->t_update, r->a.frames), rb = cli_median(r->t_rebuild, r->a.frames);
+    const double up_mean = mean(r->t_update, r->a.frames), rb_mean = mean(r->t_rebuild, r->a.frames);
     locd_scene_stats_init(&ss);
     ok(locd_scene_stats_get(r->scene, &ss), "stats");
     cli_cpu_model(cpu, sizeof cpu);
     printf("{\"n\":%zu,\"static\":%zu,\"static_fraction\":%.4g,\"moving\":%.4g,\"moved_per_frame\":%zu,"
            "\"frames\":%zu,\"threads\":%u,\"seed\":%llu,\"step\":%.6g,"
-           "\"update_ms\":%.4f,\"rebuild_ms\":%.4f,\"ratio\":%.4f,\"first_update_ms\":%.3f,"
+           "\"update_ms\":%.4f,\"rebuild_ms\":%.4f,\"ratio\":%.4f,"
+           "\"update_mean_ms\":%.4f,\"rebuild_mean_ms\":%.4f,\"ratio_mean\":%.4f,\"first_update_ms\":%.3f,"
            "\"pairs\":%.0f,\"created\":%llu,\"lost\":%llu,"
            "\"counts\":\"pairs: median per frame; created, lost: totals over the frames\","
            "\"scene_ms\":{\"encode\":%.4f,\"merge\":%.4f,\"sweep\":%.4f,\"events\":%.4f},\"rebuilt_frames\":%zu,"
            "\"checked\":%s,\"failed_frames\":%zu,\"cpu\":",
            r->sc.n, nstatic, r->a.static_frac, r->a.moving, r->m.moved, r->a.frames, ss.threads,
-           (unsigned long long)r->a.seed, r->m.step, up, rb, rb > 0.0 ? up / rb : 0.0, r->first_ms,
+           (unsigned long long)r->a.seed, r->m.step, up, rb, rb > 0.0 ? up / rb : 0.0,
+           up_mean, rb_mean, rb_mean > 0.0 ? up_mean / rb_mean : 0.0, r->first_ms,
            cli_median(r->n_pairs, r->a.frames), (unsigned long long)r->created, (unsigned long long)r->lost,
            cli_median(r->t_stage[0], r->a.frames), cli_median(r->t_stage[1], r->a.frames),
            cli_median(r->t_stage[2], r->a.frames), cli_median(r->t_stage[3], r->a.frames), r->rebuilt,

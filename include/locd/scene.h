@@ -50,9 +50,17 @@ typedef uint64_t locd_id;
 
 typedef struct locd_scene_config {
     uint32_t size;            /* sizeof(locd_scene_config) */
-    uint32_t flags;           /* reserved: 0 */
+    uint32_t flags;           /* LOCD_SCENE_* below, or 0 */
     uint64_t capacity_hint;   /* objects to reserve room for; 0 = grow as needed */
 } locd_scene_config;
+
+/* config->flags: the scene never builds its near-pair list. When most
+ * objects move a little at every update, the list (docs/scene.md) makes
+ * most updates a fraction of a from-scratch one, at the price of an update
+ * that builds it every few frames and costs more than one from scratch.
+ * With this flag each such update goes from scratch: a steadier cost per
+ * frame, higher on average. The results are the same either way. */
+#define LOCD_SCENE_NO_NEAR_LIST 0x1u
 
 /* Smallest config->size accepted: the three fields above. */
 #define LOCD_SCENE_CONFIG_MIN_SIZE 16u

@@ -35,7 +35,7 @@ static void gather_floats(const locd_scene *s, const uint32_t *live, size_t n, f
  * serials are consecutive: then the id of slot k is
  * (serial of slot 0 + k) << 32 | k, and the pair order writes its rows
  * without reading the ids (each a cache miss: a pair's j is anywhere). */
-static int slots_in_id_order(locd_scene *s)
+int lc_scene_slots_in_id_order(locd_scene *s)
 {
     size_t k;
     int affine = 1;
@@ -94,7 +94,7 @@ locd_status lc_scene_pairs_from_scratch(locd_scene *s, lc_plist *out, uint64_t *
 {
     const locd_allocator *a = s->alloc;
     size_t n = 0, k, cap = s->nslots ? s->nslots : 1, ncap = (size_t)s->serial + 1;
-    const int ordered = slots_in_id_order(s);
+    const int ordered = lc_scene_slots_in_id_order(s);
     /* live: the slot of each index in id order; none when that is the index */
     uint32_t *live = ordered ? NULL : lc_alloc(a, cap * sizeof *live),
              *by_serial = ordered ? NULL : lc_alloc(a, ncap * sizeof *by_serial);

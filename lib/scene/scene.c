@@ -36,8 +36,9 @@ locd_status locd_scene_create(locd_engine *engine, const locd_scene_config *conf
     locd_scene_config_init(&cfg);
     if (config && (st = lc_struct_in(&cfg, sizeof cfg, config, LOCD_SCENE_CONFIG_MIN_SIZE, "config")) != LOCD_OK)
         return st;
-    if (cfg.flags)
-        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "config->flags 0x%x: no flag is defined", cfg.flags);
+    if (cfg.flags & ~LOCD_SCENE_NO_NEAR_LIST)
+        return lc_error(LOCD_ERR_INVALID_ARGUMENT, "config->flags 0x%x: unknown flags 0x%x", cfg.flags,
+                        cfg.flags & ~LOCD_SCENE_NO_NEAR_LIST);
     if (engine->level != LOCD_LEVEL_INPROCESS)
         return lc_error(LOCD_ERR_UNSUPPORTED,
                         "a scene needs an engine of level 1 (LOCD_LEVEL_INPROCESS); this engine is level %d "
@@ -53,6 +54,7 @@ locd_status locd_scene_create(locd_engine *engine, const locd_scene_config *conf
     s->alloc = &engine->alloc;
     s->pool = lc_inproc_pool(engine, &s->kernel);
     s->threads = engine->threads;
+    s->no_near = (cfg.flags & LOCD_SCENE_NO_NEAR_LIST) != 0;
     lc_pairs_init_embedded(&s->found, s->alloc);
     locd_scene_stats_init(&s->stats);
     if (cfg.capacity_hint) {
@@ -87,6 +89,7 @@ void locd_scene_destroy(locd_scene *s)
     lc_buf_release(a, &s->order_runs, sizeof(uint64_t));
     lc_buf_release(a, &s->order_last, sizeof(uint32_t));
     lc_kept_release(s);
+    lc_near_release(s);
     s->magic = LC_MAGIC_DEAD;
     lc_free(a, s, sizeof *s);
 }

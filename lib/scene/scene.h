@@ -137,6 +137,24 @@ typedef struct lc_kept {
     double per_object;  /* entries per object to plan the next encode with (0: none yet) */
 } lc_kept;
 
+/* The near-pair list (near_list.c): per object i (slots all live, in id
+ * order), the objects j > i whose fat boxes (fat: the box grown by its
+ * largest edge >> LC_FAT_SHIFT on each side, when the list was built) meet
+ * its own and that may pair with it, nb[off[i], off[i + 1]), each with
+ * LC_ADJ_PAIRED when the two are a pair of the current set. Valid while
+ * only moves happened since it was built and every box stayed inside its
+ * fat box. */
+typedef struct lc_near {
+    int valid;
+    size_t n, count;    /* objects, candidates */
+    float *fat;         /* 6 per object */
+    uint32_t *off;      /* n + 1 */
+    uint32_t *nb;
+    size_t n_cap, nb_cap;
+    uint32_t served;    /* updates that took the list since it was built */
+    uint32_t wait, skip; /* update.c: builds to skip after lists that served no update */
+} lc_near;
+
 /* A sorted pair list: rows of two ids. */
 typedef struct lc_plist {
     lc_buf rows; /* locd_id, two a row */
@@ -231,6 +249,8 @@ struct locd_scene {
     lc_buf order_last;             /* uint32: the last order's pairs per bucket (its regions' sizes next time) */
     size_t order_last_n;           /* and its objects (0: none) */
     lc_kept kept;                  /* the from-scratch path's entries, kept (kept_list.c) */
+    lc_near near;                  /* the near-pair list (near_list.c) */
+    int no_near;                   /* LOCD_SCENE_NO_NEAR_LIST: never built */
     int show_pairs, show_events;   /* the flags of the last update */
     locd_scene_stats stats;
 };
@@ -528,6 +548,31 @@ locd_status lc_scene_order_close(lc_order *o, lc_plist *out);
 void lc_scene_order_drop(lc_order *o);
 /* Frees the list (a scene whose updates no longer go from scratch). */
 void lc_kept_release(locd_scene *s);
+
+/* ---- the near-pair list (near_list.c) ---- */
+/* lc_near_build's answer when the list cannot be built for these boxes (a
+ * fat box past the float range, too many candidates): go from scratch. */
+#define LC_NEAR_NO (-1001)
+/* 1 when a list can be built for the scene as it is: the slots are the
+ * engine's input as they are, every box a float exactly, LC_KEPT_MIN
+ * objects or more. */
+int lc_near_applies(locd_scene *s);
+/* 1 when the list is valid and nothing but moves happened since it was built. */
+int lc_near_usable(const locd_scene *s);
+/* Builds the list from the boxes now and writes their pair set into next
+ * (sorted; next->first may be past 0). */
+locd_status lc_near_build(locd_scene *s, lc_plist *next, uint64_t *candidates);
+/* The pair set of the boxes now into next, created and lost into cr and lo
+ * (*diff = 1 when they did not fit: the caller diffs the sets), from the
+ * list; *left = 1 (nothing written, the list no longer valid) when a box
+ * lies outside its fat box. */
+locd_status lc_near_frame(locd_scene *s, lc_plist *next, lc_plist *cr, lc_plist *lo, uint64_t *candidates,
+                          int *left, int *diff);
+void lc_near_release(locd_scene *s);
+/* 1 when the slots [0, nslots) are all live and their serials ascend, 2
+ * when the serials are also consecutive (rebuild.c); 0 otherwise. Kept
+ * until an add, remove or set_filter. */
+int lc_scene_slots_in_id_order(locd_scene *s);
 
 /* A grid fitted to the live boxes with a margin, with index bits for twice the slots. */
 locd_status lc_scene_fit_grid(locd_scene *s, locd_grid *g);

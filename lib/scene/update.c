@@ -81,6 +81,7 @@ typedef struct upd {
     size_t buf_cap;
     uint64_t candidates, moved, reencoded;
     int rebuilt;  /* pairs from scratch, lists dropped */
+    int near;     /* pairs from the near-pair list (near_list.c) */
     int relisted; /* lists built again, then the moved objects searched */
     double ms_encode, ms_merge, ms_sweep, ms_events;
 } upd;
@@ -214,6 +215,63 @@ static int want_rebuild(const locd_scene *s, size_t moved)
 #define LC_REBUILD 0x524542
 
 static locd_status events_full(upd *u);
+static locd_status rebuild(upd *u);
+
+/* The near-pair list (near_list.c) serves updates in which most objects
+ * moved a little: more than LC_REBUILD_FRACTION of them (below that the
+ * incremental path is cheaper). A list that served no update before a box
+ * left its fat box cost a build for nothing: the next LC_NEAR_WAIT
+ * updates from scratch build none, then twice as many after each such
+ * list, up to LC_BAND_WAIT_MAX; a list that served sets it back. */
+#define LC_NEAR_WAIT 2
+
+static int near_moved(const locd_scene *s, size_t moved)
+{
+    return s->have_pairs && (double)moved > LC_REBUILD_FRACTION * (double)s->live && moved > 64;
+}
+
+/* 1 when this update from scratch should build the near-pair list. */
+static int want_near(locd_scene *s, size_t moved)
+{
+    if (!near_moved(s, moved) || !lc_near_applies(s))
+        return 0;
+    if (s->near.skip) {
+        s->near.skip--;
+        return 0;
+    }
+    return 1;
+}
+
+/* An update from the near-pair list; when a box left its fat box, from
+ * scratch (which may build the list again). */
+static locd_status near_update(upd *u)
+{
+    locd_scene *s = u->s;
+    lc_near *nr = &s->near;
+    double t1 = lc_now_ms();
+    int left, diff;
+    locd_status st = lc_near_frame(s, &u->next, &u->cr, &u->lo, &u->candidates, &left, &diff);
+    if (st != LOCD_OK)
+        return st;
+    if (!left) {
+        u->near = 1;
+        u->ms_sweep = lc_now_ms() - t1;
+        t1 = lc_now_ms();
+        if (diff && (u->flags & LOCD_SCENE_UPDATE_EVENTS) && (st = events_full(u)) != LOCD_OK)
+            return st;
+        u->ms_events = lc_now_ms() - t1;
+        return LOCD_OK;
+    }
+    if (nr->served == 0) {
+        nr->wait = nr->wait ? 2 * nr->wait : LC_NEAR_WAIT;
+        nr->wait = nr->wait > LC_BAND_WAIT_MAX ? LC_BAND_WAIT_MAX : nr->wait;
+        nr->skip = nr->wait;
+    } else {
+        nr->wait = 0;
+    }
+    u->next.count = u->next.first = 0;
+    return rebuild(u);
+}
 
 /* Pairs from scratch (the engine's find); the entry lists are dropped and
  * built again only by the next update that searches moved objects
@@ -224,8 +282,19 @@ static locd_status rebuild(upd *u)
     locd_status st;
     double t1 = lc_now_ms();
     u->rebuilt = 1;
+    if (want_near(s, u->moved)) {
+        /* the near-pair list, built from these boxes: the next updates
+           may take it; the kept entry list is not needed while they do */
+        if ((st = lc_near_build(s, &u->next, &u->candidates)) == LOCD_OK) {
+            lc_kept_release(s);
+            goto events;
+        }
+        lc_clear_error(); /* a cache: without it, from scratch */
+        u->next.count = u->next.first = 0;
+    }
     if ((st = lc_scene_pairs_from_scratch(s, &u->next, &u->candidates)) != LOCD_OK)
         return st;
+events:
     u->ms_sweep = lc_now_ms() - t1;
     t1 = lc_now_ms();
     if ((u->flags & LOCD_SCENE_UPDATE_EVENTS) && (st = events_full(u)) != LOCD_OK)
@@ -343,7 +412,7 @@ static locd_status events_full(upd *u)
         return st;
     if (u->next.count + s->pairs.count < 65536)
         k = 1;
-    c.p = lc_plist_rows(&s->pairs), c.n = u->next.rows.data, c.cr = u->cr.rows.data, c.lo = u->lo.rows.data;
+    c.p = lc_plist_rows(&s->pairs), c.n = lc_plist_rows(&u->next), c.cr = u->cr.rows.data, c.lo = u->lo.rows.data;
     for (t = 0; t <= k; t++) {
         c.nb[t] = u->next.count * t / k;
         c.pb[t] = t == 0 ? 0 : t == k ? s->pairs.count
@@ -857,6 +926,7 @@ static locd_status relist(upd *u)
     locd_status st;
     double t0 = lc_now_ms();
     lc_kept_release(s); /* the updates go on incrementally: its memory back, before the lists take theirs */
+    lc_near_release(s);
     if ((st = build_lists(u)) != LOCD_OK)
         return st;
     g = &s->grid;
@@ -974,7 +1044,7 @@ static void commit(upd *u)
 {
     locd_scene *s = u->s;
     size_t k;
-    if (u->rebuilt) {
+    if (u->rebuilt || u->near) {
         /* the lists are built again by the next update that needs them */
         lc_scene_tree_fini(s);
         lc_adj_drop(s);
@@ -1029,7 +1099,11 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     memset(&s->spare, 0, sizeof s->spare);
     take_event_buffers(&u);
     u.moved = moved = live_dirty(s); /* every path's count: the live objects of the dirty list */
-    if (in_band(s, moved) && s->band_updates + 1 >= band_wait(s)) {
+    if (!lc_near_usable(s) || !near_moved(s, moved))
+        s->near.valid = 0; /* only a run of updates in which most objects moved keeps it */
+    if (s->near.valid) {
+        st = near_update(&u);
+    } else if (in_band(s, moved) && s->band_updates + 1 >= band_wait(s)) {
         s->band_updates = 0; /* the lists, at last: the moved objects take them at once */
         u.relisted = 1, st = relist(&u);
     } else if (want_rebuild(s, moved) || (s->have_tree && (st = incremental(&u)) == LC_REBUILD)) {
@@ -1039,6 +1113,7 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
         u.relisted = 1, st = relist(&u);
     }
     if (st != LOCD_OK) {
+        s->near.valid = 0; /* its PAIRED bits may be this update's */
         undo(&u);
         keep_event_buffers(&u);
         upd_free(&u);
@@ -1062,7 +1137,7 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     st_out->created = s->created.count;
     st_out->lost = s->lost.count;
     st_out->rebuilt = (uint32_t)u.rebuilt;
-    st_out->coasted = (uint32_t)u.ncoast;
+    st_out->coasted = (uint32_t)(u.near ? u.moved : u.ncoast);
     st_out->ms_encode = u.ms_encode;
     st_out->ms_merge = u.ms_merge;
     st_out->ms_sweep = u.ms_sweep;
