@@ -172,7 +172,7 @@ typedef struct locd_scene_stats {
     uint32_t rebuilt;        /* 1 if this update found its pairs from scratch (the first one, or
                                 too many objects moved: docs/scene.md) */
     uint32_t coasted;        /* moved objects that stayed in their fat boxes and took their pairs from
-                                their partner lists (no search; docs/scene.md) */
+                                their partner lists or the near-pair list (no search; docs/scene.md) */
     double ms_total;
     double ms_encode;
     double ms_merge;         /* repairing the sorted entry list */
