@@ -240,9 +240,9 @@ static size_t object_at(const uint32_t *off, size_t n, size_t x)
     return lo;
 }
 
-/* The rows' regions: sized from `est` rows in each thread's range (room
- * for all when `all`: the candidates), with slack. Returns the rows they
- * need. */
+/* The rows' regions: room for est[t] rows in thread t's range (the
+ * previous set's there, or every candidate's), plus a slack. Returns the
+ * rows they need. */
 static size_t plan_rows(pass_ctx *c, uint32_t k, const size_t *est)
 {
     size_t t, end;
@@ -307,8 +307,9 @@ static locd_status pass(locd_scene *s, int check, lc_plist *next, lc_plist *cr, 
     c.back = k > 1;
     for (t = 0; t <= k; t++) {
         c.ib[t] = t == k ? nr->n : object_at(nr->off, nr->n, nr->count * t / k);
-        rr[t] = t == k ? s->pairs.count
-                       : lc_rows_lower_bound(prev, s->pairs.count, (uint64_t)LC_ID_SERIAL(s->id[c.ib[t]]) << 32);
+        rr[t] = c.ib[t] == nr->n ? s->pairs.count /* (the last objects may have no candidates) */
+                                 : lc_rows_lower_bound(prev, s->pairs.count,
+                                                       (uint64_t)LC_ID_SERIAL(s->id[c.ib[t]]) << 32);
     }
     for (t = 0; t < k; t++)
         est[t] = rr[t + 1] - rr[t];

@@ -218,8 +218,12 @@ static locd_status events_full(upd *u);
 static locd_status rebuild(upd *u);
 
 /* The near-pair list (near_list.c) serves updates in which most objects
- * moved a little: more than LC_REBUILD_FRACTION of them (below that the
- * incremental path is cheaper). A list that served no update before a box
+ * moved a little: more than LC_REBUILD_FRACTION_ADJ of them. Below that
+ * the incremental path serves them, with partner lists from 8% on (the
+ * band rule): it searches the few objects that left their fat boxes,
+ * where the near-pair list is built again whole as soon as one box left
+ * its fat box, which with 10% of 10^6 objects moving a frame happens
+ * about every third frame (docs/scene.md). A list that served no update before a box
  * left its fat box cost a build for nothing: the next LC_NEAR_WAIT
  * updates from scratch build none, then twice as many after each such
  * list, up to LC_BAND_WAIT_MAX; a list that served sets it back. */
@@ -227,7 +231,7 @@ static locd_status rebuild(upd *u);
 
 static int near_moved(const locd_scene *s, size_t moved)
 {
-    return s->have_pairs && (double)moved > LC_REBUILD_FRACTION * (double)s->live && moved > 64;
+    return s->have_pairs && (double)moved > LC_REBUILD_FRACTION_ADJ * (double)s->live && moved > 64;
 }
 
 /* 1 when this update from scratch should build the near-pair list. */
