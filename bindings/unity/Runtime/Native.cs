@@ -452,6 +452,8 @@ namespace Locd
         public const uint LOCD_OBJECT_STATIC = 0x1;
         public const uint LOCD_SCENE_UPDATE_PAIRS = 0x1;
         public const uint LOCD_SCENE_UPDATE_EVENTS = 0x2;
+        /// <summary>locd_scene_config.flags: the scene never builds its near-pair list (docs/scene.md).</summary>
+        public const uint LOCD_SCENE_NO_NEAR_LIST = 0x1;
         public const ulong LOCD_ID_NONE = 0;
 
         /// <summary>locd_scene_config; initialize with locd_scene_config_init.</summary>
