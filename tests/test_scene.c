@@ -2073,14 +2073,17 @@ typedef struct near_frame {
  * a point and back (a set that falls and grows past the rows' regions and
  * the events': the rows written again, the events from the diff); a group
  * filter set (built again with it); every object far twice (the second list
- * served nothing: the next builds wait); an object removed (no list). */
+ * served nothing: the next builds wait); the last object removed, then one
+ * added in its slot (ids ascending with a gap: the rows' ids read, not
+ * computed); an object removed (no list). */
 static void near_list_follows_whole_scene_moves(void)
 {
     static const near_frame plan[] = {
         {"first update", 0},   {"step: build", 0},         {"step", 1},           {"one object out", 0},
         {"points", 1},         {"back", 1},                {"filter: build", 0},  {"step", 1},
         {"all far: build", 0}, {"all far: no build", 0},   {"step: wait", 0},     {"step: build", 0},
-        {"step", 1},           {"step", 1},                {"remove one", 0},
+        {"step", 1},           {"step", 1},                {"remove the last", 0}, {"add one: build", 0},
+        {"step", 1},           {"remove one", 0},
     };
     const size_t n = 72000, nd = n - n / 4, nplan = sizeof plan / sizeof plan[0];
     const double edge = 0.0153;
@@ -2088,7 +2091,7 @@ static void near_list_follows_whole_scene_moves(void)
     locd_scene *s[3];
     locd_scene_add_options o;
     locd_id *ids = malloc(n * sizeof *ids), *ids2 = malloc(n * sizeof *ids2), *before, *now;
-    float *f = malloc(n * 6 * sizeof *f), *pt = malloc(n * 6 * sizeof *pt);
+    float *f = malloc(n * 6 * sizeof *f), *pt = malloc(n * 6 * sizeof *pt), last[6];
     uint64_t *groups = malloc(n * sizeof *groups);
     size_t k, nbefore, nnow, live = n;
     uint32_t grouped = 0;
@@ -2133,7 +2136,19 @@ static void near_list_follows_whole_scene_moves(void)
             for (k = 0; k < n; k++)
                 groups[k] = k % grouped ? 0 : 7;
         }
+        if (!strcmp(w, "add one: build")) /* (the last slot again, with a new serial: ids ascend, with a gap) */
+            memcpy(f + 6 * (n - 1), last, sizeof last);
         for (i = 0; i < 3; i++) {
+            if (!strcmp(w, "remove the last"))
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s[i], &ids[n - 1], 1));
+            if (!strcmp(w, "add one: build")) {
+                locd_id id;
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[i], last, 1, &o, &id));
+                TEST_ASSERT_TRUE(id > ids[n - 2]);
+                if (i == 0)
+                    ids[n - 1] = id;
+                TEST_ASSERT_EQUAL_UINT64(ids[n - 1], id);
+            }
             if (grouped && !strcmp(w, "filter: build"))
                 TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_filter(s[i], ids, n, NULL, NULL, groups));
             if (!strcmp(w, "remove one"))
@@ -2141,11 +2156,15 @@ static void near_list_follows_whole_scene_moves(void)
             if (moved)
                 TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[i], ids, f, !strcmp(w, "remove one") ? nd - 1 : nd));
         }
-        if (!strcmp(w, "remove one")) { /* the reference without it: its box far away */
+        if (!strcmp(w, "remove one") || !strcmp(w, "remove the last")) { /* the reference without it: far away */
+            const size_t gone = !strcmp(w, "remove one") ? nd - 1 : n - 1;
+            memcpy(last, f + 6 * gone, sizeof last);
             for (a = 0; a < 3; a++)
-                f[6 * (nd - 1) + a] = 100.0f, f[6 * (nd - 1) + 3 + a] = 100.0f;
+                f[6 * gone + a] = 100.0f, f[6 * gone + 3 + a] = 100.0f;
             live--;
         }
+        if (!strcmp(w, "add one: build"))
+            live++;
         now = engine_rows_filtered(er, f, ids, n, grouped, nd, &nnow);
         TEST_ASSERT_TRUE(!strcmp(w, "points") ? nnow < n / 8 : nnow > n / 2);
         for (i = 0; i < 3; i++) {
