@@ -8,9 +8,11 @@
  * compaction, directory; fat boxes), find.c (pairs of the moved objects:
  * the search, the partner lists' pass), adj.c (partner lists), rebuild.c
  * (everything from scratch, the numbering), pairset.c (sorted pair lists),
- * carry.c (the new set: the carry pass, the patch), update.c (the update:
- * its paths, undo, the changes), query.c, stats.c. docs/scene.md explains
- * the design. */
+ * carry.c (the new set: the carry pass, the patch), kept_list.c (the
+ * from-scratch path's kept entries), pair_order.c (its pair order),
+ * near_list.c (the near-pair list: most objects moving a little),
+ * update.c (the update: its paths, undo, the changes), query.c, stats.c.
+ * docs/scene.md explains the design. */
 #ifndef LOCD_SCENE_IMPL_H
 #define LOCD_SCENE_IMPL_H
 
