@@ -223,10 +223,11 @@ static locd_status rebuild(upd *u);
  * band rule): it searches the few objects that left their fat boxes,
  * where the near-pair list is built again whole as soon as one box left
  * its fat box, which with 10% of 10^6 objects moving a frame happens
- * about every third frame (docs/scene.md). A list that served no update before a box
- * left its fat box cost a build for nothing: the next LC_NEAR_WAIT
- * updates from scratch build none, then twice as many after each such
- * list, up to LC_BAND_WAIT_MAX; a list that served sets it back. */
+ * about every third frame (docs/scene.md). A list that served no update
+ * before a box left its fat box cost a build for nothing: the next
+ * LC_NEAR_WAIT updates from scratch build none, then twice as many after
+ * each such list, up to LC_BAND_WAIT_MAX; a list that served sets it
+ * back. */
 #define LC_NEAR_WAIT 2
 
 static int near_moved(const locd_scene *s, size_t moved)
