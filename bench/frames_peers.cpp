@@ -81,14 +81,6 @@ double median(std::vector<double> v)
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-double mean(const std::vector<double> &v)
-{
-    double sum = 0.0;
-    for (double x : v)
-        sum += x;
-    return v.empty() ? 0.0 : sum / (double)v.size();
-}
-
 // One system kept across frames.
 struct system_base {
     std::vector<double> ms;
@@ -425,7 +417,7 @@ int main(int argc, char **argv)
                 (unsigned long long)a.seed, cpu, kernel && *kernel ? kernel : "auto");
     for (std::size_t k = 0; k < sys.size(); k++)
         std::printf("%s\"%s\":{\"ms\":%.4f,\"mean_ms\":%.4f,\"setup_ms\":%.2f,\"pairs\":%zu}", k ? "," : "",
-                    sys[k]->name(), median(sys[k]->ms), mean(sys[k]->ms), setup_ms[k], sys[k]->pairs());
+                    sys[k]->name(), median(sys[k]->ms), cli_mean(sys[k]->ms.data(), sys[k]->ms.size()), setup_ms[k], sys[k]->pairs());
     std::printf("}}\n");
     sys.clear();
     locd_engine_destroy(eng);

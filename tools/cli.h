@@ -52,6 +52,9 @@ void cli_progress(const char *what, size_t done, size_t total);
 
 void cli_cpu_model(char *buf, size_t len);
 double cli_median(double *v, size_t n);
+/* The mean of v[0, n) (0 when n is 0): with the median, what a run of
+ * frames costs when some cost more than most. */
+double cli_mean(const double *v, size_t n);
 double cli_now_ms(void);
 void cli_die(const char *fmt, ...);
 int cli_parse_size(const char *s, size_t *out); /* accepts 1e6, 1000000, 1M, 10k */

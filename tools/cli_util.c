@@ -520,6 +520,15 @@ double cli_median(double *v, size_t n)
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+double cli_mean(const double *v, size_t n)
+{
+    double sum = 0.0;
+    size_t i;
+    for (i = 0; i < n; i++)
+        sum += v[i];
+    return n ? sum / (double)n : 0.0;
+}
+
 double cli_now_ms(void)
 {
     struct timespec ts;

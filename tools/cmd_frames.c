@@ -355,18 +355,6 @@ static void run_frames(frames_run *r)
     }
 }
 
-/* The mean of v[0, n): with the median, what a run of frames costs when
- * some frames cost more than most (a scene's near-pair list is built again
- * every few frames: docs/scene.md). */
-static double mean(const double *v, size_t n)
-{
-    double sum = 0.0;
-    size_t i;
-    for (i = 0; i < n; i++)
-        sum += v[i];
-    return n ? sum / (double)n : 0.0;
-}
-
 static void report(frames_run *r)
 {
     locd_scene_stats ss;
@@ -374,7 +362,8 @@ static void report(frames_run *r)
     const char *kernel = getenv("LOCD_KERNEL");
     size_t nstatic = r->sc.n - r->m.ndynamic;
     double up = cli_median(r->t_update, r->a.frames), rb = cli_median(r->t_rebuild, r->a.frames);
-    const double up_mean = mean(r->t_update, r->a.frames), rb_mean = mean(r->t_rebuild, r->a.frames);
+    /* the means too: a scene's near-pair list is built again every few frames (docs/scene.md) */
+    const double up_mean = cli_mean(r->t_update, r->a.frames), rb_mean = cli_mean(r->t_rebuild, r->a.frames);
     locd_scene_stats_init(&ss);
     ok(locd_scene_stats_get(r->scene, &ss), "stats");
     cli_cpu_model(cpu, sizeof cpu);

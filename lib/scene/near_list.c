@@ -96,13 +96,14 @@ static void run(locd_scene *s, uint32_t k, void (*fn)(void *, uint32_t, uint32_t
  * frame) plus a slack: thread 0 writes down from the end of its region,
  * thread 1 up from the same place, so their rows are one run; later
  * threads' are moved up to it. The events go to equal regions of their
- * buffers, written and moved together the same way. A region that fills up stops that
- * output's writes (the pass goes on: its PAIRED bits are wanted); the rows
+ * buffers, written and moved together the same way. A region that fills
+ * up stops that output's writes (the pass goes on: its PAIRED bits are
+ * wanted); the rows
  * are then written again by a pass with room for every candidate, the
  * events found by the diff against the previous set (update.c). The
- * buffers then keep their size from frame to frame: made larger, each is
- * faulted in again, and on a virtual machine that cost the first frames
- * after a build 100 ms each at 10^6 objects. */
+ * buffers then keep their size from frame to frame: made larger, each
+ * would be faulted in again in the first frames after a build, which is
+ * dear on a virtual machine. */
 typedef struct pass_ctx {
     locd_scene *s;
     int check;          /* a frame: boxes against fat boxes, and the events */
@@ -121,7 +122,7 @@ typedef struct pass_ctx {
 
 LC_INLINE locd_id near_id(const pass_ctx *c, size_t i)
 {
-    return c->idl ? c->idl[i] : (locd_id)((c->serial0 + i) << 32 | i);
+    return c->idl ? c->idl[i] : LC_ID_AFFINE(c->serial0, i);
 }
 
 /* 1 when box b lies outside fat box f. */

@@ -228,7 +228,7 @@ static void order_bucket(lc_order *c, uint32_t t, uint32_t b)
         const uint64_t s0 = c->serial0;
         for (x = 0; x < m; x++) {
             const uint64_t i = v[x] >> 32, j = (uint32_t)v[x];
-            rows[2 * x] = (s0 + i) << 32 | i, rows[2 * x + 1] = (s0 + j) << 32 | j;
+            rows[2 * x] = LC_ID_AFFINE(s0, i), rows[2 * x + 1] = LC_ID_AFFINE(s0, j);
         }
         return;
     }

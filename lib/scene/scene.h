@@ -47,6 +47,10 @@
 #define LC_ID_SLOT(id) ((uint32_t)((id)&0xffffffffu))
 #define LC_ID_SERIAL(id) ((uint32_t)((id) >> 32))
 #define LC_MAX_SERIAL 0xffffffffu
+/* The id of index i when the slots are in id order and their serials
+ * consecutive from serial0 (lc_scene_slots_in_id_order's 2): no read of
+ * the per-slot ids, each a cache miss in a pass over pairs. */
+#define LC_ID_AFFINE(serial0, i) ((locd_id)((((uint64_t)(serial0) + (i)) << 32) | (i)))
 
 /* The cells an object's entries were made from: its level, the first cell
  * per axis and whether it spans a second one (bit a of span). Enough to

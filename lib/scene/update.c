@@ -182,6 +182,13 @@ static void undo(upd *u)
     lc_tree_edit_undo(&s->sta, &u->edit[1]);
 }
 
+/* A wait (in updates) doubled after a cache that did not pay for itself,
+ * up to LC_BAND_WAIT_MAX: the band rule's lists, the near-pair list. */
+LC_INLINE uint32_t doubled_wait(uint32_t w)
+{
+    return 2 * w < LC_BAND_WAIT_MAX ? 2 * w : LC_BAND_WAIT_MAX;
+}
+
 LC_INLINE uint32_t band_wait(const locd_scene *s)
 {
     return s->band_wait ? s->band_wait : LC_BAND_WAIT;
@@ -268,8 +275,7 @@ static locd_status near_update(upd *u)
         return LOCD_OK;
     }
     if (nr->served == 0) {
-        nr->wait = nr->wait ? 2 * nr->wait : LC_NEAR_WAIT;
-        nr->wait = nr->wait > LC_BAND_WAIT_MAX ? LC_BAND_WAIT_MAX : nr->wait;
+        nr->wait = nr->wait ? doubled_wait(nr->wait) : LC_NEAR_WAIT;
         nr->skip = nr->wait;
     } else {
         nr->wait = 0;
@@ -823,7 +829,7 @@ static locd_status incremental(upd *u)
         if (s->have_adj && srch > coast && srch >= LC_ADJ_MIN_LEFT) {
             lc_adj_drop(s); /* a cache: dropping it changes no result */
             s->calm_updates = 0;
-            s->band_wait = 2 * band_wait(s) < LC_BAND_WAIT_MAX ? 2 * band_wait(s) : LC_BAND_WAIT_MAX;
+            s->band_wait = doubled_wait(band_wait(s));
             if ((double)u->moved > LC_REBUILD_FRACTION * (double)s->live)
                 return LC_REBUILD;
             for (t = 0; t < nk; t++) { /* pass 1 again, every object searching */
