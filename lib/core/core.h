@@ -110,6 +110,27 @@ LC_SHARED size_t lc_grow_cap(size_t cap, size_t need);
 LC_SHARED locd_status lc_buf_reserve(const locd_allocator *a, lc_buf *b, size_t elem, size_t count);
 LC_SHARED void lc_buf_release(const locd_allocator *a, lc_buf *b, size_t elem);
 
+/* ---- the lower-bound search (the library's one) ----
+ * The first x in [lo, hi) at which at(ctx, x) is true, given that it is
+ * false then true along [lo, hi) (hi when it never is true): a sorted
+ * array's first element >= v (lc_lower_bound), a sorted list of pair rows,
+ * the smallest depth or value a monotone estimate allows. Inline, with a
+ * constant `at` the compiler inlines, it is the plain loop. */
+LC_INLINE uint64_t lc_search_first(uint64_t lo, uint64_t hi, int (*at)(const void *ctx, uint64_t x), const void *ctx)
+{
+    while (lo < hi) {
+        const uint64_t mid = lo + (hi - lo) / 2;
+        if (at(ctx, mid))
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    return lo;
+}
+
+/* The first position of sorted a[0, n) whose value is >= v (n if none). */
+size_t lc_lower_bound(const uint64_t *a, size_t n, uint64_t v);
+
 /* ---- versioned structs (versioned.c; docs/abi.md, "the size rules") ---- */
 /* Input: src (a public struct that leads with uint32_t size) must have
  * min_size <= size <= full_size; its first `size` bytes after `size` are

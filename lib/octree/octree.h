@@ -120,8 +120,6 @@ size_t lc_encode_f64(const locd_grid *g, const double *boxes, size_t first, size
                      size_t capacity, size_t *needed, uint64_t *qbox, int kernel);
 /* Multiway merge of runs restricted to [begin[r], end[r]) into out. */
 void lc_merge_ranges(const uint64_t *const *runs, const size_t *begin, const size_t *end, size_t k, uint64_t *out);
-/* The first position in sorted a[0, n) whose value is >= v (n if none). */
-size_t lc_lower_bound(const uint64_t *a, size_t n, uint64_t v);
 /* Splits k runs so that exactly `rank` elements lie before the split; pos[r] receives the split in run r. */
 void lc_merge_split(const uint64_t *const *runs, const size_t *counts, size_t k, size_t rank, size_t *pos);
 
