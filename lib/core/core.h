@@ -130,6 +130,7 @@ LC_INLINE uint64_t lc_search_first(uint64_t lo, uint64_t hi, int (*at)(const voi
 
 /* The first position of sorted a[0, n) whose value is >= v (n if none). */
 size_t lc_lower_bound(const uint64_t *a, size_t n, uint64_t v);
+size_t lc_lower_bound_u32(const uint32_t *a, size_t n, uint32_t v);
 
 /* ---- versioned structs (versioned.c; docs/abi.md, "the size rules") ---- */
 /* Input: src (a public struct that leads with uint32_t size) must have
@@ -190,6 +191,10 @@ locd_status lc_pairs_give(locd_pairs *from, locd_pairs *out);
  * within equal high bits (stable LSD passes over the bits that vary);
  * returns the buffer holding the result (entries or scratch). */
 LC_SHARED uint64_t *lc_radix_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits);
+/* Sorts v[0, n) ascending: qsort, or (lc_sort_u64_radix) the radix sort
+ * from LC_RADIX_SORT_MIN values on, its scratch allocated. */
+void lc_sort_u64(uint64_t *v, size_t n);
+locd_status lc_sort_u64_radix(const locd_allocator *a, uint64_t *v, size_t n);
 
 /* ---- thread pool (pool.c) ---- */
 typedef struct lc_pool lc_pool;

@@ -4,8 +4,12 @@
  * step (the paper's step 2) and the pair ordering both use it. */
 #include "core/core.h"
 
+#include <stdlib.h>
+
 #define LC_RADIX_MAX_BITS 11
 #define LC_RADIX_MAX_PASSES 6
+/* Below this many values qsort is faster than the radix sort's passes. */
+#define LC_RADIX_SORT_MIN 256
 
 static void insertion_sort(uint64_t *a, size_t n)
 {
@@ -85,4 +89,31 @@ uint64_t *lc_radix_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint
         }
     }
     return src;
+}
+
+static int cmp_u64(const void *pa, const void *pb)
+{
+    uint64_t a = *(const uint64_t *)pa, b = *(const uint64_t *)pb;
+    return (a > b) - (a < b);
+}
+
+void lc_sort_u64(uint64_t *v, size_t n)
+{
+    qsort(v, n, sizeof *v, cmp_u64);
+}
+
+locd_status lc_sort_u64_radix(const locd_allocator *a, uint64_t *v, size_t n)
+{
+    uint64_t *scratch, *r;
+    if (n < LC_RADIX_SORT_MIN) {
+        lc_sort_u64(v, n);
+        return LOCD_OK;
+    }
+    if (!(scratch = lc_alloc(a, n * sizeof *scratch)))
+        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate a sort's scratch");
+    r = lc_radix_sort(v, scratch, n, 0);
+    if (r != v)
+        memcpy(v, r, n * sizeof *v);
+    lc_free(a, scratch, n * sizeof *scratch);
+    return LOCD_OK;
 }

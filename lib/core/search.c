@@ -1,4 +1,4 @@
-/* The lower-bound search on a sorted array of 64-bit values (core.h's
+/* The lower-bound search on sorted arrays of 64- and 32-bit values (core.h's
  * lc_search_first does the search). */
 #include "core/core.h"
 
@@ -13,4 +13,17 @@ size_t lc_lower_bound(const uint64_t *a, size_t n, uint64_t v)
     const uint64_t *ctx[2];
     ctx[0] = a, ctx[1] = &v;
     return (size_t)lc_search_first(0, n, at_or_above, ctx);
+}
+
+static int at_or_above_u32(const void *ctx, uint64_t i)
+{
+    const uint32_t *a = ((const uint32_t *const *)ctx)[0], *v = ((const uint32_t *const *)ctx)[1];
+    return a[i] >= *v;
+}
+
+size_t lc_lower_bound_u32(const uint32_t *a, size_t n, uint32_t v)
+{
+    const uint32_t *ctx[2];
+    ctx[0] = a, ctx[1] = &v;
+    return (size_t)lc_search_first(0, n, at_or_above_u32, ctx);
 }

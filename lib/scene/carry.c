@@ -88,7 +88,7 @@ static void task_carry(void *arg, uint32_t t, uint32_t k)
  * 1 writes its rows forward from the position where thread 0's range
  * would end if nothing were dropped, thread 0 writes its rows backward
  * from that same position. The output is then one run that starts after
- * the rows thread 0 dropped (lc_plist.first); so are the dropped rows. */
+ * the rows thread 0 dropped (lc_pair_list.first); so are the dropped rows. */
 static void task_carry2(void *arg, uint32_t t, uint32_t k)
 {
     carry_ctx *c = arg;
@@ -132,315 +132,93 @@ static void task_carry2(void *arg, uint32_t t, uint32_t k)
     c->out_off[0] = w, c->drop_off[0] = dw;
 }
 
-locd_status lc_scene_carry(locd_scene *s, const lc_plist *n, lc_plist *next, lc_plist *dropped)
+/* The bitmap of the changed slots: dirty or removed. */
+static void mark_changed(const lc_slots *sl, uint64_t *bits, size_t words)
 {
-    const locd_allocator *a = s->alloc;
-    const uint32_t *d = s->dirty.data, *r = s->removed.data;
-    size_t words = (s->nslots + 63) / 64 + 1, np = s->pairs.count, k, nd = 0;
-    uint32_t kk = s->threads ? s->threads : 1, t;
-    carry_ctx *c = lc_alloc(a, sizeof *c);
-    uint64_t *bits = lc_alloc(a, words * sizeof *bits);
-    locd_status st = LOCD_OK;
-    if (!c || !bits) {
-        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the carry pass");
-        goto done;
-    }
-    memset(c, 0, sizeof *c);
+    const uint32_t *d = sl->dirty.data, *r = sl->removed.data;
+    size_t k;
     memset(bits, 0, words * sizeof *bits);
-    for (k = 0; k < s->ndirty; k++)
+    for (k = 0; k < sl->ndirty; k++)
         bits[d[k] >> 6] |= (uint64_t)1 << (d[k] & 63);
-    for (k = 0; k < s->nremoved; k++)
+    for (k = 0; k < sl->nremoved; k++)
         bits[r[k] >> 6] |= (uint64_t)1 << (r[k] & 63);
-    if (np < 65536)
-        kk = 1;
-    c->changed = bits, c->p = lc_plist_rows(&s->pairs), c->n = n->rows.data;
-    for (t = 0; t <= kk; t++) {
-        c->pb[t] = np * t / kk;
-        c->nb[t] = t == 0    ? 0
-                   : t == kk ? n->count
-                             : lc_rows_lower_bound(n->rows.data, n->count, lc_pair_key(c->p + 2 * c->pb[t]));
-    }
-    if (kk == 2) {
-        if ((st = lc_plist_reserve(a, next, np + n->count + 1)) != LOCD_OK ||
-            (st = lc_plist_reserve(a, dropped, np + 1)) != LOCD_OK)
-            goto done;
-        c->out = next->rows.data;
-        c->drop = dropped->rows.data;
-        c->pass = 3;
-        lc_pool_run(s->pool, 2, task_carry2, c);
-        next->first = c->out_off[0];
-        next->count = c->out_end[1] - c->out_off[0];
-        dropped->first = c->drop_off[0];
-        dropped->count = c->drop_end[1] - c->drop_off[0];
-        goto done;
-    }
-    c->pass = 1;
+}
+
+static void carry_run(locd_scene *s, carry_ctx *c, uint32_t kk, int pass)
+{
+    c->pass = pass;
     if (kk > 1)
         lc_pool_run(s->pool, kk, task_carry, c);
     else
         task_carry(c, 0, 1);
-    for (t = 0; t < kk; t++) {
-        c->drop_off[t] = nd;
-        nd += c->ndrop[t];
-    }
-    for (t = 0, k = 0; t < kk; t++) {
-        c->out_off[t] = k;
-        k += (c->pb[t + 1] - c->pb[t]) - c->ndrop[t] + (c->nb[t + 1] - c->nb[t]);
-    }
-    if ((st = lc_plist_reserve(a, next, k + 1)) != LOCD_OK || (st = lc_plist_reserve(a, dropped, nd + 1)) != LOCD_OK)
-        goto done;
+}
+
+/* Two threads, one pass (task_carry2). */
+static locd_status carry_two(locd_scene *s, carry_ctx *c, size_t nn, lc_pair_list *next, lc_pair_list *dropped)
+{
+    const size_t np = s->set.pairs.count;
+    locd_status st;
+    if ((st = lc_pair_list_reserve(s->alloc, next, np + nn + 1)) != LOCD_OK ||
+        (st = lc_pair_list_reserve(s->alloc, dropped, np + 1)) != LOCD_OK)
+        return st;
     c->out = next->rows.data;
     c->drop = dropped->rows.data;
-    c->pass = 2;
-    if (kk > 1)
-        lc_pool_run(s->pool, kk, task_carry, c);
-    else
-        task_carry(c, 0, 1);
-    next->count = k;
-    dropped->count = nd;
-done:
-    lc_free(a, c, sizeof *c);
-    lc_free(a, bits, words * sizeof *bits);
-    return st;
-}
-
-/* Every 2^LC_SAMPLE_BITS-th row's key: the edits' positions are found in
- * this sample first (it stays in the cache), then within one block of the
- * set, instead of by binary searches over the whole set (each of them a
- * dozen misses: at 3% of 10^6 cubes moving, 2,700 edits a frame made the
- * patch cost twice its copy). */
-#define LC_SAMPLE_BITS 8
-
-/* pos[i]: the first row of p[0, np) whose key is >= rows[i]'s (rows sorted),
- * through the sample key[0, ns). */
-static void edit_positions(const uint64_t *key, size_t ns, const locd_id *p, size_t np, const locd_id *rows,
-                           size_t n, uint64_t *pos)
-{
-    size_t i, b = 0;
-    for (i = 0; i < n; i++) {
-        const uint64_t k = lc_pair_key(rows + 2 * i);
-        size_t lo, hi;
-        while (b + 1 < ns && key[b + 1] <= k) /* rows ascend: the block only moves on */
-            b++;
-        lo = b << LC_SAMPLE_BITS;
-        hi = lo + ((size_t)1 << LC_SAMPLE_BITS) < np ? lo + ((size_t)1 << LC_SAMPLE_BITS) : np;
-        pos[i] = lo + lc_rows_lower_bound(p + 2 * lo, hi - lo, k);
-    }
-}
-
-/* The lost rows' positions (each must hold its row) and the created rows',
- * through one sample of the set. */
-static locd_status patch_positions(const locd_allocator *a, const locd_id *p, size_t np, const lc_plist *lost,
-                                   const lc_plist *created, uint64_t *pos_l, uint64_t *pos_c)
-{
-    const locd_id *lo = lc_plist_rows(lost);
-    const size_t ns = (np >> LC_SAMPLE_BITS) + 1;
-    uint64_t *key;
-    size_t i;
-    if (!lost->count && !created->count)
-        return LOCD_OK;
-    if (!(key = lc_alloc(a, ns * sizeof *key)))
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the pair set's patch");
-    for (i = 0; i < ns; i++) /* the first key of each block (the last block may be empty) */
-        key[i] = (i << LC_SAMPLE_BITS) < np ? lc_pair_key(p + 2 * (i << LC_SAMPLE_BITS)) : UINT64_MAX;
-    edit_positions(key, ns, p, np, lo, lost->count, pos_l);
-    edit_positions(key, ns, p, np, lc_plist_rows(created), created->count, pos_c);
-    lc_free(a, key, ns * sizeof *key);
-    for (i = 0; i < lost->count; i++)
-        if (pos_l[i] >= np || p[2 * pos_l[i]] != lo[2 * i] || p[2 * pos_l[i] + 1] != lo[2 * i + 1])
-            return lc_error(LOCD_ERR_INTERNAL, "a lost pair is not in the pair set");
+    c->pass = 3;
+    lc_pool_run(s->pool, 2, task_carry2, c);
+    next->first = c->out_off[0];
+    next->count = c->out_end[1] - c->out_off[0];
+    dropped->first = c->drop_off[0];
+    dropped->count = c->drop_end[1] - c->drop_off[0];
     return LOCD_OK;
 }
 
-/* The patch of an incremental update whose changes are known exactly (the
- * partner lists' PAIRED bits, update.c): the new set is the previous one
- * without the lost rows and with the created ones, copied in runs between
- * the edits' positions. The edits are a few hundred a frame where the
- * dropped and new rows are tens of thousands, so the pass is a copy at
- * memory speed, split over the pool by ranges of the previous rows. */
-typedef struct patch_ctx {
-    const locd_id *p, *lost, *created;
-    const uint64_t *pos_l, *pos_c; /* each edit's position in p: the lost row's, the created row's lower bound */
-    size_t np, nl, nc;
-    size_t pb[LC_MAX_THREADS + 1], lb[LC_MAX_THREADS + 1], cb[LC_MAX_THREADS + 1], off[LC_MAX_THREADS];
-    locd_id *out;
-} patch_ctx;
-
-static void task_patch(void *arg, uint32_t t, uint32_t k)
+/* kk threads: a counting pass gives each its offsets, then the write. */
+static locd_status carry_counted(locd_scene *s, carry_ctx *c, uint32_t kk, lc_pair_list *next, lc_pair_list *dropped)
 {
-    patch_ctx *c = arg;
-    const locd_id *p = c->p;
-    size_t i = c->pb[t], w = c->off[t], li = c->lb[t], ci = c->cb[t];
-    const size_t pe = c->pb[t + 1], le = c->lb[t + 1], ce = c->cb[t + 1];
-    (void)k;
-    for (;;) {
-        size_t e = pe;
-        if (li < le && c->pos_l[li] < e)
-            e = c->pos_l[li];
-        if (ci < ce && c->pos_c[ci] < e)
-            e = c->pos_c[ci];
-        memcpy(c->out + 2 * w, p + 2 * i, 2 * (e - i) * sizeof *p);
-        w += e - i, i = e;
-        if (ci < ce && c->pos_c[ci] == i) { /* a created row goes before the row at its lower bound */
-            c->out[2 * w] = c->created[2 * ci], c->out[2 * w + 1] = c->created[2 * ci + 1];
-            w++, ci++;
-        } else if (li < le && c->pos_l[li] == i) {
-            i++, li++;
-        } else {
-            break;
-        }
+    size_t nd = 0, k = 0;
+    uint32_t t;
+    locd_status st;
+    carry_run(s, c, kk, 1);
+    for (t = 0; t < kk; t++) {
+        c->drop_off[t] = nd;
+        nd += c->ndrop[t];
+        c->out_off[t] = k;
+        k += (c->pb[t + 1] - c->pb[t]) - c->ndrop[t] + (c->nb[t + 1] - c->nb[t]);
     }
+    if ((st = lc_pair_list_reserve(s->alloc, next, k + 1)) != LOCD_OK ||
+        (st = lc_pair_list_reserve(s->alloc, dropped, nd + 1)) != LOCD_OK)
+        return st;
+    c->out = next->rows.data;
+    c->drop = dropped->rows.data;
+    carry_run(s, c, kk, 2);
+    next->count = k;
+    dropped->count = nd;
+    return LOCD_OK;
 }
 
-locd_status lc_scene_patch(locd_scene *s, const lc_plist *lost, const lc_plist *created, lc_plist *next)
+locd_status lc_carry(locd_scene *s, const lc_pair_list *n, lc_pair_list *next, lc_pair_list *dropped)
 {
     const locd_allocator *a = s->alloc;
-    const size_t np = s->pairs.count, nl = lost->count, nc = created->count;
-    uint64_t *pos = lc_alloc(a, (nl + nc + 1) * sizeof *pos);
-    patch_ctx c;
-    uint32_t kk = s->threads > 1 && np >= 65536 ? s->threads : 1, t;
-    locd_status st = LOCD_OK;
-    if (!pos)
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the pair set's patch");
-    memset(&c, 0, sizeof c);
-    c.p = lc_plist_rows(&s->pairs), c.lost = lc_plist_rows(lost), c.created = lc_plist_rows(created);
-    c.np = np, c.nl = nl, c.nc = nc;
-    c.pos_l = pos, c.pos_c = pos + nl;
-    if ((st = patch_positions(a, c.p, np, lost, created, pos, pos + nl)) != LOCD_OK ||
-        (st = lc_plist_reserve(a, next, np - nl + nc + 1)) != LOCD_OK)
-        goto done;
-    c.out = next->rows.data;
-    next->first = 0;
-    for (t = 0; t <= kk; t++) {
-        c.pb[t] = np * t / kk;
-        c.lb[t] = t == kk ? nl : lc_lower_bound(c.pos_l, nl, c.pb[t]);
-        c.cb[t] = t == kk ? nc : lc_lower_bound(c.pos_c, nc, c.pb[t]);
+    const size_t words = (s->slots.nslots + 63) / 64 + 1, np = s->set.pairs.count;
+    uint32_t kk = s->threads && np >= LC_PARALLEL_MIN ? s->threads : 1, t;
+    carry_ctx *c = lc_alloc(a, sizeof *c);
+    uint64_t *bits = lc_alloc(a, words * sizeof *bits);
+    locd_status st;
+    if (!c || !bits) {
+        st = lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the carry pass");
+    } else {
+        memset(c, 0, sizeof *c);
+        mark_changed(&s->slots, bits, words);
+        c->changed = bits, c->p = lc_pair_list_rows(&s->set.pairs), c->n = n->rows.data;
+        for (t = 0; t <= kk; t++) {
+            c->pb[t] = np * t / kk;
+            c->nb[t] = t == 0    ? 0
+                       : t == kk ? n->count
+                                 : lc_pair_rows_lower_bound(n->rows.data, n->count, lc_pair_key(c->p + 2 * c->pb[t]));
+        }
+        st = kk == 2 ? carry_two(s, c, n->count, next, dropped) : carry_counted(s, c, kk, next, dropped);
     }
-    for (t = 0; t < kk; t++)
-        c.off[t] = c.pb[t] - c.lb[t] + c.cb[t];
-    if (kk > 1)
-        lc_pool_run(s->pool, kk, task_patch, &c);
-    else
-        task_patch(&c, 0, 1);
-    next->count = np - nl + nc;
-done:
-    lc_free(a, pos, (nl + nc + 1) * sizeof *pos);
+    lc_free(a, c, sizeof *c);
+    lc_free(a, bits, words * sizeof *bits);
     return st;
-}
-
-/* The same patch in the set's own buffer, when it has room after the set:
- * every row moves toward the buffer's end (the set starts B rows later,
- * B the largest leftward move a row would make), so one pass from the end
- * moves each run in place. A run is read and written in the same cache
- * lines: 32 MB of traffic at 10^6 pairs where a copy into another buffer
- * makes 48 (its lines are read before they are written). The ops are the
- * forward walk's runs and insertions, done in reverse. On two threads the
- * right half's first rows, which the left half may overwrite first, are
- * saved before. */
-typedef struct patch_op {
-    size_t src, dst, len; /* a run: len rows from src to dst (buffer rows); len 0: insert created row src at dst */
-} patch_op;
-
-typedef struct inplace_ctx {
-    locd_id *buf;
-    const locd_id *created;
-    const patch_op *op;
-    size_t ob[3];        /* op ranges of the (at most two) threads */
-    const locd_id *head; /* thread 1: buffer rows [hb, he) as they were */
-    size_t hb, he;
-} inplace_ctx;
-
-static void task_inplace(void *arg, uint32_t t, uint32_t k)
-{
-    const inplace_ctx *c = arg;
-    size_t x;
-    (void)k;
-    for (x = c->ob[t + 1]; x-- > c->ob[t];) {
-        const patch_op *o = &c->op[x];
-        if (!o->len) {
-            c->buf[2 * o->dst] = c->created[2 * o->src], c->buf[2 * o->dst + 1] = c->created[2 * o->src + 1];
-            continue;
-        }
-        if (t == 1 && o->src < c->he) { /* partly or wholly in the saved head */
-            const size_t in = c->he - o->src < o->len ? c->he - o->src : o->len;
-            memmove(c->buf + 2 * (o->dst + in), c->buf + 2 * (o->src + in), 2 * (o->len - in) * sizeof *c->buf);
-            memcpy(c->buf + 2 * o->dst, c->head + 2 * (o->src - c->hb), 2 * in * sizeof *c->buf);
-            continue;
-        }
-        memmove(c->buf + 2 * o->dst, c->buf + 2 * o->src, 2 * o->len * sizeof *c->buf);
-    }
-}
-
-int lc_scene_patch_in_place(locd_scene *s, const lc_plist *lost, const lc_plist *created)
-{
-    const locd_allocator *a = s->alloc;
-    lc_plist *set = &s->pairs;
-    const size_t np = set->count, nl = lost->count, nc = created->count, f0 = set->first;
-    const locd_id *p = lc_plist_rows(set), *cr = lc_plist_rows(created);
-    const size_t nops = 2 * (nl + nc) + 2;
-    patch_op *op = lc_alloc(a, nops * sizeof *op);
-    uint64_t *pos = lc_alloc(a, (nl + nc + 1) * sizeof *pos);
-    locd_id *head = NULL;
-    size_t i = 0, w = 0, li = 0, ci = 0, n = 0, x, shift = 0, nhead = 0;
-    inplace_ctx c;
-    uint32_t kk = 1;
-    int done = 0;
-    if (!op || !pos || patch_positions(a, p, np, lost, created, pos, pos + nl) != LOCD_OK)
-        goto out; /* the copying patch reports what went wrong */
-    /* the forward walk (as task_patch), new rows counted from the set's start */
-    for (;;) {
-        const size_t pl = li < nl ? pos[li] : SIZE_MAX, pc = ci < nc ? pos[nl + ci] : SIZE_MAX;
-        size_t e = np;
-        if (pl < e)
-            e = pl;
-        if (pc < e)
-            e = pc;
-        if (e > i) {
-            op[n].src = f0 + i, op[n].dst = w, op[n++].len = e - i;
-            if (i > w && i - w > shift)
-                shift = i - w;
-            w += e - i, i = e;
-        }
-        if (pc == i)
-            op[n].src = ci++, op[n].dst = w++, op[n++].len = 0;
-        else if (pl == i)
-            i++, li++;
-        else
-            break;
-    }
-    /* the set starts at f0 + shift: every run moves right */
-    if (f0 + shift + w > set->rows.cap)
-        goto out;
-    for (x = 0; x < n; x++)
-        op[x].dst += f0 + shift;
-    memset(&c, 0, sizeof c);
-    c.buf = set->rows.data, c.created = cr, c.op = op;
-    c.ob[0] = 0, c.ob[1] = n;
-    if (s->threads > 1 && np >= 65536 && n >= 2) {
-        /* the right half starts at the first op whose source is past the middle */
-        size_t m = 0, reach;
-        while (m < n && !(op[m].len && op[m].src >= f0 + np / 2))
-            m++;
-        if (m > 0 && m < n) {
-            reach = op[m - 1].dst + (op[m - 1].len ? op[m - 1].len : 1); /* the left half writes below this */
-            c.hb = op[m].src, c.he = reach > op[m].src ? reach : op[m].src;
-            nhead = c.he - c.hb;
-            if (!nhead || (head = lc_alloc(a, 2 * nhead * sizeof *head)) != NULL) {
-                if (nhead)
-                    memcpy(head, c.buf + 2 * c.hb, 2 * nhead * sizeof *head);
-                c.head = head, c.ob[1] = m, c.ob[2] = n, kk = 2;
-            }
-        }
-    }
-    if (kk > 1)
-        lc_pool_run(s->pool, 2, task_inplace, &c);
-    else
-        task_inplace(&c, 0, 1);
-    set->first = f0 + shift, set->count = w;
-    done = 1;
-out:
-    lc_free(a, head, 2 * (nhead ? nhead : 1) * sizeof *head);
-    lc_free(a, pos, (nl + nc + 1) * sizeof *pos);
-    lc_free(a, op, nops * sizeof *op);
-    return done;
 }

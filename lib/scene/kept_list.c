@@ -2,7 +2,7 @@
  *
  * When most objects move, an update finds its pairs from scratch: the
  * engine encodes every box on a grid fitted to them, sorts the entries and
- * sweeps them (rebuild.c). Objects that move a little keep their cells, so
+ * sweeps them (from_scratch.c). Objects that move a little keep their cells, so
  * most entries of one update are those of the last. The kept list holds
  * the last update's entries twice: in slot order, each thread's share in
  * its own region as the encode writes them, and sorted. An update encodes
@@ -16,21 +16,19 @@
  * list's grid, a grid fitted as the engine fits one (its bounds, its depth
  * tuning) with a margin of 1/LC_KEPT_MARGIN of the extent on each side;
  * the find is exact on it as on the engine's tight one (the quantization
- * is monotone; the scene's trees use such grids too). An update whose
+ * is monotone; the scene's entry lists use such grids too). An update whose
  * boxes leave the grid makes the list again (encode and sort, the engine's
  * work), as does one with another number of objects or threads: boxes
  * clamped to its faces would crowd the cells there. The pairs are a set:
- * the pair order (rebuild.c) sorts them, so the sweep's order does not
+ * the pair order (pair_order.c) sorts them, so the sweep's order does not
  * matter.
  *
  * A move of every object in slot order (move.c) can do the encode ahead,
- * chunk by chunk as it checks and copies the boxes (lc_kept_pre_*): the
- * entries go to the regions this update would write, the packed boxes to
- * the engine's buffer. The update takes them when nothing could have
- * changed them since: any add, move or remove clears the mark, and a
- * count of the buffer's writers (lc_inproc_qbox_epoch) shows whether a
- * find of the engine or another scene on it wrote the packed boxes. They
- * are then the update's own encode's, on the same grid.
+ * chunk by chunk as it checks and copies the boxes, through the move's
+ * hand-over (handover.c): the entries go to the regions this update would
+ * write (lc_kept_next_*), the packed boxes to the engine's buffer. The
+ * update takes them when the hand-over says nothing changed them since;
+ * they are then the update's own encode's, on the same grid.
  *
  * Used when the slots are the engine's input as they are (every slot live,
  * in id order), every box is a float exactly, and there are at least
@@ -385,40 +383,32 @@ static locd_status delta_room(kept_ctx *c)
     return LOCD_OK;
 }
 
-int lc_kept_pre_open(locd_scene *s, size_t n, uint32_t k)
+int lc_kept_next_open(locd_scene *s, size_t n, uint32_t k)
 {
     lc_kept *l = &s->kept;
     lc_plan *p = &l->plan[!l->cur];
     uint32_t t;
-    l->pre = 0;
     if (!l->valid || l->n != n || l->plan[l->cur].k != k) /* (a valid list has its per_object) */
         return 0;
     p->k = k;
     lc_plan_regions(p, n, l->per_object);
-    if (lc_buf_reserve(s->alloc, &l->reg[!l->cur], sizeof(uint64_t), lc_plan_layout(p)) != LOCD_OK ||
-        !(l->pre_qbox = lc_inproc_qbox(s->engine, n)))
+    if (lc_buf_reserve(s->alloc, &l->reg[!l->cur], sizeof(uint64_t), lc_plan_layout(p)) != LOCD_OK)
         return 0;
     for (t = 0; t < k; t++)
         p->cnt[t] = 0;
     return 1;
 }
 
-int lc_kept_pre_chunk(locd_scene *s, uint32_t t, const float *boxes, size_t first, size_t count)
+int lc_kept_next_encode(locd_scene *s, uint32_t t, const float *boxes, size_t first, size_t count, uint64_t *qbox)
 {
     lc_kept *l = &s->kept;
     lc_plan *p = &l->plan[!l->cur];
     size_t need, w = lc_encode_f32(&l->g, boxes, first, count, (uint64_t *)l->reg[!l->cur].data + p->off[t] + p->cnt[t],
-                                   p->cap[t] - p->cnt[t], &need, l->pre_qbox, s->kernel);
+                                   p->cap[t] - p->cnt[t], &need, qbox, s->kernel);
     if (w == (size_t)-1)
         return 0;
     p->cnt[t] += w;
     return 1;
-}
-
-void lc_kept_pre_close(locd_scene *s)
-{
-    s->kept.pre = 1;
-    s->kept.pre_epoch = lc_inproc_qbox_epoch(s->engine);
 }
 
 locd_status lc_kept_sweep(locd_scene *s, size_t n, const lc_pair_sink *sink, locd_pairs *out, locd_stats *stats)
@@ -428,45 +418,51 @@ locd_status lc_kept_sweep(locd_scene *s, size_t n, const lc_pair_sink *sink, loc
     const uint64_t *qbox = lc_inproc_qbox(s->engine, n);
     if (!l->valid || l->n != n || !qbox)
         return lc_error(LOCD_ERR_INTERNAL, "the kept entry list is not up to date");
-    return lc_inproc_sweep_sorted(s->engine, &l->g, s->fbox, qbox, n, l->sorted[l->cur].data, l->plan[l->cur].total,
+    return lc_inproc_sweep_sorted(s->engine, &l->g, s->slots.fbox, qbox, n, l->sorted[l->cur].data, l->plan[l->cur].total,
                                   sink, out, stats);
 }
 
-locd_status lc_kept_find(locd_scene *s, size_t n, const lc_pair_sink *sink, locd_pairs *out, locd_stats *stats)
+/* The bounds of every box: given, or a pass of their own. */
+static void all_bounds(kept_ctx *c, const lc_kept_given *given, lc_bounds *all)
+{
+    uint32_t t;
+    lc_bounds_init(all);
+    if (given->has_bounds) {
+        for (t = 0; t < 3; t++)
+            all->lo[t] = given->lo[t], all->hi[t] = given->hi[t];
+        return;
+    }
+    kept_run(c, 0, c->k);
+    for (t = 0; t < c->k; t++)
+        lc_bounds_merge(all, &c->bounds[t]);
+}
+
+locd_status lc_kept_find(locd_scene *s, size_t n, const lc_kept_given *given, const lc_pair_sink *sink, locd_pairs *out,
+                         locd_stats *stats)
 {
     lc_kept *l = &s->kept;
     kept_ctx *c = lc_alloc(s->alloc, sizeof *c);
     lc_bounds all;
     locd_status st;
-    uint32_t t;
-    int fresh, fits = 0, pre = l->pre && l->pre_epoch == lc_inproc_qbox_epoch(s->engine);
+    int fresh, fits = 0, pre = given->encoded;
     double room[6];
     if (!c)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene's kept entry list");
     memset(c, 0, sizeof *c);
-    c->s = s, c->l = l, c->boxes = s->fbox, c->n = n;
+    c->s = s, c->l = l, c->boxes = s->slots.fbox, c->n = n;
     c->k = s->threads > 1 ? s->threads : 1;
-    lc_bounds_init(&all);
-    if (s->fbox_bounds_ok) { /* the move that wrote every box found them */
-        for (t = 0; t < 3; t++)
-            all.lo[t] = s->fbox_lo[t], all.hi[t] = s->fbox_hi[t];
-    } else {
-        kept_run(c, 0, c->k);
-        for (t = 0; t < c->k; t++)
-            lc_bounds_merge(&all, &c->bounds[t]);
-    }
+    all_bounds(c, given, &all);
     memcpy(room, all.lo, sizeof all.lo);
     memcpy(room + 3, all.hi, sizeof all.hi);
     fresh = !l->valid || l->n != n || l->plan[l->cur].k != c->k || !lc_grid_holds(&l->g, room);
     l->valid = 0; /* until this update's list is whole */
-    l->pre = 0;
     if (fresh) {
         l->per_object = l->per_object > 0.0 ? l->per_object : lc_entries_per_object_guess(s->engine->cfg.cell_bias);
         if ((st = fit_grid(c, &all)) != LOCD_OK)
             goto done;
     }
     c->nw = fresh ? l->cur : !l->cur;
-    if (!fresh && pre) { /* the move encoded the boxes (lc_kept_pre_open's checks hold still) */
+    if (!fresh && pre) { /* the move encoded the boxes (lc_kept_next_open's checks hold still) */
         l->per_object = lc_plan_finish(&l->plan[c->nw], n);
     } else if ((st = encode_all(c)) != LOCD_OK) {
         goto done;

@@ -2,7 +2,7 @@
  * every frame, without a sweep at every frame.
  *
  * When most objects move, an update finds its pairs from scratch
- * (rebuild.c): a sweep of every box. Objects that move a little stay near
+ * (from_scratch.c): a sweep of every box. Objects that move a little stay near
  * where they were, and so do their pairs. The near list holds, per object
  * i, every j > i whose *fat box* meets i's and that may pair with it (the
  * filter), each with a PAIRED bit (the pair is in the current set). A fat
@@ -17,17 +17,17 @@
  * The pass is in the order of the rows (slots in id order), so the set,
  * created and lost come out sorted; it checks each object's box against
  * its fat box on the way, and a box outside makes the update build the
- * list again (or go from scratch: update.c decides). The test is the
+ * list again (or go from scratch: path.c decides). The test is the
  * float boxes' closed test, exact: every box is a float exactly here.
  *
  * Used when the slots are the engine's input as they are (every slot live,
  * in id order), every box is a float exactly, there are at least
  * LC_KEPT_MIN objects, and only moves happened since the list was built
- * (an add, remove or set_filter drops it: update.c). */
+ * (an add, remove or set_filter makes it unusable: lc_near_usable). */
 #include "scene/scene.h"
 
 /* A fat box's margin on each side: the box's largest edge >> LC_FAT_SHIFT
- * (1/16), as the incremental path's fat boxes (tree.c). */
+ * (1/16), as the entry lists' fat boxes (cells.c). */
 #define LC_NEAR_MARGIN (1.0f / (float)(1u << LC_FAT_SHIFT))
 /* How far ahead the pass loads a partner's box: a cache miss each (the
  * slots are in id order, not in space). */
@@ -100,7 +100,7 @@ static void run(locd_scene *s, uint32_t k, void (*fn)(void *, uint32_t, uint32_t
  * up stops that output's writes (the pass goes on: its PAIRED bits are
  * wanted); the rows
  * are then written again by a pass with room for every candidate, the
- * events found by the diff against the previous set (update.c). The
+ * events found by the diff against the previous set (lc_pair_set_diff). The
  * buffers then keep their size from frame to frame: made larger, each
  * would be faulted in again in the first frames after a build, which is
  * dear on a virtual machine. */
@@ -145,7 +145,7 @@ LC_INLINE int stop_here(pass_ctx *c, const float *bi, const float *fat, size_t i
 
 LC_INLINE void prefetch_partner(const pass_ctx *c, const float *fb, uint32_t e)
 {
-    const size_t j = e & LC_ADJ_INDEX;
+    const size_t j = e & LC_INDEX_BITS;
     __builtin_prefetch(fb + 6 * j);
     __builtin_prefetch(fb + 6 * j + 5);
     if (c->idl)
@@ -162,7 +162,7 @@ LC_INLINE void prefetch_partner(const pass_ctx *c, const float *fb, uint32_t e)
  * lost row when the bit changed. */
 #define LC_NEAR_VISIT(put)                                                                                      \
     do {                                                                                                        \
-        const uint32_t v = nb[x], j = v & LC_ADJ_INDEX, was = v >> 31;                                          \
+        const uint32_t v = nb[x], j = v & LC_INDEX_BITS, was = v >> 31;                                          \
         const float *bj = fb + 6 * (size_t)j;                                                                   \
         const uint32_t hit = (uint32_t)((bi[0] <= bj[3]) & (bj[0] <= bi[3]) & (bi[1] <= bj[4]) &               \
                                         (bj[1] <= bi[4]) & (bi[2] <= bj[5]) & (bj[2] <= bi[5]));                \
@@ -183,7 +183,7 @@ static void task_pass(void *arg, uint32_t t, uint32_t k)
 {
     pass_ctx *c = arg;
     lc_near *nr = &c->s->near;
-    const float *fb = c->s->fbox, *fat = nr->fat;
+    const float *fb = c->s->slots.fbox, *fat = nr->fat;
     const uint32_t *off = nr->off;
     uint32_t *nb = nr->nb;
     const size_t i0 = c->ib[t], i1 = c->ib[t + 1];
@@ -225,20 +225,6 @@ static void task_pass(void *arg, uint32_t t, uint32_t k)
     c->nlo[t] = (size_t)(lo > lo0 ? lo - lo0 : lo0 - lo) / 2;
     c->rfull[t] = rfull;
     c->efull[t] = efull;
-}
-
-/* The first object whose candidates start at or after position x. */
-static size_t object_at(const uint32_t *off, size_t n, size_t x)
-{
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        const size_t mid = lo + (hi - lo) / 2;
-        if (off[mid] < x)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
 }
 
 /* The rows' regions: room for est[t] rows in thread t's range (the
@@ -283,18 +269,70 @@ static size_t close_up(uint32_t k, locd_id *buf, const size_t *beg, const size_t
     return total;
 }
 
+/* The pass's threads' object ranges (about equal candidates each) and
+ * rows' regions, sized from the previous set's rows in each range. */
+static size_t plan_pass(locd_scene *s, pass_ctx *c, uint32_t k)
+{
+    const lc_near *nr = &s->near;
+    const locd_id *prev = lc_pair_list_rows(&s->set.pairs);
+    size_t est[LC_MAX_THREADS], rr[LC_MAX_THREADS + 1];
+    uint32_t t;
+    for (t = 0; t <= k; t++) {
+        c->ib[t] = t == k ? nr->n : lc_lower_bound_u32(nr->off, nr->n, (uint32_t)(nr->count * t / k));
+        rr[t] = c->ib[t] == nr->n ? s->set.pairs.count /* (the last objects may have no candidates) */
+                                  : lc_pair_rows_lower_bound(prev, s->set.pairs.count,
+                                                             (uint64_t)LC_ID_SERIAL(s->slots.id[c->ib[t]]) << 32);
+    }
+    for (t = 0; t < k; t++)
+        est[t] = rr[t + 1] - rr[t];
+    return plan_rows(c, k, est);
+}
+
+/* A frame's event regions: equal shares of the smaller buffer's room (at
+ * least 4096 rows a thread), thread 0 from its region's end down when the
+ * rows go back. */
+static locd_status plan_events(locd_scene *s, pass_ctx *c, uint32_t k, lc_pair_list *cr, lc_pair_list *lo)
+{
+    size_t ecap = cr->rows.cap < lo->rows.cap ? cr->rows.cap : lo->rows.cap;
+    uint32_t t;
+    locd_status st;
+    ecap = ecap > 4096 * (size_t)k ? ecap : 4096 * (size_t)k;
+    if ((st = lc_pair_list_reserve(s->alloc, cr, ecap)) != LOCD_OK ||
+        (st = lc_pair_list_reserve(s->alloc, lo, ecap)) != LOCD_OK)
+        return st;
+    for (t = 0; t < k; t++)
+        c->ebeg[t] = ecap * t / k, c->elim[t] = ecap * (t + 1) / k;
+    if (c->back)
+        c->ebeg[0] = c->elim[0], c->elim[0] = 0;
+    return LOCD_OK;
+}
+
+/* More rows than the regions held: every object's rows again, with room
+ * for every candidate (the PAIRED bits are right already). */
+static locd_status pass_again(locd_scene *s, pass_ctx *c, uint32_t k, lc_pair_list *next)
+{
+    const lc_near *nr = &s->near;
+    size_t est[LC_MAX_THREADS];
+    uint32_t t;
+    locd_status st;
+    for (t = 0; t < k; t++)
+        est[t] = nr->off[c->ib[t + 1]] - nr->off[c->ib[t]];
+    if ((st = lc_pair_list_reserve(s->alloc, next, plan_rows(c, k, est))) != LOCD_OK)
+        return st; /* (the caller drops the list) */
+    c->rows = c->cr = c->lo = next->rows.data;
+    c->check = 0;
+    run(s, k, task_pass, c);
+    return LOCD_OK;
+}
+
 /* Runs the pass into next (and, for a frame, cr and lo; *diff = 1 when
  * they did not fit: the caller diffs the sets). *left = 1 when a box lies
  * outside its fat box (a frame only): nothing is written, the PAIRED bits
  * are partly this frame's and the list is no longer valid. */
-static locd_status pass(locd_scene *s, int check, lc_plist *next, lc_plist *cr, lc_plist *lo, int *left,
+static locd_status pass(locd_scene *s, int check, lc_pair_list *next, lc_pair_list *cr, lc_pair_list *lo, int *left,
                         int *diff)
 {
-    lc_near *nr = &s->near;
-    const int ordered = lc_scene_slots_in_id_order(s);
     const uint32_t k = pool_parts(s);
-    const locd_id *prev = lc_plist_rows(&s->pairs);
-    size_t est[LC_MAX_THREADS], rr[LC_MAX_THREADS + 1], need, ecap = 0;
     pass_ctx c;
     uint32_t t;
     int full = 0;
@@ -303,36 +341,18 @@ static locd_status pass(locd_scene *s, int check, lc_plist *next, lc_plist *cr, 
     memset(&c, 0, sizeof c);
     c.s = s;
     c.check = check;
-    c.idl = ordered == 2 ? NULL : s->id;
-    c.serial0 = LC_ID_SERIAL(s->id[0]);
+    c.idl = lc_slots_in_id_order(s) == 2 ? NULL : s->slots.id;
+    c.serial0 = LC_ID_SERIAL(s->slots.id[0]);
     c.back = k > 1;
-    for (t = 0; t <= k; t++) {
-        c.ib[t] = t == k ? nr->n : object_at(nr->off, nr->n, nr->count * t / k);
-        rr[t] = c.ib[t] == nr->n ? s->pairs.count /* (the last objects may have no candidates) */
-                                 : lc_rows_lower_bound(prev, s->pairs.count,
-                                                       (uint64_t)LC_ID_SERIAL(s->id[c.ib[t]]) << 32);
-    }
-    for (t = 0; t < k; t++)
-        est[t] = rr[t + 1] - rr[t];
-    need = plan_rows(&c, k, est);
-    if (check) {
-        ecap = cr->rows.cap < lo->rows.cap ? cr->rows.cap : lo->rows.cap;
-        ecap = ecap > 4096 * (size_t)k ? ecap : 4096 * (size_t)k;
-    }
-    if ((st = lc_plist_reserve(s->alloc, next, need)) != LOCD_OK ||
-        (check && ((st = lc_plist_reserve(s->alloc, cr, ecap)) != LOCD_OK ||
-                   (st = lc_plist_reserve(s->alloc, lo, ecap)) != LOCD_OK)))
+    if ((st = lc_pair_list_reserve(s->alloc, next, plan_pass(s, &c, k))) != LOCD_OK ||
+        (check && (st = plan_events(s, &c, k, cr, lo)) != LOCD_OK))
         return st;
-    for (t = 0; t < k && check; t++) /* (thread 0, when back, from its region's end down) */
-        c.ebeg[t] = ecap * t / k, c.elim[t] = ecap * (t + 1) / k;
-    if (c.back)
-        c.ebeg[0] = c.elim[0], c.elim[0] = 0;
     c.rows = next->rows.data;
     c.cr = check ? cr->rows.data : c.rows; /* (a build writes no events) */
     c.lo = check ? lo->rows.data : c.rows;
     run(s, k, task_pass, &c);
     if (c.left) {
-        nr->valid = 0;
+        s->near.valid = 0;
         *left = 1;
         return LOCD_OK;
     }
@@ -342,18 +362,8 @@ static locd_status pass(locd_scene *s, int check, lc_plist *next, lc_plist *cr, 
         cr->count = close_up(k, cr->rows.data, c.ebeg, c.ncr, c.back, &cr->first);
         lo->count = close_up(k, lo->rows.data, c.ebeg, c.nlo, c.back, &lo->first);
     }
-    if (full) {
-        /* more rows than the regions held: every object's rows again, with
-           room for every candidate (the PAIRED bits are right already) */
-        for (t = 0; t < k; t++)
-            est[t] = nr->off[c.ib[t + 1]] - nr->off[c.ib[t]];
-        need = plan_rows(&c, k, est);
-        if ((st = lc_plist_reserve(s->alloc, next, need)) != LOCD_OK)
-            return st; /* (the caller drops the list) */
-        c.rows = c.cr = c.lo = next->rows.data;
-        c.check = 0;
-        run(s, k, task_pass, &c);
-    }
+    if (full && (st = pass_again(s, &c, k, next)) != LOCD_OK)
+        return st;
     next->count = close_up(k, next->rows.data, c.rbeg, c.nrow, c.back, &next->first);
     return LOCD_OK;
 }
@@ -361,11 +371,11 @@ static locd_status pass(locd_scene *s, int check, lc_plist *next, lc_plist *cr, 
 int lc_near_usable(const locd_scene *s)
 {
     const lc_near *nr = &s->near;
-    return nr->valid && s->live == nr->n && s->nslots == nr->n && s->nremoved == 0 && s->ninexact == 0 &&
-           s->order_known > 0 && s->filter_known >= 0;
+    return nr->valid && s->slots.live == nr->n && s->slots.nslots == nr->n && s->slots.nremoved == 0 && s->slots.ninexact == 0 &&
+           s->slots.order_known > 0 && s->slots.filter_known >= 0;
 }
 
-locd_status lc_near_frame(locd_scene *s, lc_plist *next, lc_plist *cr, lc_plist *lo, uint64_t *candidates, int *left,
+locd_status lc_near_frame(locd_scene *s, lc_pair_list *next, lc_pair_list *cr, lc_pair_list *lo, uint64_t *candidates, int *left,
                           int *diff)
 {
     locd_status st = pass(s, 1, next, cr, lo, left, diff);
@@ -405,8 +415,8 @@ static locd_status near_room(locd_scene *s, size_t n, size_t nc)
 
 int lc_near_applies(locd_scene *s)
 {
-    return !s->no_near && s->nslots >= LC_KEPT_MIN && !s->ninexact && lc_scene_slots_in_id_order(s) > 0 &&
-           s->nslots < LC_ADJ_INDEX;
+    return !(s->config_flags & LOCD_SCENE_NO_NEAR_LIST) && s->slots.nslots >= LC_KEPT_MIN && !s->slots.ninexact && lc_slots_in_id_order(s) > 0 &&
+           s->slots.nslots < LC_INDEX_BITS;
 }
 
 /* The lists from the fat boxes' rows (sorted): thread t takes rows
@@ -438,13 +448,13 @@ static void task_csr(void *arg, uint32_t t, uint32_t k)
             off[cur++] = (uint32_t)c->count;
 }
 
-static void make_lists(locd_scene *s, const lc_plist *rows)
+static void make_lists(locd_scene *s, const lc_pair_list *rows)
 {
     csr_ctx c;
     const uint32_t k = pool_parts(s);
     uint32_t t;
     c.nr = &s->near;
-    c.r = lc_plist_rows(rows);
+    c.r = lc_pair_list_rows(rows);
     c.count = rows->count;
     for (t = 0; t <= k; t++) {
         size_t x = c.count * t / k;
@@ -458,34 +468,35 @@ static void make_lists(locd_scene *s, const lc_plist *rows)
     run(s, k, task_csr, &c);
 }
 
-locd_status lc_near_build(locd_scene *s, lc_plist *next, uint64_t *candidates)
+locd_status lc_near_build(locd_scene *s, lc_pair_list *next, uint64_t *candidates, int *built)
 {
     lc_near *nr = &s->near;
-    const size_t n = s->nslots;
-    const int ordered = lc_scene_slots_in_id_order(s);
+    const size_t n = s->slots.nslots;
+    const int ordered = lc_slots_in_id_order(s);
     fat_ctx fc;
     locd_stats st_find;
     locd_status st;
     uint32_t t, k = pool_parts(s);
     int left, diff;
     nr->valid = 0;
+    *built = 0;
     if ((st = near_room(s, n, 0)) != LOCD_OK)
         return st;
     memset(&fc, 0, sizeof fc);
-    fc.box = s->fbox, fc.fat = nr->fat, fc.n = n;
+    fc.box = s->slots.fbox, fc.fat = nr->fat, fc.n = n;
     run(s, k, task_fat, &fc);
     for (t = 0; t < k; t++)
         if (fc.bad[t]) /* a fat box past the float range: the caller goes from scratch */
-            return LC_NEAR_NO;
+            return LOCD_OK;
     locd_stats_init(&st_find);
     if ((st = s->engine->ops->find(s->engine, nr->fat, n, 0, 0, &s->found, &st_find)) != LOCD_OK)
         return st;
-    if (s->found.count > LC_ADJ_INDEX)
-        return LC_NEAR_NO;
+    if (s->found.count > LC_INDEX_BITS) /* too many candidates for the list's indices */
+        return LOCD_OK;
     /* The fat boxes' pairs filtered and sorted as rows, in next (the pass
        below reads the lists only, and writes the pair set there), then as
        the lists. */
-    if ((st = lc_scene_order_pairs(s, s->found.data, s->found.count, NULL, ordered == 2 ? NULL : s->id, n,
+    if ((st = lc_pair_order_rows(s, s->found.data, s->found.count, NULL, ordered == 2 ? NULL : s->slots.id, n,
                                    next)) != LOCD_OK ||
         (st = near_room(s, n, next->count + 1)) != LOCD_OK)
         return st;
@@ -497,6 +508,12 @@ locd_status lc_near_build(locd_scene *s, lc_plist *next, uint64_t *candidates)
         return st;
     nr->valid = 1;
     nr->served = 0;
+    *built = 1;
     *candidates = st_find.pairs + nr->count;
     return LOCD_OK;
+}
+
+void lc_near_forget(locd_scene *s)
+{
+    s->near.valid = 0;
 }

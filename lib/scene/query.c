@@ -26,7 +26,7 @@ static int cmp_hit(const void *pa, const void *pb)
 /* The slab test of docs/scene.md: t runs from 0 to max_t; per axis the
  * segment is clipped to [lo, hi] in float64; a zero direction component
  * needs the origin inside the slab. 1 and *t_enter on a hit. */
-int lc_ray_box(const double *b, const double *o, const double *d, double max_t, double *t_enter)
+static int lc_ray_box(const double *b, const double *o, const double *d, double max_t, double *t_enter)
 {
     double t0 = 0.0, t1 = max_t;
     int a;
@@ -64,12 +64,12 @@ typedef struct lc_ask {
 static int hit_one(const locd_scene *s, const lc_ask *q, size_t k, double *t)
 {
     double tmp[6];
-    if (!(s->cat[k] & q->mask))
+    if (!(s->slots.cat[k] & q->mask))
         return 0;
     if (q->ray)
-        return lc_ray_box(lc_scene_box(s, k, tmp), q->o, q->d, q->max_t, t);
+        return lc_ray_box(lc_slot_box(&s->slots, k, tmp), q->o, q->d, q->max_t, t);
     *t = 0.0;
-    return lc_box_overlap(lc_scene_box(s, k, tmp), q->box);
+    return lc_box_overlap(lc_slot_box(&s->slots, k, tmp), q->box);
 }
 
 /* The hits gathered so far. */
@@ -105,7 +105,7 @@ static void try_slot(const locd_scene *s, const lc_ask *q, size_t k, lc_hits *hs
 {
     double t;
     if (hit_one(s, q, k, &t))
-        add_hit(hs, t, s->id[k]);
+        add_hit(hs, t, s->slots.id[k]);
 }
 
 /* Above this many cells per object of the scene, a scan is cheaper. */
@@ -142,71 +142,84 @@ static int query_bounds(const lc_ask *q, double *b)
  * the box has, at its level, the cell that holds max(its low corner, the
  * box's) in the box's cell range (the quantization is monotone), so it is
  * met at least once; duplicates are removed after the sort. */
+/* The cells the query's quantized box [lo, hi] covers, over the levels
+ * that hold entries. */
+static double cells_covered(const lc_entries *en, const uint32_t *lo, const uint32_t *hi)
+{
+    double cells = 0.0;
+    uint32_t l, a;
+    for (l = 0; l <= en->grid.depth; l++) {
+        double c = 1.0;
+        if (!en->dyn.per_level[l] && !en->sta.per_level[l])
+            continue;
+        for (a = 0; a < 3; a++)
+            c *= (double)((hi[a] >> (LC_QBITS - l)) - (lo[a] >> (LC_QBITS - l)) + 1u);
+        cells += c;
+    }
+    return cells;
+}
+
+/* The objects with an entry of key in list tr (main array and overflow)
+ * that did not change since the lists were made, tried. */
+static void key_candidates(const locd_scene *s, const lc_ask *q, const lc_entry_list *tr, uint64_t key, lc_hits *hs)
+{
+    const uint32_t ib = s->entries.grid.index_bits;
+    const uint64_t imask = ((uint64_t)1 << ib) - 1;
+    int part;
+    for (part = 0; part < 2; part++) {
+        const uint64_t *e = part ? tr->ovf.data : tr->ent.data;
+        const size_t n = part ? tr->novf : tr->count;
+        size_t i = part ? lc_lower_bound(e, n, key << ib) : lc_entry_list_lower_bound(tr, key << ib);
+        for (; i < n && (e[i] >> ib) == key; i++) {
+            uint32_t slot;
+            if ((e[i] & imask) == imask)
+                continue; /* a tombstone */
+            slot = s->entries.rec[e[i] & imask].slot;
+            if ((s->slots.flags[slot] & (LC_SLOT_LIVE | LC_SLOT_DIRTY)) == LC_SLOT_LIVE)
+                try_slot(s, q, slot, hs);
+        }
+    }
+}
+
+/* The candidates of list tr at level l in the cells of [lo, hi]. */
+static void level_candidates(const locd_scene *s, const lc_ask *q, const lc_entry_list *tr, uint32_t l,
+                             const uint32_t *lo, const uint32_t *hi, lc_hits *hs)
+{
+    const locd_grid *g = &s->entries.grid;
+    uint32_t c0[3], c1[3], x, y, z, a;
+    for (a = 0; a < 3; a++)
+        c0[a] = lo[a] >> (LC_QBITS - l), c1[a] = hi[a] >> (LC_QBITS - l);
+    for (z = c0[2]; z <= c1[2]; z++)
+        for (y = c0[1]; y <= c1[1]; y++)
+            for (x = c0[0]; x <= c1[0]; x++) {
+                const uint64_t m = lc_morton_split3(x) | lc_morton_split3(y) << 1 | lc_morton_split3(z) << 2;
+                key_candidates(s, q, tr, ((m << (3u * (g->depth - l))) << LC_LEVEL_BITS) | l, hs);
+            }
+}
+
 static int tree_candidates(const locd_scene *s, const lc_ask *q, lc_hits *hs)
 {
-    const locd_grid *g = &s->grid;
-    const uint32_t ib = g->index_bits;
-    const uint64_t imask = ((uint64_t)1 << ib) - 1;
-    const lc_tree *trees[2];
+    const lc_entries *en = &s->entries;
+    const uint32_t *d = s->slots.dirty.data;
     uint32_t lo[3], hi[3], l, a;
-    double b[6], cells = 0.0;
+    double b[6];
     int t;
     size_t k;
-    if (!s->have_tree || !query_bounds(q, b))
+    if (!en->valid || !query_bounds(q, b))
         return 0;
     for (a = 0; a < 3; a++) {
-        lo[a] = (uint32_t)lc_quantize(g, (int)a, b[a]);
-        hi[a] = (uint32_t)lc_quantize(g, (int)a, b[a + 3]);
+        lo[a] = (uint32_t)lc_quantize(&en->grid, (int)a, b[a]);
+        hi[a] = (uint32_t)lc_quantize(&en->grid, (int)a, b[a + 3]);
     }
-    trees[0] = &s->dyn, trees[1] = &s->sta;
-    for (l = 0; l <= g->depth; l++) {
-        if (!s->dyn.per_level[l] && !s->sta.per_level[l])
-            continue;
-        {
-            double c = 1.0;
-            for (a = 0; a < 3; a++)
-                c *= (double)((hi[a] >> (LC_QBITS - l)) - (lo[a] >> (LC_QBITS - l)) + 1u);
-            cells += c;
-        }
-    }
-    if (cells > LC_QUERY_CELLS_PER_OBJECT * (double)s->nslots + 64.0)
+    if (cells_covered(en, lo, hi) > LC_QUERY_CELLS_PER_OBJECT * (double)s->slots.nslots + 64.0)
         return 0;
-    for (t = 0; t < 2; t++) {
-        const lc_tree *tr = trees[t];
-        for (l = 0; l <= g->depth; l++) {
-            uint32_t c0[3], c1[3], x, y, z;
-            if (!tr->per_level[l])
-                continue;
-            for (a = 0; a < 3; a++)
-                c0[a] = lo[a] >> (LC_QBITS - l), c1[a] = hi[a] >> (LC_QBITS - l);
-            for (z = c0[2]; z <= c1[2]; z++)
-                for (y = c0[1]; y <= c1[1]; y++)
-                    for (x = c0[0]; x <= c1[0]; x++) {
-                        uint64_t m = lc_morton_split3(x) | lc_morton_split3(y) << 1 | lc_morton_split3(z) << 2;
-                        uint64_t key = ((m << (3u * (g->depth - l))) << LC_LEVEL_BITS) | l;
-                        int part;
-                        for (part = 0; part < 2; part++) {
-                            const uint64_t *e = part ? tr->ovf.data : tr->ent.data;
-                            size_t n = part ? tr->novf : tr->count, i;
-                            i = part ? lc_lower_bound(e, n, key << ib) : lc_tree_lower_bound(tr, key << ib);
-                            for (; i < n && (e[i] >> ib) == key; i++) {
-                                uint32_t slot;
-                                if ((e[i] & imask) == imask)
-                                    continue; /* a tombstone */
-                                slot = s->hot[e[i] & imask].slot;
-                                if ((s->flags[slot] & (LC_SLOT_LIVE | LC_SLOT_DIRTY)) == LC_SLOT_LIVE)
-                                    try_slot(s, q, slot, hs);
-                            }
-                        }
-                    }
-        }
-    }
-    {
-        const uint32_t *d = s->dirty.data;
-        for (k = 0; k < s->ndirty; k++)
-            if (s->flags[d[k]] & LC_SLOT_LIVE)
-                try_slot(s, q, d[k], hs);
-    }
+    for (t = 0; t < 2; t++)
+        for (l = 0; l <= en->grid.depth; l++)
+            if ((t ? &en->sta : &en->dyn)->per_level[l])
+                level_candidates(s, q, t ? &en->sta : &en->dyn, l, lo, hi, hs);
+    for (k = 0; k < s->slots.ndirty; k++)
+        if (s->slots.flags[d[k]] & LC_SLOT_LIVE)
+            try_slot(s, q, d[k], hs);
     return 1;
 }
 
@@ -225,8 +238,8 @@ static locd_status run(const locd_scene *s, const lc_ask *q, locd_id *ids_out, d
     memset(&hs, 0, sizeof hs);
     hs.a = a;
     if (!tree_candidates(s, q, &hs))
-        for (k = 0; k < s->nslots; k++)
-            if (s->flags[k] & LC_SLOT_LIVE)
+        for (k = 0; k < s->slots.nslots; k++)
+            if (s->slots.flags[k] & LC_SLOT_LIVE)
                 try_slot(s, q, k, &hs);
     if (hs.failed) {
         lc_free(a, hs.h, hs.cap * sizeof *hs.h);

@@ -49,12 +49,13 @@ locd_status locd_scene_create(locd_engine *engine, const locd_scene_config *conf
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the scene");
     memset(s, 0, sizeof *s);
     s->magic = LC_MAGIC_SCENE;
-    s->order_known = s->filter_known = -1;
+    lc_slots_forget_order(&s->slots);
+    lc_slots_forget_filter(&s->slots);
     s->engine = engine;
     s->alloc = &engine->alloc;
     s->pool = lc_inproc_pool(engine, &s->kernel);
     s->threads = engine->threads;
-    s->no_near = (cfg.flags & LOCD_SCENE_NO_NEAR_LIST) != 0;
+    s->config_flags = cfg.flags;
     lc_pairs_init_embedded(&s->found, s->alloc);
     locd_scene_stats_init(&s->stats);
     if (cfg.capacity_hint) {
@@ -75,19 +76,12 @@ void locd_scene_destroy(locd_scene *s)
     if (!s || s->magic != LC_MAGIC_SCENE)
         return;
     a = s->alloc;
+    lc_partners_drop(s);
+    lc_entries_fini(s);
     lc_scene_slots_fini(s);
-    lc_scene_tree_fini(s);
-    lc_plist_fini(a, &s->pairs);
-    lc_plist_fini(a, &s->created);
-    lc_plist_fini(a, &s->lost);
-    lc_plist_fini(a, &s->spare);
-    lc_plist_fini(a, &s->spare_cr);
-    lc_plist_fini(a, &s->spare_lo);
-    lc_plist_fini(a, &s->spare_drop);
+    lc_pair_set_fini(a, &s->set);
     lc_pairs_fini_embedded(&s->found);
-    lc_buf_release(a, &s->order_buf, 1);
-    lc_buf_release(a, &s->order_runs, sizeof(uint64_t));
-    lc_buf_release(a, &s->order_last, sizeof(uint32_t));
+    lc_pair_order_memo_fini(a, &s->order);
     lc_kept_release(s);
     lc_near_release(s);
     s->magic = LC_MAGIC_DEAD;
@@ -98,7 +92,7 @@ size_t locd_scene_count(const locd_scene *s)
 {
     if (!s || s->magic != LC_MAGIC_SCENE)
         return 0;
-    return s->live;
+    return s->slots.live;
 }
 
 /* The value of a per-object attribute: the array's when given. */
@@ -125,29 +119,31 @@ static locd_status add_common(locd_scene *s, const void *boxes, int f64, size_t 
     st = f64 ? lc_scene_check_boxes_f64(boxes, n) : lc_scene_check_boxes_f32(boxes, n);
     if (st)
         return st;
-    if ((uint64_t)n > (uint64_t)(LC_MAX_SERIAL - s->serial))
+    if ((uint64_t)n > (uint64_t)(LC_MAX_SERIAL - s->slots.serial))
         return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "a scene issues at most %u ids in its lifetime", LC_MAX_SERIAL);
     if ((st = lc_scene_reserve(s, n)) != LOCD_OK || (st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK ||
         (f64 && (st = lc_scene_need_doubles(s, boxes, n)) != LOCD_OK))
         return st;
-    s->fbox_bounds_ok = s->kept.pre = 0;
+    s->slots.epoch++;
     for (i = 0; i < n; i++) {
         uint32_t slot = lc_scene_take_slot(s);
-        s->id[slot] = (locd_id)(++s->serial) << 32 | slot;
-        s->cat[slot] = attr(o.categories, o.category, i);
-        s->mask[slot] = attr(o.masks, o.mask, i);
-        s->group[slot] = attr(o.groups, o.group, i);
-        s->user[slot] = attr(o.users, o.user, i);
-        s->flags[slot] = LC_SLOT_LIVE | ((o.flags & LOCD_OBJECT_STATIC) ? LC_SLOT_STATIC : 0);
+        s->slots.id[slot] = (locd_id)(++s->slots.serial) << 32 | slot;
+        s->slots.cat[slot] = attr(o.categories, o.category, i);
+        s->slots.mask[slot] = attr(o.masks, o.mask, i);
+        s->slots.group[slot] = attr(o.groups, o.group, i);
+        s->slots.user[slot] = attr(o.users, o.user, i);
+        s->slots.flags[slot] = LC_SLOT_LIVE | ((o.flags & LOCD_OBJECT_STATIC) ? LC_SLOT_STATIC : 0);
         lc_scene_set_box(s, slot, boxes, f64, i);
         lc_scene_mark_dirty(s, slot);
-        ids_out[i] = s->id[slot];
+        ids_out[i] = s->slots.id[slot];
     }
-    s->live += n;
+    s->slots.live += n;
     if (o.flags & LOCD_OBJECT_STATIC)
-        s->live_static += n;
-    if (n)
-        s->order_known = s->filter_known = -1;
+        s->slots.live_static += n;
+    if (n) {
+        lc_slots_forget_order(&s->slots);
+        lc_slots_forget_filter(&s->slots);
+    }
     lc_clear_error();
     return LOCD_OK;
 }
@@ -170,7 +166,7 @@ static locd_status move_common(locd_scene *s, const locd_id *ids, const void *bo
     size_t i;
     if ((st = lc_scene_check_handle(s)) != LOCD_OK)
         return st;
-    s->fbox_bounds_ok = s->kept.pre = 0; /* a move of every object in slot order sets them again */
+    s->slots.epoch++; /* (a move of every object in slot order hands over what it finds) */
     if (lc_scene_move_parallel(s, ids, boxes, f64, n, &st)) {
         if (st == LOCD_OK)
             lc_clear_error();
@@ -185,7 +181,7 @@ static locd_status move_common(locd_scene *s, const locd_id *ids, const void *bo
     for (i = 0; i < n; i++) {
         uint32_t slot = LC_ID_SLOT(ids[i]);
         if (i + LC_AHEAD < n) /* the box, its float copy: written next */
-            lc_scene_prefetch_box(s, LC_ID_SLOT(ids[i + LC_AHEAD]), 1);
+            lc_slot_prefetch_box(&s->slots, LC_ID_SLOT(ids[i + LC_AHEAD]), 1);
         lc_scene_set_box(s, slot, boxes, f64, i);
         lc_scene_mark_dirty(s, slot);
     }
@@ -210,19 +206,19 @@ locd_status locd_scene_remove(locd_scene *s, const locd_id *ids, size_t n)
     if ((st = lc_scene_check_handle(s)) != LOCD_OK || (st = lc_scene_check_ids(s, ids, n)) != LOCD_OK ||
         (st = lc_scene_reserve_lists(s, 0, n)) != LOCD_OK)
         return st;
-    s->kept.pre = 0;
+    s->slots.epoch++;
     for (i = 0; i < n; i++) {
         uint32_t slot = LC_ID_SLOT(ids[i]);
-        if (s->flags[slot] & LC_SLOT_STATIC)
-            s->live_static--;
-        if (s->flags[slot] & LC_SLOT_INEXACT)
-            s->ninexact--;
-        s->flags[slot] = (uint8_t)((s->flags[slot] & ~(LC_SLOT_LIVE | LC_SLOT_INEXACT)) | LC_SLOT_REMOVED);
-        ((uint32_t *)s->removed.data)[s->nremoved++] = slot;
+        if (s->slots.flags[slot] & LC_SLOT_STATIC)
+            s->slots.live_static--;
+        if (s->slots.flags[slot] & LC_SLOT_INEXACT)
+            s->slots.ninexact--;
+        s->slots.flags[slot] = (uint8_t)((s->slots.flags[slot] & ~(LC_SLOT_LIVE | LC_SLOT_INEXACT)) | LC_SLOT_REMOVED);
+        ((uint32_t *)s->slots.removed.data)[s->slots.nremoved++] = slot;
     }
-    s->live -= n;
-    if (n) /* a filter that passed every pair still does: filter_known stays */
-        s->order_known = -1;
+    s->slots.live -= n;
+    if (n) /* a filter that passed every pair still does */
+        lc_slots_forget_order(&s->slots);
     lc_clear_error();
     return LOCD_OK;
 }
@@ -237,14 +233,14 @@ locd_status locd_scene_set_filter(locd_scene *s, const locd_id *ids, size_t n, c
         return st;
     for (i = 0; i < n; i++) {
         uint32_t slot = LC_ID_SLOT(ids[i]);
-        s->cat[slot] = attr(categories, s->cat[slot], i);
-        s->mask[slot] = attr(masks, s->mask[slot], i);
-        s->group[slot] = attr(groups, s->group[slot], i);
+        s->slots.cat[slot] = attr(categories, s->slots.cat[slot], i);
+        s->slots.mask[slot] = attr(masks, s->slots.mask[slot], i);
+        s->slots.group[slot] = attr(groups, s->slots.group[slot], i);
         lc_scene_mark_dirty(s, slot);
-        s->flags[slot] |= LC_SLOT_REFILTER;
+        s->slots.flags[slot] |= LC_SLOT_REFILTER;
     }
     if (n)
-        s->filter_known = -1;
+        lc_slots_forget_filter(&s->slots);
     lc_clear_error();
     return LOCD_OK;
 }
@@ -258,7 +254,7 @@ locd_status locd_scene_set_user(locd_scene *s, const locd_id *ids, size_t n, con
     if (n && !users)
         return lc_error(LOCD_ERR_NULL_POINTER, "users is NULL");
     for (i = 0; i < n; i++)
-        s->user[LC_ID_SLOT(ids[i])] = users[i];
+        s->slots.user[LC_ID_SLOT(ids[i])] = users[i];
     lc_clear_error();
     return LOCD_OK;
 }
@@ -272,7 +268,7 @@ locd_status locd_scene_get_user(const locd_scene *s, const locd_id *ids, size_t 
     if (n && !users_out)
         return lc_error(LOCD_ERR_NULL_POINTER, "users_out is NULL");
     for (i = 0; i < n; i++)
-        users_out[i] = s->user[LC_ID_SLOT(ids[i])];
+        users_out[i] = s->slots.user[LC_ID_SLOT(ids[i])];
     lc_clear_error();
     return LOCD_OK;
 }

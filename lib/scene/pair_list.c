@@ -7,7 +7,7 @@
  * about 0.3 ms of a 1%-moved frame's 2x10^4 new rows at 10^6 cubes.) */
 #include "scene/scene.h"
 
-locd_status lc_plist_reserve(const locd_allocator *a, lc_plist *p, size_t rows)
+locd_status lc_pair_list_reserve(const locd_allocator *a, lc_pair_list *p, size_t rows)
 {
     /* A list that must grow gets an eighth more than asked for: a set
        grows a little from frame to frame, and the scene keeps its lists
@@ -19,7 +19,7 @@ locd_status lc_plist_reserve(const locd_allocator *a, lc_plist *p, size_t rows)
     return lc_buf_reserve(a, &p->rows, 2 * sizeof(locd_id), rows + rows / 8);
 }
 
-void lc_plist_fini(const locd_allocator *a, lc_plist *p)
+void lc_pair_list_fini(const locd_allocator *a, lc_pair_list *p)
 {
     lc_buf_release(a, &p->rows, 2 * sizeof(locd_id));
     p->count = 0;
@@ -28,7 +28,7 @@ void lc_plist_fini(const locd_allocator *a, lc_plist *p)
 
 #define LC_ROW_DIGIT 11
 
-locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n)
+locd_status lc_pair_rows_sort(const locd_allocator *a, locd_id *rows, size_t n)
 {
     const uint32_t nb = 1u << LC_ROW_DIGIT;
     size_t *count, i;
@@ -72,7 +72,7 @@ locd_status lc_pairs_sort_rows(const locd_allocator *a, locd_id *rows, size_t n)
     return LOCD_OK;
 }
 
-void lc_plist_diff(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *amb, size_t *namb, locd_id *bma,
+void lc_pair_rows_diff(const locd_id *a, size_t na, const locd_id *b, size_t nb, locd_id *amb, size_t *namb, locd_id *bma,
                    size_t *nbma)
 {
     size_t i = 0, j = 0, wa = 0, wb = 0;
@@ -109,16 +109,20 @@ void lc_plist_diff(const locd_id *a, size_t na, const locd_id *b, size_t nb, loc
     *namb = wa, *nbma = wb;
 }
 
-/* The first row of sorted rows[0, n) whose key is >= key. */
-size_t lc_rows_lower_bound(const locd_id *rows, size_t n, uint64_t key)
+typedef struct rows_at {
+    const locd_id *rows;
+    uint64_t key;
+} rows_at;
+
+static int row_at_or_above(const void *ctx, uint64_t i)
 {
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (lc_pair_key(rows + 2 * mid) < key)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
+    const rows_at *c = ctx;
+    return lc_pair_key(c->rows + 2 * i) >= c->key;
+}
+
+size_t lc_pair_rows_lower_bound(const locd_id *rows, size_t n, uint64_t key)
+{
+    rows_at c;
+    c.rows = rows, c.key = key;
+    return (size_t)lc_search_first(0, n, row_at_or_above, &c);
 }

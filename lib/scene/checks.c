@@ -58,7 +58,7 @@ locd_status lc_scene_check_ids_live(const locd_scene *s, const locd_id *ids, siz
         return lc_error(LOCD_ERR_NULL_POINTER, "ids is NULL");
     for (k = 0; k < n; k++) {
         if (k + LC_AHEAD < n)
-            lc_scene_prefetch_slot(s, ids[k + LC_AHEAD]);
+            lc_slot_prefetch(&s->slots, ids[k + LC_AHEAD]);
         if (lc_scene_slot(s, ids[k]) < 0)
             return lc_error_box(LOCD_ERR_STALE_ID, (int64_t)k,
                                 "id %llu at %zu was removed or never issued by this scene",
@@ -75,18 +75,18 @@ locd_status lc_scene_check_ids(locd_scene *s, const locd_id *ids, size_t n)
         return st;
     /* A stamp per batch marks the slots seen; the stamps are scratch, not
        state, so a failing batch may leave them changed. */
-    if (++s->stamp_now == 0) {
-        memset(s->stamp, 0, s->slot_cap * sizeof *s->stamp);
-        s->stamp_now = 1;
+    if (++s->slots.stamp_now == 0) {
+        memset(s->slots.stamp, 0, s->slots.slot_cap * sizeof *s->slots.stamp);
+        s->slots.stamp_now = 1;
     }
     for (k = 0; k < n; k++) {
         uint32_t slot = LC_ID_SLOT(ids[k]);
         if (k + LC_AHEAD < n) /* the ids are live: their slots are in range */
-            __builtin_prefetch(s->stamp + LC_ID_SLOT(ids[k + LC_AHEAD]), 1);
-        if (s->stamp[slot] == s->stamp_now)
+            __builtin_prefetch(s->slots.stamp + LC_ID_SLOT(ids[k + LC_AHEAD]), 1);
+        if (s->slots.stamp[slot] == s->slots.stamp_now)
             return lc_error_box(LOCD_ERR_DUPLICATE_ID, (int64_t)k, "id %llu at %zu appears earlier in the batch",
                                 (unsigned long long)ids[k], k);
-        s->stamp[slot] = s->stamp_now;
+        s->slots.stamp[slot] = s->slots.stamp_now;
     }
     return LOCD_OK;
 }

@@ -1,15 +1,15 @@
 /* The pairs of the moved objects. One that stayed in its fat box reads its
- * partner list (coast_one). One that searches (new, re-filtered, or out of
+ * partner list (stay_one). One that searches (new, re-filtered, or out of
  * its fat box) searches the repaired entry lists: for each entry (cell c,
  * object m), the objects on a common root-to-leaf path with c are the
  * entries of c's subtree (one range of the sorted list: same cell and
  * descendants) and of c's ancestors (one exact key per level that holds any
  * entry). Each candidate is tested in this order: the packed fat boxes
  * (conservative: they meet whenever the boxes do) and the canonical cell
- * pair, from 16 bytes of o (hq); then o's record: both searched and not
+ * pair, from 16 bytes of o (qfat); then o's record: both searched and not
  * m < o (the other one reports it), the filter (static-static,
  * category/mask, group: a filtered pair is never box-tested nor reported);
- * then the boxes' own test (lc_hot_meet: the packed boxes, the stored
+ * then the boxes' own test (lc_records_meet: the packed boxes, the stored
  * coordinates on a tie). The records of one cell's objects are neighbours
  * (dense indices, scene.h).
  *
@@ -19,6 +19,10 @@
  * one cell of each, and those two cells lie on one path; the pair is
  * considered at that cell pair only (docs/scene.md). */
 #include "scene/scene.h"
+#include "scene/search.h"
+
+/* Below this many query entries and staying objects the search runs on one thread. */
+#define LC_SEARCH_SPLIT 2048
 
 /* One thread's output, on its own stack while it runs (no two threads
  * write one cache line) and copied to the context at its end. */
@@ -40,13 +44,13 @@ typedef struct anc_cache {
 } anc_cache;
 
 /* A thread's outputs: rows (two ids); the fat partners found, uint32 (m,
- * o | LC_ADJ_PAIRED when the boxes meet); the partner-list pass's changed
- * pairs, uint32 (m, k, o | LC_ADJ_PAIRED now) where k is o's place in m's
+ * o | LC_PAIRED when the boxes meet); the partner-list pass's changed
+ * pairs, uint32 (m, k, o | LC_PAIRED now) where k is o's place in m's
  * list. */
 enum { FO_ROWS, FO_FAT, FO_EV, FO_N };
 static const size_t fo_unit[FO_N] = {2 * sizeof(locd_id), 2 * sizeof(uint32_t), 3 * sizeof(uint32_t)};
 
-typedef struct find_out {
+typedef struct search_out {
     lc_buf buf[FO_N];
     size_t len[FO_N];
     uint64_t cand;
@@ -54,18 +58,18 @@ typedef struct find_out {
     uint32_t ng;
     uint64_t gq[LC_GATHER], go[LC_GATHER]; /* query entry, candidate entry */
     anc_cache anc[4];                      /* dyn main, dyn overflow, sta main, sta overflow */
-} find_out;
+} search_out;
 
-typedef struct find_ctx {
+typedef struct search_ctx {
     const locd_scene *s;
-    const lc_tree *dyn, *sta;
+    const lc_entry_list *dyn, *sta;
     const uint64_t *q; /* sorted entries of the moved objects that search */
     size_t nq;
-    const uint32_t *coast; /* the moved objects that take their partner lists */
-    size_t ncoast;
-    int events; /* LC_FIND_EVENTS: fat partners and changes, no rows */
-    find_out out[LC_MAX_THREADS];
-} find_ctx;
+    const uint32_t *stay; /* the moved objects that take their partner lists */
+    size_t nstay;
+    int events; /* LC_SEARCH_EVENTS: fat partners and changes, no rows */
+    search_out out[LC_MAX_THREADS];
+} search_ctx;
 
 /* The point p lies in the cell (pm, level). */
 static int cell_holds(const locd_grid *g, uint64_t pm, uint32_t level, const uint32_t *p)
@@ -79,7 +83,7 @@ static int cell_holds(const locd_grid *g, uint64_t pm, uint32_t level, const uin
 #define FIELD(w, a) ((uint32_t)(((w) >> ((a)*LC_SBITS)) & LC_SMASK))
 
 /* Room for one more item of output `which`; NULL (and fo->st set) on no memory. */
-static void *put(const locd_scene *s, find_out *fo, int which)
+static void *put(const locd_scene *s, search_out *fo, int which)
 {
     if (fo->st == LOCD_OK &&
         lc_buf_reserve(s->alloc, &fo->buf[which], fo_unit[which], fo->len[which] + 1) != LOCD_OK)
@@ -90,7 +94,7 @@ static void *put(const locd_scene *s, find_out *fo, int which)
 }
 
 /* The row of the pair of records hm and ho. */
-static void put_row(const locd_scene *s, find_out *fo, const lc_hot *hm, const lc_hot *ho)
+static void put_row(const locd_scene *s, search_out *fo, const lc_record *hm, const lc_record *ho)
 {
     locd_id *row = put(s, fo, FO_ROWS);
     if (!row)
@@ -101,9 +105,9 @@ static void put_row(const locd_scene *s, find_out *fo, const lc_hot *hm, const l
 
 /* The second test of a candidate entry eo whose packed fat box meets the
  * query entry eq's (object m, record hm): the canonical cell pair. */
-static int consider_cell(const find_ctx *c, uint64_t eq, const uint64_t *qm, uint64_t eo, const uint64_t *qo)
+static int consider_cell(const search_ctx *c, uint64_t eq, const uint64_t *qm, uint64_t eo, const uint64_t *qo)
 {
-    const locd_grid *g = &c->s->grid;
+    const locd_grid *g = &c->s->entries.grid;
     const uint32_t ib = g->index_bits;
     uint32_t lm = (uint32_t)(eq >> ib) & 31u, lo = (uint32_t)(eo >> ib) & 31u, p[3], a;
     for (a = 0; a < 3; a++) {
@@ -117,12 +121,12 @@ static int consider_cell(const find_ctx *c, uint64_t eq, const uint64_t *qm, uin
 /* The rest, from o's record ho: both searched and not m < o, the filter
  * (a fat partner from here on), the boxes; then the row, or the fat
  * partner with whether the boxes meet. */
-static void consider_rest(const find_ctx *c, find_out *fo, const lc_hot *hm, const lc_hot *ho)
+static void consider_rest(const search_ctx *c, search_out *fo, const lc_record *hm, const lc_record *ho)
 {
     const locd_scene *s = c->s;
     /* both searched: the one with the smaller id reports the pair (one
        that moved without searching has it reported by this one) */
-    if ((ho->flags & LC_HOT_SEARCH) && ho->id < hm->id)
+    if ((ho->flags & LC_REC_SEARCH) && ho->id < hm->id)
         return;
     /* the filter, before the box test */
     if ((hm->flags & ho->flags & LC_SLOT_STATIC) || !(hm->cat & ho->mask) || !(ho->cat & hm->mask) ||
@@ -131,8 +135,8 @@ static void consider_rest(const find_ctx *c, find_out *fo, const lc_hot *hm, con
     if (c->events) {
         uint32_t *f = put(s, fo, FO_FAT);
         if (f)
-            f[0] = (uint32_t)(hm - s->hot), f[1] = (uint32_t)(ho - s->hot) | (lc_hot_meet(s, hm, ho) ? LC_ADJ_PAIRED : 0u);
-    } else if (lc_hot_meet(s, hm, ho)) {
+            f[0] = (uint32_t)(hm - s->entries.rec), f[1] = (uint32_t)(ho - s->entries.rec) | (lc_records_meet(&s->slots, hm, ho) ? LC_PAIRED : 0u);
+    } else if (lc_records_meet(&s->slots, hm, ho)) {
         put_row(s, fo, hm, ho);
     }
 }
@@ -144,41 +148,41 @@ static void consider_rest(const find_ctx *c, find_out *fo, const lc_hot *hm, con
  * their packed boxes were prefetched by gather. The second tests the
  * canonical cell pair of the few left and prefetches their records, which
  * the third tests (so those misses overlap too). */
-static void flush(const find_ctx *c, find_out *fo)
+static void flush(const search_ctx *c, search_out *fo)
 {
-    const lc_hot *hot = c->s->hot;
-    const uint64_t *hq = c->s->hq;
-    const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
+    const lc_record *rec = c->s->entries.rec;
+    const uint64_t *qfat = c->s->entries.qfat;
+    const uint64_t imask = ((uint64_t)1 << c->s->entries.grid.index_bits) - 1;
     uint32_t k, nk = 0, ns = 0, cand = 0;
     uint32_t sk[LC_GATHER], sm[LC_GATHER], so[LC_GATHER];
     for (k = 0; k < fo->ng; k++) {
         const uint32_t m = (uint32_t)(fo->gq[k] & imask), o = (uint32_t)(fo->go[k] & imask);
         const uint32_t real = (uint32_t)(o != m) & (uint32_t)(o != (uint32_t)imask);
         /* a tombstone's index names no record: m's box stands in, unused */
-        const uint64_t *qo = hq + LC_HQ * (size_t)(real ? o : m);
+        const uint64_t *qo = qfat + LC_FAT_WORDS * (size_t)(real ? o : m);
         cand += real;
         sk[nk] = k;
-        nk += real & !lc_qbox_miss(hq + LC_HQ * (size_t)m, qo);
+        nk += real & !lc_qbox_miss(qfat + LC_FAT_WORDS * (size_t)m, qo);
     }
     fo->cand += cand;
     for (k = 0; k < nk; k++) {
         const uint64_t eq = fo->gq[sk[k]], eo = fo->go[sk[k]];
         const uint32_t m = (uint32_t)(eq & imask), o = (uint32_t)(eo & imask);
-        if (consider_cell(c, eq, hq + LC_HQ * (size_t)m, eo, hq + LC_HQ * (size_t)o)) {
-            __builtin_prefetch(&hot[o]);
-            __builtin_prefetch((const char *)&hot[o] + sizeof(lc_hot) - 1);
+        if (consider_cell(c, eq, qfat + LC_FAT_WORDS * (size_t)m, eo, qfat + LC_FAT_WORDS * (size_t)o)) {
+            __builtin_prefetch(&rec[o]);
+            __builtin_prefetch((const char *)&rec[o] + sizeof(lc_record) - 1);
             sm[ns] = m, so[ns++] = o;
         }
     }
     for (k = 0; k < ns; k++)
-        consider_rest(c, fo, &hot[sm[k]], &hot[so[k]]);
+        consider_rest(c, fo, &rec[sm[k]], &rec[so[k]]);
     fo->ng = 0;
 }
 
-LC_INLINE void gather(const find_ctx *c, find_out *fo, uint64_t eq, uint64_t eo)
+LC_INLINE void gather(const search_ctx *c, search_out *fo, uint64_t eq, uint64_t eo)
 {
-    const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
-    __builtin_prefetch(c->s->hq + LC_HQ * (size_t)(eo & imask));
+    const uint64_t imask = ((uint64_t)1 << c->s->entries.grid.index_bits) - 1;
+    __builtin_prefetch(c->s->entries.qfat + LC_FAT_WORDS * (size_t)(eo & imask));
     fo->gq[fo->ng] = eq;
     fo->go[fo->ng++] = eo;
     if (fo->ng == LC_GATHER)
@@ -186,18 +190,18 @@ LC_INLINE void gather(const find_ctx *c, find_out *fo, uint64_t eq, uint64_t eo)
 }
 
 /* The first of e[0, n) >= v: through tr's directory for its main array. */
-static size_t lower(const lc_tree *tr, const uint64_t *e, size_t n, uint64_t v)
+static size_t lower(const lc_entry_list *tr, const uint64_t *e, size_t n, uint64_t v)
 {
-    return e == tr->ent.data ? lc_tree_lower_bound(tr, v) : lc_lower_bound(e, n, v);
+    return e == tr->ent.data ? lc_entry_list_lower_bound(tr, v) : lc_lower_bound(e, n, v);
 }
 
 /* Every entry of e[0, n) (tr's main array or overflow) on a common path
  * with the cell of entry eq; ac caches this array's ancestor ranges. */
-static void search_array(const find_ctx *c, find_out *fo, const lc_tree *tr, const uint64_t *e, size_t n,
+static void search_array(const search_ctx *c, search_out *fo, const lc_entry_list *tr, const uint64_t *e, size_t n,
                          uint64_t eq, anc_cache *ac)
 {
     const size_t *per_level = tr->per_level;
-    const locd_grid *g = &c->s->grid;
+    const locd_grid *g = &c->s->entries.grid;
     const uint32_t ib = g->index_bits;
     const uint64_t key = eq >> ib, pm = key >> LC_LEVEL_BITS;
     const uint32_t level = (uint32_t)key & 31u;
@@ -232,7 +236,7 @@ static void search_array(const find_ctx *c, find_out *fo, const lc_tree *tr, con
     }
 }
 
-static void search(const find_ctx *c, find_out *fo, const lc_tree *tr, uint64_t eq, anc_cache *ac)
+static void search(const search_ctx *c, search_out *fo, const lc_entry_list *tr, uint64_t eq, anc_cache *ac)
 {
     if (tr->count)
         search_array(c, fo, tr, tr->ent.data, tr->count, eq, ac);
@@ -248,10 +252,10 @@ static void search(const find_ctx *c, find_out *fo, const lc_tree *tr, uint64_t 
 #define LC_DIR_AHEAD 48
 
 /* The directory entry of tr's main array for query entry eq (as
- * lc_tree_lower_bound finds it), or SIZE_MAX when tr has none. */
-LC_INLINE size_t dir_slot(const find_ctx *c, const lc_tree *tr, uint64_t eq)
+ * lc_entry_list_lower_bound finds it), or SIZE_MAX when tr has none. */
+LC_INLINE size_t dir_slot(const search_ctx *c, const lc_entry_list *tr, uint64_t eq)
 {
-    const uint32_t ib = c->s->grid.index_bits;
+    const uint32_t ib = c->s->entries.grid.index_bits;
     size_t j;
     if (!tr->dir || !tr->count)
         return SIZE_MAX;
@@ -261,7 +265,7 @@ LC_INLINE size_t dir_slot(const find_ctx *c, const lc_tree *tr, uint64_t eq)
 
 /* Starts loading the part of tr's main array where the cell of query
  * entry eq lies (its directory bucket). */
-LC_INLINE void prefetch_lookup(const find_ctx *c, const lc_tree *tr, uint64_t eq)
+LC_INLINE void prefetch_lookup(const search_ctx *c, const lc_entry_list *tr, uint64_t eq)
 {
     const size_t j = dir_slot(c, tr, eq);
     if (j != SIZE_MAX) {
@@ -276,7 +280,7 @@ LC_INLINE void prefetch_lookup(const find_ctx *c, const lc_tree *tr, uint64_t eq
 }
 
 /* Starts loading tr's directory entry for query entry eq. */
-LC_INLINE void prefetch_dir(const find_ctx *c, const lc_tree *tr, uint64_t eq)
+LC_INLINE void prefetch_dir(const search_ctx *c, const lc_entry_list *tr, uint64_t eq)
 {
     const size_t j = dir_slot(c, tr, eq);
     if (j != SIZE_MAX)
@@ -285,9 +289,9 @@ LC_INLINE void prefetch_dir(const find_ctx *c, const lc_tree *tr, uint64_t eq)
 
 /* Starts loading the directory entries of query entry eq (in the dynamic
  * and the static list) and its object's record. */
-LC_INLINE void prefetch_far(const find_ctx *c, uint64_t eq)
+LC_INLINE void prefetch_far(const search_ctx *c, uint64_t eq)
 {
-    const lc_hot *h = &c->s->hot[eq & (((uint64_t)1 << c->s->grid.index_bits) - 1)];
+    const lc_record *h = &c->s->entries.rec[eq & (((uint64_t)1 << c->s->entries.grid.index_bits) - 1)];
     prefetch_dir(c, c->dyn, eq);
     prefetch_dir(c, c->sta, eq);
     __builtin_prefetch(h);
@@ -297,7 +301,7 @@ LC_INLINE void prefetch_far(const find_ctx *c, uint64_t eq)
 /* Starts the lookups of query entry eq: when its turn comes they are
  * hits, their misses overlapped with the ones of the query entries before
  * it. */
-LC_INLINE void prefetch_query(const find_ctx *c, uint64_t eq)
+LC_INLINE void prefetch_query(const search_ctx *c, uint64_t eq)
 {
     prefetch_lookup(c, c->dyn, eq);
     if (c->sta->count)
@@ -308,30 +312,30 @@ LC_INLINE void prefetch_query(const find_ctx *c, uint64_t eq)
  * list's header, then its entries and the object's own record and boxes,
  * then its partners' records and boxes: three rounds of misses, each
  * overlapped with the work on the objects before. */
-#define LC_COAST_HEAD 24
-#define LC_COAST_LIST 12
-#define LC_COAST_PART 4
+#define LC_STAY_HEAD 24
+#define LC_STAY_LIST 12
+#define LC_STAY_PART 4
 
 /* The pairs of moved object m from its partner list: a partner that
  * searched reports the pair itself, a removed one its loss; of two that
  * both took their lists, the one with the smaller id does. Rows: m's pairs.
  * Events: the partners whose pairing changed (the list's PAIRED bit is the
  * previous set's). */
-static void coast_one(const find_ctx *c, find_out *fo, uint32_t m)
+static void stay_one(const search_ctx *c, search_out *fo, uint32_t m)
 {
     const locd_scene *s = c->s;
-    const lc_adj *h = &s->adj[m];
-    const uint32_t *v = s->adj_pool + h->off;
-    const lc_hot *hm = &s->hot[m];
+    const lc_partner_list *h = &s->partners.list[m];
+    const uint32_t *v = s->partners.pool + h->off;
+    const lc_record *hm = &s->entries.rec[m];
     uint32_t k;
     for (k = 0; k < h->n; k++) {
-        const uint32_t o = v[k] & LC_ADJ_INDEX;
-        const lc_hot *ho = &s->hot[o];
+        const uint32_t o = v[k] & LC_INDEX_BITS;
+        const lc_record *ho = &s->entries.rec[o];
         uint32_t meet;
-        if ((ho->flags & (LC_HOT_SEARCH | LC_HOT_GONE)) || ((ho->flags & LC_SLOT_DIRTY) && ho->id < hm->id))
+        if ((ho->flags & (LC_REC_SEARCH | LC_REC_GONE)) || ((ho->flags & LC_SLOT_DIRTY) && ho->id < hm->id))
             continue;
         fo->cand++;
-        meet = (uint32_t)lc_hot_meet(s, hm, ho);
+        meet = (uint32_t)lc_records_meet(&s->slots, hm, ho);
         if (!c->events) {
             if (meet)
                 put_row(s, fo, hm, ho);
@@ -345,39 +349,39 @@ static void coast_one(const find_ctx *c, find_out *fo, uint32_t m)
 
 LC_INLINE void prefetch_record(const locd_scene *s, uint32_t d)
 {
-    __builtin_prefetch(&s->hot[d]);
-    __builtin_prefetch((const char *)&s->hot[d] + sizeof(lc_hot) - 1);
+    __builtin_prefetch(&s->entries.rec[d]);
+    __builtin_prefetch((const char *)&s->entries.rec[d] + sizeof(lc_record) - 1);
 
 }
 
-static void coast_range(const find_ctx *c, find_out *fo, size_t b, size_t e)
+static void stay_range(const search_ctx *c, search_out *fo, size_t b, size_t e)
 {
     const locd_scene *s = c->s;
-    const uint32_t *m = c->coast;
+    const uint32_t *m = c->stay;
     size_t i;
     for (i = b; i < e; i++) {
-        if (i + LC_COAST_HEAD < e)
-            __builtin_prefetch(&s->adj[m[i + LC_COAST_HEAD]]);
-        if (i + LC_COAST_LIST < e) {
-            __builtin_prefetch(s->adj_pool + s->adj[m[i + LC_COAST_LIST]].off);
-            prefetch_record(s, m[i + LC_COAST_LIST]);
+        if (i + LC_STAY_HEAD < e)
+            __builtin_prefetch(&s->partners.list[m[i + LC_STAY_HEAD]]);
+        if (i + LC_STAY_LIST < e) {
+            __builtin_prefetch(s->partners.pool + s->partners.list[m[i + LC_STAY_LIST]].off);
+            prefetch_record(s, m[i + LC_STAY_LIST]);
         }
-        if (i + LC_COAST_PART < e) {
-            const lc_adj *h = &s->adj[m[i + LC_COAST_PART]];
+        if (i + LC_STAY_PART < e) {
+            const lc_partner_list *h = &s->partners.list[m[i + LC_STAY_PART]];
             uint32_t k;
             for (k = 0; k < h->n; k++)
-                prefetch_record(s, s->adj_pool[h->off + k] & LC_ADJ_INDEX);
+                prefetch_record(s, s->partners.pool[h->off + k] & LC_INDEX_BITS);
         }
-        coast_one(c, fo, m[i]);
+        stay_one(c, fo, m[i]);
     }
 }
 
-static void task_find(void *arg, uint32_t t, uint32_t k)
+static void task_search(void *arg, uint32_t t, uint32_t k)
 {
-    find_ctx *c = arg;
-    const uint64_t imask = ((uint64_t)1 << c->s->grid.index_bits) - 1;
+    search_ctx *c = arg;
+    const uint64_t imask = ((uint64_t)1 << c->s->entries.grid.index_bits) - 1;
     size_t b = c->nq * t / k, e = c->nq * (t + 1) / k, i;
-    find_out fo;
+    search_out fo;
     memset(&fo, 0, sizeof fo);
     memset(fo.anc, 0xff, sizeof fo.anc); /* no key: a key's level bits are at most LC_SBITS */
     for (i = b; i < b + LC_DIR_AHEAD && i < e; i++)
@@ -385,7 +389,7 @@ static void task_find(void *arg, uint32_t t, uint32_t k)
     for (i = b; i < b + LC_LOOK_AHEAD && i < e; i++)
         prefetch_query(c, c->q[i]);
     for (i = b; i < e; i++) {
-        const lc_hot *hm = &c->s->hot[c->q[i] & imask];
+        const lc_record *hm = &c->s->entries.rec[c->q[i] & imask];
         if (i + LC_DIR_AHEAD < e)
             prefetch_far(c, c->q[i + LC_DIR_AHEAD]);
         if (i + LC_LOOK_AHEAD < e)
@@ -395,12 +399,12 @@ static void task_find(void *arg, uint32_t t, uint32_t k)
             search(c, &fo, c->sta, c->q[i], fo.anc + 2);
     }
     flush(c, &fo);
-    coast_range(c, &fo, c->ncoast * t / k, c->ncoast * (t + 1) / k);
+    stay_range(c, &fo, c->nstay * t / k, c->nstay * (t + 1) / k);
     c->out[t] = fo;
 }
 
 /* Each thread's output `which`, one after another, into out (*len items). */
-static locd_status gather_out(const locd_scene *s, const find_ctx *c, uint32_t k, int which, lc_buf *out, size_t *len)
+static locd_status gather_out(const locd_scene *s, const search_ctx *c, uint32_t k, int which, lc_buf *out, size_t *len)
 {
     size_t total = 0, w = 0;
     uint32_t t;
@@ -418,25 +422,24 @@ static locd_status gather_out(const locd_scene *s, const find_ctx *c, uint32_t k
     return LOCD_OK;
 }
 
-locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const lc_tree *sta, const uint64_t *q,
-                                size_t nq, const uint32_t *coast, size_t ncoast, int mode, lc_found *out)
+locd_status lc_search_moved(const locd_scene *s, const lc_moved *m, int mode, lc_search_out *out)
 {
-    find_ctx *c = lc_alloc(s->alloc, sizeof *c);
+    search_ctx *c = lc_alloc(s->alloc, sizeof *c);
     uint32_t k = s->threads, t;
     locd_status st = LOCD_OK;
     if (!c)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the search state");
     memset(c, 0, sizeof *c);
-    c->s = s, c->dyn = dyn, c->sta = sta, c->q = q, c->nq = nq;
-    c->coast = coast, c->ncoast = ncoast, c->events = mode == LC_FIND_EVENTS;
+    c->s = s, c->dyn = m->dyn, c->sta = m->sta, c->q = m->q, c->nq = m->nq;
+    c->stay = m->stay, c->nstay = m->nstay, c->events = mode == LC_SEARCH_EVENTS;
     if (k < 1)
         k = 1;
-    if (nq + ncoast < 2048)
+    if (m->nq + m->nstay < LC_SEARCH_SPLIT)
         k = 1;
     if (k > 1)
-        lc_pool_run(s->pool, k, task_find, c);
+        lc_pool_run(s->pool, k, task_search, c);
     else
-        task_find(c, 0, 1);
+        task_search(c, 0, 1);
     for (t = 0; t < k; t++) {
         if (c->out[t].st != LOCD_OK)
             st = lc_error(LOCD_ERR_NO_MEMORY, "could not grow the new pairs");
@@ -447,7 +450,7 @@ locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const l
     if (st == LOCD_OK && c->events && (st = gather_out(s, c, k, FO_FAT, &out->fat, &out->nfat)) == LOCD_OK)
         st = gather_out(s, c, k, FO_EV, &out->ev, &out->nev);
     if (st == LOCD_OK && !c->events && (st = gather_out(s, c, k, FO_ROWS, &out->rows.rows, &out->rows.count)) == LOCD_OK)
-        st = lc_pairs_sort_rows(s->alloc, out->rows.rows.data, out->rows.count);
+        st = lc_pair_rows_sort(s->alloc, out->rows.rows.data, out->rows.count);
     for (t = 0; t < k; t++) {
         int w;
         for (w = 0; w < FO_N; w++)
@@ -455,4 +458,11 @@ locd_status lc_scene_find_moved(const locd_scene *s, const lc_tree *dyn, const l
     }
     lc_free(s->alloc, c, sizeof *c);
     return st;
+}
+
+void lc_search_out_fini(const locd_allocator *a, lc_search_out *o)
+{
+    lc_pair_list_fini(a, &o->rows);
+    lc_buf_release(a, &o->fat, 2 * sizeof(uint32_t));
+    lc_buf_release(a, &o->ev, 3 * sizeof(uint32_t));
 }
