@@ -93,8 +93,8 @@ def load(results):
             r[s] = statistics.median(vals) if vals else None
             means = [ln["systems"][s]["mean_ms"] for ln in lines if "mean_ms" in ln["systems"].get(s, {})]
             r[s + "_mean"] = statistics.median(means) if means else None
-        r["ratio_mean"] = r["locd_mean"] / r["rebuild_mean"] if r["locd_mean"] and r["rebuild_mean"] else None
             r[s + "_pairs"] = lines[-1]["systems"].get(s, {}).get("pairs")
+        r["ratio_mean"] = r["locd_mean"] / r["rebuild_mean"] if r["locd_mean"] and r["rebuild_mean"] else None
         table.append(r)
     return table
 
