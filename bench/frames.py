@@ -93,8 +93,8 @@ def load(results):
             r[s] = statistics.median(vals) if vals else None
             means = [ln["systems"][s]["mean_ms"] for ln in lines if "mean_ms" in ln["systems"].get(s, {})]
             r[s + "_mean"] = statistics.median(means) if means else None
-        r["ratio_mean"] = r["locd_mean"] / r["rebuild_mean"] if r["locd_mean"] and r["rebuild_mean"] else None
             r[s + "_pairs"] = lines[-1]["systems"].get(s, {}).get("pairs")
+        r["ratio_mean"] = r["locd_mean"] / r["rebuild_mean"] if r["locd_mean"] and r["rebuild_mean"] else None
         table.append(r)
     return table
 
@@ -108,7 +108,7 @@ def report(args, results, img_dir, meta):
     fmt = bench_run.fmt_ms
     cmd = meta["command"]
     L = ["## Frame to frame: scene update vs rebuild, Bullet and FCL", ""]
-    L.append("A world that changes a little each frame (issue 14): `locd gen uniform N --seed 1`, a fraction of "
+    L.append("A world that changes a little each frame: `locd gen uniform N --seed 1`, a fraction of "
              "the cubes static (chosen by seed), each frame a random fraction of the others moved by up to 3%% of "
              "the cube edge per axis. Every system is built once and kept across frames: locd's scene "
              "(`locd_scene_move_f32` + `locd_scene_update`, pairs and created/lost lists), a full "
@@ -147,9 +147,9 @@ def report(args, results, img_dir, meta):
     goals = [(0.0, 0.01, 0.10, "1% moving: update at most 10% of a rebuild"),
              (0.0, 1.0, 1.10, "100% moving: at most 1.1x a rebuild"),
              (0.9, 0.01, 0.05, "90% static, 1% moving: at most 5% of a rebuild")]
-    L.append("Issue 14's goals at n = %s (update / rebuild, medians of this run, where each of locd's frames "
-             "follows Bullet's and FCL's and finds the caches holding their trees; the issue states the ratios "
-             "for `locd frames`, whose figures are in [scene.md](scene.md#the-near-pair-list-where-the-goals-stand)):"
+    L.append("The scene's goals at n = %s (update / rebuild, medians of this run, where each of locd's frames "
+             "follows Bullet's and FCL's and finds the caches holding their trees; the goals are stated for "
+             "`locd frames`, where the update and the rebuild alternate alone: [scene.md](scene.md#costs)):"
              % bench_run.fmt_n(big))
     L.append("")
     for st, mv, goal, text in goals:
@@ -186,10 +186,10 @@ def report(args, results, img_dir, meta):
     L.append("")
     L.append("![frame time against the fraction moving](img/frames.png)")
     L.append("")
-    L.append("_Machine: %s; %s; load average %s at start, %s at end; command: `%s`; locd %s, %s. The machine "
+    L.append("_Machine: %s; %s; load average %s at start, %s at end; command: `%s`; %s. The machine "
              "is shared with other jobs: single figures are noisy; the medians over frames and repetitions are "
              "what to read._" % (meta["machine"], meta["simd"], meta["load_start"], meta["load_end"], cmd,
-                                 meta["commit"], meta["date"]))
+                                 meta["date"]))
     L.append("")
     L.append("One row by hand: `locd gen uniform 1000000 --seed 1 -o u.aabb && locd frames u.aabb --moving 0.01 "
              "--frames 10 --threads 2` (add `--static 0.9`, `--check`), or "

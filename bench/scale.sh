@@ -72,4 +72,4 @@ PY
 done
 echo
 [ -n "${oom:-}" ] && echo "$oom" && echo
-echo "_Fixed cost subtracted: ${base} kB (the peak of a 2-box run). CPU: $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1), $(nproc) cores; kernel: ${LOCD_KERNEL:-(best the CPU has)}; command: \`bench/scale.sh $B $MAX\`; locd $(git -C "$(dirname "$0")" rev-parse --short HEAD 2>/dev/null || echo '?'), $(date -u '+%Y-%m-%d %H:%M') UTC._"
+echo "_Fixed cost subtracted: ${base} kB (the peak of a 2-box run). CPU: $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1), $(nproc) cores; kernel: ${LOCD_KERNEL:-(best the CPU has)}; command: \`bench/scale.sh $B $MAX\`; $(date -u '+%Y-%m-%d %H:%M') UTC._"
