@@ -4,6 +4,7 @@
 #define LOCD_NARROW_H
 
 #include "core/core.h" /* the handle magics, among the others' */
+#include "locd/pipeline.h"
 #include "locd/scene.h"
 
 #ifdef __cplusplus
