@@ -1,16 +1,8 @@
-/* The lower-bound search on a sorted array of 64-bit values (core.h's
- * lc_search_first does the search). */
+/* The lower-bound search on a sorted array of 64-bit values, out of line
+ * (core.h's lc_lower_bound_inline, on lc_search_first, does the search). */
 #include "core/core.h"
-
-static int at_or_above(const void *ctx, uint64_t i)
-{
-    const uint64_t *a = ((const uint64_t *const *)ctx)[0], *v = ((const uint64_t *const *)ctx)[1];
-    return a[i] >= *v;
-}
 
 size_t lc_lower_bound(const uint64_t *a, size_t n, uint64_t v)
 {
-    const uint64_t *ctx[2];
-    ctx[0] = a, ctx[1] = &v;
-    return (size_t)lc_search_first(0, n, at_or_above, ctx);
+    return lc_lower_bound_inline(a, n, v);
 }
