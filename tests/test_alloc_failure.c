@@ -9,6 +9,7 @@
  *
  * LOCD_TEST_HEAVY=0 (set by the sanitizer runs) shrinks the scenes, keeping
  * them large enough for the engine to split the work between threads. */
+#include <locd/pipeline.h>
 #include <signal.h>
 #include <stddef.h>
 #include <stdint.h>

@@ -8,6 +8,8 @@
  * This suite links the library's objects and wraps malloc, calloc and
  * realloc (-Wl,--wrap), so it sees exactly the calls made by locd's own
  * code: not those libccd, FCL or libc make for it. */
+#include <locd/pipeline.h>
+#include <locd/service.h>
 #include <math.h>
 #include <pthread.h>
 #include <stddef.h>

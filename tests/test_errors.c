@@ -1,4 +1,6 @@
 /* Bad input gets a specific status, a useful message, and loses nothing. */
+#include <locd/pipeline.h>
+#include <locd/service.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>

@@ -3,6 +3,7 @@
  * stage, stage skipping seen in the statistics, bad shapes rejected, and the
  * pipeline's result against an O(n^2) loop over the single-pair test. In a
  * build without the narrow phase, checks that every call says so. */
+#include <locd/pipeline.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>

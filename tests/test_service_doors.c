@@ -4,6 +4,7 @@
  * is capped; a service with its own private /dev/shm (a container sharing
  * only the socket) still gets every job, streamed. */
 #define _GNU_SOURCE
+#include <locd/service.h>
 #include <errno.h>
 #include <dirent.h>
 #include <fcntl.h>

@@ -5,6 +5,8 @@
  * LOCD_ERR_UNSUPPORTED and a message, leaving nothing behind; the narrow
  * phase, built without libccd and FCL, says it is missing. The reference
  * here is a brute force of this file's own, not the library's. */
+#include <locd/pipeline.h>
+#include <locd/service.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>

@@ -2,6 +2,7 @@
  * against a brute-force reference (every live pair through
  * locd_shape_collide) over long random sequences, at level 1 (the scene) and
  * level 2 (the from-scratch path), which must agree. */
+#include <locd/pipeline.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>

@@ -3,6 +3,7 @@
  * connections and their reasons) go to stderr too. */
 #include "cli.h"
 
+#include <locd/service.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>

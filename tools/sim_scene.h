@@ -2,7 +2,7 @@
 #ifndef LOCD_TOOLS_SIM_SCENE_H
 #define LOCD_TOOLS_SIM_SCENE_H
 
-#include <locd/locd.h>
+#include <locd/pipeline.h>
 #include <stddef.h>
 #include <stdint.h>
 

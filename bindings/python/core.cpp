@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "locd/locd.h"
+#include "locd/service.h"
 
 namespace py = pybind11;
 

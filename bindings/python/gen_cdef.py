@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Turns the public headers include/locd/*.h into cffi declarations: locd.h
 (and the locd/*.h headers it includes), then every other public header
-(scene.h, which includes locd.h itself), each header's declarations once;
-not mpi.h (liblocd_mpi's, which needs <mpi.h>).
+(pipeline.h, scene.h, service.h, which include locd.h themselves), each
+header's declarations once; not mpi.h (liblocd_mpi's, which needs <mpi.h>).
 
 Run at build time (bindings/python/meson.build), so locd.abi always declares
 exactly what the header it was built with declares: cffi's cdef() cannot read

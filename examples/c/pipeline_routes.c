@@ -6,6 +6,7 @@
  *   build/examples/pipeline_routes [pairs]      (default 200; docs/pipeline.md uses 5000)
  */
 #include <locd/locd.h>
+#include <locd/pipeline.h>
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -1,7 +1,13 @@
 /*
  * locd: exact all-pairs collision detection on a linear octree.
  *
- * Public C99 API. Everything that crosses this header is an opaque handle, a
+ * Public C99 API of liblocd's core: engines, pairs, jobs and the building
+ * blocks. The other parts have headers of their own, each including this
+ * one: locd/scene.h (the persistent scene) and locd/service.h (hosting the
+ * level-3 service), also in liblocd; locd/pipeline.h (shapes, narrow phase:
+ * liblocd_narrow) and locd/mpi.h (liblocd_mpi), each a library of its own.
+ *
+ * Everything that crosses this header is an opaque handle, a
  * plain scalar, a pointer to a buffer, or a pointer to a versioned struct whose
  * first field is `size` (set it with the matching locd_*_init() function).
  * Every fallible call returns a locd_status: 0 is success, negatives are
@@ -406,11 +412,5 @@ LOCD_API locd_status locd_brute_force_f64(const double *boxes, size_t n, locd_pa
 #ifdef __cplusplus
 }
 #endif
-
-/* Filter pipeline: shapes, narrow phase, swept tests. */
-#include "locd/pipeline.h"
-
-/* Level-3 service hosting: locd_service_*. */
-#include "locd/service.h"
 
 #endif /* LOCD_LOCD_H */

@@ -2,10 +2,11 @@
  * locd filter pipeline: shapes, narrow phase (closed forms, libccd, FCL),
  * swept tests and contact data on top of the broad phase.
  *
- * Included by locd/locd.h; do not include it alone. docs/pipeline.md has the
- * full reference. In a build without the narrow phase (meson -Dnarrow=disabled
- * or libccd/FCL missing) every function below exists and returns
- * LOCD_ERR_UNSUPPORTED, except the *_init functions and the destroy functions.
+ * The API of liblocd_narrow (pkg-config locd-narrow, CMake locd::narrow);
+ * includes locd/locd.h. docs/pipeline.md has the full reference. In a build
+ * without the narrow phase (meson -Dnarrow=disabled or libccd/FCL missing)
+ * every function below exists and returns LOCD_ERR_UNSUPPORTED, except the
+ * *_init functions and the destroy functions.
  *
  * Conventions:
  *   a pose is 7 doubles  px py pz qx qy qz qw  (position, then a unit
@@ -17,6 +18,8 @@
  */
 #ifndef LOCD_PIPELINE_H
 #define LOCD_PIPELINE_H
+
+#include "locd/locd.h"
 
 #ifdef __cplusplus
 extern "C" {

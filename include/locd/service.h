@@ -1,9 +1,11 @@
 /* locd: the level-3 service (what `locd serve` runs), for programs that
- * want to host it themselves. Included by locd/locd.h. Clients do not need
- * this header: they create an engine with LOCD_LEVEL_SERVICE and
+ * want to host it themselves (liblocd; includes locd/locd.h). Clients do not
+ * need this header: they create an engine with LOCD_LEVEL_SERVICE and
  * service_address. */
 #ifndef LOCD_SERVICE_H
 #define LOCD_SERVICE_H
+
+#include "locd/locd.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -128,7 +128,27 @@ LC_INLINE uint64_t lc_search_first(uint64_t lo, uint64_t hi, int (*at)(const voi
     return lo;
 }
 
-/* The first position of sorted a[0, n) whose value is >= v (n if none). */
+/* The first position of sorted a[0, n) whose value is >= v (n if none).
+ * lc_lower_bound (search.c) is the copy liblocd calls; lib/mpi, which
+ * cannot call liblocd's own functions, uses lc_lower_bound_inline. */
+typedef struct lc_sorted_key {
+    const uint64_t *a;
+    uint64_t v;
+} lc_sorted_key;
+
+LC_INLINE int lc_at_or_above(const void *ctx, uint64_t i)
+{
+    const lc_sorted_key *k = (const lc_sorted_key *)ctx;
+    return k->a[i] >= k->v;
+}
+
+LC_INLINE size_t lc_lower_bound_inline(const uint64_t *a, size_t n, uint64_t v)
+{
+    lc_sorted_key k;
+    k.a = a, k.v = v;
+    return (size_t)lc_search_first(0, n, lc_at_or_above, &k);
+}
+
 size_t lc_lower_bound(const uint64_t *a, size_t n, uint64_t v);
 size_t lc_lower_bound_u32(const uint32_t *a, size_t n, uint32_t v);
 

@@ -29,20 +29,6 @@ static int replica_to(const uint64_t *split, int r, uint64_t last)
     return split[r] <= last && split[r] < split[r + 1];
 }
 
-/* The first position in sorted a[0, n) whose value is >= v (n if none). */
-static size_t lower_bound(const uint64_t *a, size_t n, uint64_t v)
-{
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        const size_t mid = lo + (hi - lo) / 2;
-        if (a[mid] < v)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
-}
-
 /* Where one rank's outgoing data go, and what it receives, per rank. */
 typedef struct lm_plan {
     size_t *nat_begin, *nat_end;  /* native entries for rank r: ent[nat_begin[r], nat_end[r]) */
@@ -95,8 +81,8 @@ static locd_status route(const lm_ctx *c, const uint64_t *split, lm_plan *p, uin
     size_t i;
     int owner = 0, r, pass;
     for (r = 0; r < c->ranks; r++) {
-        p->nat_begin[r] = lower_bound(c->ent, c->nent, split[r] << ib);
-        p->nat_end[r] = r + 1 < c->ranks ? lower_bound(c->ent, c->nent, split[r + 1] << ib) : c->nent;
+        p->nat_begin[r] = lc_lower_bound_inline(c->ent, c->nent, split[r] << ib);
+        p->nat_end[r] = r + 1 < c->ranks ? lc_lower_bound_inline(c->ent, c->nent, split[r + 1] << ib) : c->nent;
     }
     *rep = NULL;
     for (pass = 0; pass < 2; pass++) { /* count, then fill */
@@ -251,7 +237,7 @@ static locd_status settle(lm_ctx *c, const lm_plan *p, lm_held *h, const uint64_
     free(scratch);
     if (st)
         return st;
-    h->begin = lower_bound(h->ent, h->count, split[c->rank] << c->grid.index_bits);
+    h->begin = lc_lower_bound_inline(h->ent, h->count, split[c->rank] << c->grid.index_bits);
     return LOCD_OK;
 }
 

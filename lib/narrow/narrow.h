@@ -4,6 +4,7 @@
 #define LOCD_NARROW_H
 
 #include "core/core.h" /* the handle magics, among the others' */
+#include "locd/pipeline.h"
 #include "locd/scene.h"
 
 #ifdef __cplusplus
@@ -60,7 +61,7 @@ int lc_closed_test(const lc_placed *a, const lc_placed *b, lc_contact *c);
 /* Swept sphere-sphere: b moves by d relative to a; *toi in [0, 1]. */
 int lc_closed_sweep_spheres(const lc_placed *a, const lc_placed *b, const double *d, double *toi);
 
-/* ---- libccd (ccd_tests.c): 1 hit, 0 miss, LOCD_ERR_INTERNAL (raised) for a mesh pair ---- */
+/* ---- libccd (ccd_glue.c): 1 hit, 0 miss, LOCD_ERR_INTERNAL (raised) for a mesh pair ---- */
 int lc_ccd_test(const lc_placed *a, const lc_placed *b, int want_contact, int32_t method, lc_contact *c);
 /* b moves by d (world) relative to a during the step; 1 and *toi when they meet. */
 int lc_ccd_sweep(const lc_placed *a, const lc_placed *b, const double *d, double *toi);

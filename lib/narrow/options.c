@@ -1,6 +1,6 @@
 /* The pipeline's options and statistics structs: their defaults and the
- * route table. Built with and without the narrow phase (pipeline_stub.c), so
- * both builds set them up the same way. */
+ * route table. Built with and without the narrow phase
+ * (pipeline_unsupported.c), so both builds set them up the same way. */
 #include "core/core.h"
 #include "narrow/narrow.h"
 

@@ -146,6 +146,37 @@ static double tune_neighbours(const int32_t (*q)[3], const uint32_t *lvl, size_t
     return same / (double)s * ((double)n / (double)s);
 }
 
+typedef struct tune_sample {
+    const int32_t (*q)[3];
+    const uint32_t *lvl;
+    size_t s, n;
+    uint64_t *code, *tmp;
+    double target;
+} tune_sample;
+
+static int within_target(const void *ctx, uint64_t d)
+{
+    const tune_sample *t = (const tune_sample *)ctx;
+    return tune_neighbours(t->q, t->lvl, t->s, t->n, (uint32_t)d, t->code, t->tmp) <= t->target;
+}
+
+/* The depth for s sampled boxes (quantized corners q, levels lvl) of a
+ * scene of n, at most `depth`. The estimate only grows as the depth
+ * shrinks: the shallowest depth within the target, which is
+ * LC_TUNE_NEIGHBOURS or, when even the deepest cells hold more, what they
+ * hold (deeper cells would not be emptier, only cost more key bits and
+ * cells). */
+static uint32_t tune_depth(const int32_t (*q)[3], const uint32_t *lvl, size_t s, size_t n, uint32_t depth,
+                           uint64_t *code, uint64_t *tmp)
+{
+    tune_sample t;
+    t.q = q, t.lvl = lvl, t.s = s, t.n = n, t.code = code, t.tmp = tmp;
+    t.target = tune_neighbours(q, lvl, s, n, depth, code, tmp);
+    if (t.target < LC_TUNE_NEIGHBOURS)
+        t.target = LC_TUNE_NEIGHBOURS;
+    return (uint32_t)lc_search_first(1, depth, within_target, &t);
+}
+
 #define LC_T float
 #define LC_SUFFIX f32
 #include "grid_impl.h"

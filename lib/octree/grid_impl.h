@@ -42,11 +42,10 @@ static void LC_FN(bounds_scalar_)(const LC_T *boxes, size_t begin, size_t end, l
 static void LC_FN(tune_strided_)(locd_grid *g, const LC_T *boxes, size_t stride, size_t n)
 {
     int32_t q[LC_TUNE_SAMPLE][3];
-    uint32_t lvl[LC_TUNE_SAMPLE], lo = 1, hi = g->depth;
+    uint32_t lvl[LC_TUNE_SAMPLE];
     uint64_t code[LC_TUNE_SAMPLE], tmp[LC_TUNE_SAMPLE];
     const size_t s = LC_TUNE_SAMPLE;
     size_t k;
-    double target;
     if (n < LC_TUNE_MIN_N)
         return;
     for (k = 0; k < s; k++) {
@@ -61,21 +60,7 @@ static void LC_FN(tune_strided_)(locd_grid *g, const LC_T *boxes, size_t stride,
         }
         lvl[k] = lc_level_for(ext, g->cell_bias, g->depth);
     }
-    /* The estimate only grows as the depth shrinks: bisect for the
-       shallowest depth within the target, which is LC_TUNE_NEIGHBOURS or,
-       when even the deepest cells hold more, what they hold (deeper cells
-       would not be emptier, only cost more key bits and cells). */
-    target = tune_neighbours((const int32_t(*)[3])q, lvl, s, n, hi, code, tmp);
-    if (target < LC_TUNE_NEIGHBOURS)
-        target = LC_TUNE_NEIGHBOURS;
-    while (lo < hi) {
-        const uint32_t mid = lo + (hi - lo) / 2;
-        if (tune_neighbours((const int32_t(*)[3])q, lvl, s, n, mid, code, tmp) <= target)
-            hi = mid;
-        else
-            lo = mid + 1;
-    }
-    g->depth = lo;
+    g->depth = tune_depth((const int32_t(*)[3])q, lvl, s, n, g->depth, code, tmp);
 }
 
 void LC_FN(lc_grid_tune_depth_)(locd_grid *g, const LC_T *boxes, size_t n)

@@ -3,10 +3,27 @@
  * which was its bottleneck). */
 #include "octree/octree.h"
 
+typedef struct merge_rank {
+    const uint64_t *const *runs;
+    const size_t *counts;
+    size_t k, rank;
+} merge_rank;
+
+/* At least rank + 1 values of the runs are <= v. */
+static int holds_rank(const void *ctx, uint64_t v)
+{
+    const merge_rank *m = (const merge_rank *)ctx;
+    size_t r, c = 0;
+    for (r = 0; r < m->k; r++) /* values <= v; v < UINT64_MAX (the search's hi), so v + 1 does not wrap */
+        c += lc_lower_bound(m->runs[r], m->counts[r], v + 1);
+    return c >= m->rank + 1;
+}
+
 void lc_merge_split(const uint64_t *const *runs, const size_t *counts, size_t k, size_t rank, size_t *pos)
 {
     size_t r, total = 0;
-    uint64_t lo = 0, hi = UINT64_MAX;
+    merge_rank m;
+    uint64_t x;
     for (r = 0; r < k; r++)
         total += counts[r];
     if (rank >= total) {
@@ -14,20 +31,12 @@ void lc_merge_split(const uint64_t *const *runs, const size_t *counts, size_t k,
             pos[r] = counts[r];
         return;
     }
-    /* The rank-th smallest value x (entries are unique): smallest v with
-       at least rank + 1 values <= v. */
-    while (lo < hi) {
-        uint64_t mid = lo + (hi - lo) / 2;
-        size_t c = 0;
-        for (r = 0; r < k; r++) /* values <= mid; mid < hi, so mid + 1 does not wrap */
-            c += lc_lower_bound(runs[r], counts[r], mid + 1);
-        if (c >= rank + 1)
-            hi = mid;
-        else
-            lo = mid + 1;
-    }
+    /* The rank-th smallest value x (entries are unique): the smallest v
+       with at least rank + 1 values <= v. */
+    m.runs = runs, m.counts = counts, m.k = k, m.rank = rank;
+    x = lc_search_first(0, UINT64_MAX, holds_rank, &m);
     for (r = 0; r < k; r++)
-        pos[r] = lc_lower_bound(runs[r], counts[r], lo);
+        pos[r] = lc_lower_bound(runs[r], counts[r], x);
 }
 
 static void merge2(const uint64_t *a, const uint64_t *ae, const uint64_t *b, const uint64_t *be, uint64_t *out)

@@ -22,6 +22,7 @@
 #define LOCD_SERVICE_PROTO_H
 
 #include "engine/engine.h"
+#include "locd/service.h"
 
 #include <pthread.h>
 

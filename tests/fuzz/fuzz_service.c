@@ -27,6 +27,7 @@
  * directory in /tmp, removed at exit. */
 #define _GNU_SOURCE
 #include <locd/locd.h>
+#include <locd/service.h>
 
 #include <errno.h>
 #include <fcntl.h>

@@ -3,7 +3,9 @@
  * runner compares them with Marshal.SizeOf / Marshal.OffsetOf of the structs
  * mirrored in Native.cs. */
 #include <locd/locd.h>
+#include <locd/pipeline.h>
 #include <locd/scene.h>
+#include <locd/service.h>
 
 #include <stddef.h>
 #include <stdio.h>

@@ -126,6 +126,13 @@ namespace Locd
                 Marshal.FreeHGlobal(p);
         }
 
+        // A call on the handle (HeldHandle): Call() under the engine's lock,
+        // Ref() with a reference on the handle only (callers that hold the
+        // lock already, or need none).
+        HeldHandle Call() { return new HeldHandle(sync, handle); }
+
+        HeldHandle Ref() { return new HeldHandle(null, handle); }
+
         /// <summary>The native handle (for the raw layer, e.g. from Burst). Valid until Dispose.</summary>
         public IntPtr NativeHandle { get { return handle.DangerousGetHandle(); } }
 
@@ -137,13 +144,8 @@ namespace Locd
         public Level Level
         {
             get {
-                bool added = false;
-                try {
-                    handle.DangerousAddRef(ref added);
-                    return (Level)Native.locd_engine_level(handle.DangerousGetHandle());
-                } finally {
-                    if (added) handle.DangerousRelease();
-                }
+                using (var call = Ref())
+                    return (Level)Native.locd_engine_level(call.Handle);
             }
         }
 
@@ -151,13 +153,8 @@ namespace Locd
         public int Threads
         {
             get {
-                bool added = false;
-                try {
-                    handle.DangerousAddRef(ref added);
-                    return (int)Native.locd_engine_threads(handle.DangerousGetHandle());
-                } finally {
-                    if (added) handle.DangerousRelease();
-                }
+                using (var call = Ref())
+                    return (int)Native.locd_engine_threads(call.Handle);
             }
         }
 
@@ -165,15 +162,11 @@ namespace Locd
         public EngineStats Stats
         {
             get {
-                bool added = false;
-                try {
-                    handle.DangerousAddRef(ref added);
+                using (var call = Ref()) {
                     Native.locd_stats s;
                     Native.locd_stats_init(&s);
-                    LocdException.Check(Native.locd_engine_stats(handle.DangerousGetHandle(), &s));
+                    LocdException.Check(Native.locd_engine_stats(call.Handle, &s));
                     return new EngineStats(s);
-                } finally {
-                    if (added) handle.DangerousRelease();
                 }
             }
         }
@@ -209,22 +202,16 @@ namespace Locd
 
         uint[] FindPairsArray(float* f, double* d, long n, FindFlags flags)
         {
-            lock (sync) {
-                bool added = false;
-                try {
-                    handle.DangerousAddRef(ref added);
-                    if (pairs == null)
-                        pairs = PairsSafeHandle.Create();
-                    IntPtr e = handle.DangerousGetHandle(), p = pairs.DangerousGetHandle();
-                    int st = f != null || d == null
-                        ? Native.locd_engine_find_pairs_f32(e, f, (UIntPtr)(ulong)n, (uint)flags, p)
-                        : Native.locd_engine_find_pairs_f64(e, d, (UIntPtr)(ulong)n, (uint)flags, p);
-                    if (st != Native.LOCD_OK)
-                        throw LocdException.FromLastError(st);
-                    return CopyPairs(Native.locd_pairs_data(p), (long)(ulong)Native.locd_pairs_count(p));
-                } finally {
-                    if (added) handle.DangerousRelease();
-                }
+            using (var call = Call()) {
+                if (pairs == null)
+                    pairs = PairsSafeHandle.Create();
+                IntPtr e = call.Handle, p = pairs.DangerousGetHandle();
+                int st = f != null || d == null
+                    ? Native.locd_engine_find_pairs_f32(e, f, (UIntPtr)(ulong)n, (uint)flags, p)
+                    : Native.locd_engine_find_pairs_f64(e, d, (UIntPtr)(ulong)n, (uint)flags, p);
+                if (st != Native.LOCD_OK)
+                    throw LocdException.FromLastError(st);
+                return CopyPairs(Native.locd_pairs_data(p), (long)(ulong)Native.locd_pairs_count(p));
             }
         }
 
@@ -250,24 +237,18 @@ namespace Locd
 
         uint[] FindPairsBetweenArray(float* fa, float* fb, double* da, double* db, long na, long nb, FindFlags flags)
         {
-            lock (sync) {
-                bool added = false;
-                try {
-                    handle.DangerousAddRef(ref added);
-                    if (pairs == null)
-                        pairs = PairsSafeHandle.Create();
-                    IntPtr e = handle.DangerousGetHandle(), p = pairs.DangerousGetHandle();
-                    int st = da == null && db == null
-                        ? Native.locd_engine_find_pairs_between_f32(e, fa, (UIntPtr)(ulong)na, fb, (UIntPtr)(ulong)nb,
-                                                                    (uint)flags, p)
-                        : Native.locd_engine_find_pairs_between_f64(e, da, (UIntPtr)(ulong)na, db, (UIntPtr)(ulong)nb,
-                                                                    (uint)flags, p);
-                    if (st != Native.LOCD_OK)
-                        throw LocdException.FromLastError(st);
-                    return CopyPairs(Native.locd_pairs_data(p), (long)(ulong)Native.locd_pairs_count(p));
-                } finally {
-                    if (added) handle.DangerousRelease();
-                }
+            using (var call = Call()) {
+                if (pairs == null)
+                    pairs = PairsSafeHandle.Create();
+                IntPtr e = call.Handle, p = pairs.DangerousGetHandle();
+                int st = da == null && db == null
+                    ? Native.locd_engine_find_pairs_between_f32(e, fa, (UIntPtr)(ulong)na, fb, (UIntPtr)(ulong)nb,
+                                                                (uint)flags, p)
+                    : Native.locd_engine_find_pairs_between_f64(e, da, (UIntPtr)(ulong)na, db, (UIntPtr)(ulong)nb,
+                                                                (uint)flags, p);
+                if (st != Native.LOCD_OK)
+                    throw LocdException.FromLastError(st);
+                return CopyPairs(Native.locd_pairs_data(p), (long)(ulong)Native.locd_pairs_count(p));
             }
         }
 
@@ -380,10 +361,8 @@ namespace Locd
         {
             if (capacity < 0)
                 throw new ArgumentOutOfRangeException("capacity");
-            bool added = false;
-            try {
-                handle.DangerousAddRef(ref added);
-                IntPtr e = handle.DangerousGetHandle();
+            using (var call = Ref()) {
+                IntPtr e = call.Handle;
                 UIntPtr count;
                 if (capacity == 0)
                     p = null;
@@ -395,8 +374,6 @@ namespace Locd
                 if (st != Native.LOCD_OK)
                     throw LocdException.FromLastError(st);
                 return (long)(ulong)count;
-            } finally {
-                if (added) handle.DangerousRelease();
             }
         }
 
@@ -418,16 +395,12 @@ namespace Locd
 
         long LastPairs(out uint* src)
         {
-            bool added = false;
-            try {
-                handle.DangerousAddRef(ref added);
+            using (var call = Ref()) {
                 uint* data;
                 UIntPtr count;
-                LocdException.Check(Native.locd_engine_last_pairs(handle.DangerousGetHandle(), &data, &count));
+                LocdException.Check(Native.locd_engine_last_pairs(call.Handle, &data, &count));
                 src = data;
                 return (long)(ulong)count;
-            } finally {
-                if (added) handle.DangerousRelease();
             }
         }
 

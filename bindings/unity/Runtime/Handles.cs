@@ -7,6 +7,47 @@ using System.Threading;
 
 namespace Locd
 {
+    /// <summary>
+    /// One native call on a handle: takes the lock (when sync is not null)
+    /// and a reference on the handle, so that a concurrent Dispose cannot
+    /// free it under the call, and gives both back on Dispose:
+    /// <c>using (var call = new HeldHandle(sync, handle)) st = Native.f(call.Handle, ...);</c>
+    /// A struct, not a delegate: a call allocates nothing.
+    /// </summary>
+    internal struct HeldHandle : IDisposable
+    {
+        readonly object sync;
+        readonly SafeHandle owner;
+        readonly bool locked, added;
+        /// <summary>The native pointer, valid until Dispose.</summary>
+        public readonly IntPtr Handle;
+
+        public HeldHandle(object sync, SafeHandle handle)
+        {
+            this.sync = sync;
+            owner = handle;
+            locked = added = false;
+            Handle = IntPtr.Zero;
+            try {
+                if (sync != null)
+                    Monitor.Enter(sync, ref locked);
+                handle.DangerousAddRef(ref added);
+                Handle = handle.DangerousGetHandle();
+            } catch {
+                Dispose(); // a disposed handle: give the lock back before throwing
+                throw;
+            }
+        }
+
+        public void Dispose()
+        {
+            if (added)
+                owner.DangerousRelease();
+            if (locked)
+                Monitor.Exit(sync);
+        }
+    }
+
     /// <summary>Owns a locd_engine *.</summary>
     public sealed class EngineSafeHandle : SafeHandle
     {

@@ -16,6 +16,10 @@ namespace Locd
 
         public JobSafeHandle SafeHandle { get { return handle; } }
 
+        // A reference on the handle for one call (HeldHandle); the callers
+        // that need the lock take it themselves, around more than the call.
+        HeldHandle Ref() { return new HeldHandle(null, handle); }
+
         /// <summary>True once the job has finished, successfully or not (Result then
         /// returns the pairs or throws the job's error). Never blocks.</summary>
         public bool IsDone
@@ -24,13 +28,8 @@ namespace Locd
                 lock (sync) {
                     if (finished)
                         return true;
-                    bool added = false;
-                    try {
-                        handle.DangerousAddRef(ref added);
-                        return Settle(Native.locd_job_poll(handle.DangerousGetHandle()));
-                    } finally {
-                        if (added) handle.DangerousRelease();
-                    }
+                    using (var call = Ref())
+                        return Settle(Native.locd_job_poll(call.Handle));
                 }
             }
         }
@@ -42,13 +41,8 @@ namespace Locd
             lock (sync) {
                 if (!finished) {
                     int st;
-                    bool added = false;
-                    try {
-                        handle.DangerousAddRef(ref added);
-                        st = Native.locd_job_wait(handle.DangerousGetHandle(), timeoutMs);
-                    } finally {
-                        if (added) handle.DangerousRelease();
-                    }
+                    using (var call = Ref())
+                        st = Native.locd_job_wait(call.Handle, timeoutMs);
                     if (st == (int)Status.Timeout)
                         return false;
                     Settle(st);
@@ -77,13 +71,8 @@ namespace Locd
                         Wait(-1);
                         using (var p = PairsSafeHandle.Create()) {
                             IntPtr ph = p.DangerousGetHandle();
-                            bool added = false;
-                            try {
-                                handle.DangerousAddRef(ref added);
-                                LocdException.Check(Native.locd_job_take(handle.DangerousGetHandle(), ph));
-                            } finally {
-                                if (added) handle.DangerousRelease();
-                            }
+                            using (var call = Ref())
+                                LocdException.Check(Native.locd_job_take(call.Handle, ph));
                             result = Engine.CopyPairs(Native.locd_pairs_data(ph), (long)(ulong)Native.locd_pairs_count(ph));
                         }
                     }
@@ -96,15 +85,11 @@ namespace Locd
         public EngineStats Stats
         {
             get {
-                bool added = false;
-                try {
-                    handle.DangerousAddRef(ref added);
+                using (var call = Ref()) {
                     Native.locd_stats s;
                     Native.locd_stats_init(&s);
-                    LocdException.Check(Native.locd_job_stats(handle.DangerousGetHandle(), &s));
+                    LocdException.Check(Native.locd_job_stats(call.Handle, &s));
                     return new EngineStats(s);
-                } finally {
-                    if (added) handle.DangerousRelease();
                 }
             }
         }
@@ -112,13 +97,8 @@ namespace Locd
         /// <summary>Asks the job to stop; a later Wait throws Cancelled unless it had finished.</summary>
         public void Cancel()
         {
-            bool added = false;
-            try {
-                handle.DangerousAddRef(ref added);
-                LocdException.Check(Native.locd_job_cancel(handle.DangerousGetHandle()));
-            } finally {
-                if (added) handle.DangerousRelease();
-            }
+            using (var call = Ref())
+                LocdException.Check(Native.locd_job_cancel(call.Handle));
         }
 
         // Records the outcome of a poll/wait; true when the job is over.

@@ -199,20 +199,8 @@ namespace Locd
                 handle.Dispose();
         }
 
-        // Every call holds the lock and a reference on the handle (so a
-        // concurrent Dispose cannot free the scene under it). No delegates:
-        // the calls of a frame allocate nothing.
-        IntPtr Acquire(ref bool added)
-        {
-            handle.DangerousAddRef(ref added);
-            return handle.DangerousGetHandle();
-        }
-
-        void Release(bool added)
-        {
-            if (added)
-                handle.DangerousRelease();
-        }
+        // Every call holds the lock and a reference on the handle (HeldHandle).
+        HeldHandle Call() { return new HeldHandle(sync, handle); }
 
         static void Throw(int st)
         {
@@ -224,14 +212,8 @@ namespace Locd
         public long Count
         {
             get {
-                lock (sync) {
-                    bool added = false;
-                    try {
-                        return (long)(ulong)Native.locd_scene_count(Acquire(ref added));
-                    } finally {
-                        Release(added);
-                    }
-                }
+                using (var call = Call())
+                    return (long)(ulong)Native.locd_scene_count(call.Handle);
             }
         }
 
@@ -242,15 +224,8 @@ namespace Locd
                 Native.locd_scene_stats stats;
                 Native.locd_scene_stats_init(&stats);
                 int st;
-                lock (sync) {
-                    bool added = false;
-                    try {
-                        IntPtr s = Acquire(ref added);
-                        st = Native.locd_scene_stats_get(s, &stats);
-                    } finally {
-                        Release(added);
-                    }
-                }
+                using (var call = Call())
+                    st = Native.locd_scene_stats_get(call.Handle, &stats);
                 Throw(st);
                 return new SceneStats(stats);
             }
@@ -316,17 +291,10 @@ namespace Locd
                 opt.groups = (IntPtr)g;
                 opt.users = (IntPtr)u;
                 int st;
-                lock (sync) {
-                    bool added = false;
-                    try {
-                        IntPtr s = Acquire(ref added);
-                        st = f != null || d == null
-                            ? Native.locd_scene_add_f32(s, f, (UIntPtr)(ulong)n, &opt, ids)
-                            : Native.locd_scene_add_f64(s, d, (UIntPtr)(ulong)n, &opt, ids);
-                    } finally {
-                        Release(added);
-                    }
-                }
+                using (var call = Call())
+                    st = f != null || d == null
+                        ? Native.locd_scene_add_f32(call.Handle, f, (UIntPtr)(ulong)n, &opt, ids)
+                        : Native.locd_scene_add_f64(call.Handle, d, (UIntPtr)(ulong)n, &opt, ids);
                 Throw(st);
             }
         }
@@ -354,15 +322,8 @@ namespace Locd
         {
             CheckCount(count);
             int st;
-            lock (sync) {
-                bool added = false;
-                try {
-                    IntPtr s = Acquire(ref added);
-                    st = Native.locd_scene_move_f32(s, ids, boxes, (UIntPtr)(ulong)count);
-                } finally {
-                    Release(added);
-                }
-            }
+            using (var call = Call())
+                st = Native.locd_scene_move_f32(call.Handle, ids, boxes, (UIntPtr)(ulong)count);
             Throw(st);
         }
 
@@ -370,15 +331,8 @@ namespace Locd
         {
             CheckCount(count);
             int st;
-            lock (sync) {
-                bool added = false;
-                try {
-                    IntPtr s = Acquire(ref added);
-                    st = Native.locd_scene_move_f64(s, ids, boxes, (UIntPtr)(ulong)count);
-                } finally {
-                    Release(added);
-                }
-            }
+            using (var call = Call())
+                st = Native.locd_scene_move_f64(call.Handle, ids, boxes, (UIntPtr)(ulong)count);
             Throw(st);
         }
 
@@ -394,15 +348,8 @@ namespace Locd
         {
             CheckCount(count);
             int st;
-            lock (sync) {
-                bool added = false;
-                try {
-                    IntPtr s = Acquire(ref added);
-                    st = Native.locd_scene_remove(s, ids, (UIntPtr)(ulong)count);
-                } finally {
-                    Release(added);
-                }
-            }
+            using (var call = Call())
+                st = Native.locd_scene_remove(call.Handle, ids, (UIntPtr)(ulong)count);
             Throw(st);
         }
 
@@ -425,15 +372,8 @@ namespace Locd
         {
             CheckCount(count);
             int st;
-            lock (sync) {
-                bool added = false;
-                try {
-                    IntPtr s = Acquire(ref added);
-                    st = Native.locd_scene_set_filter(s, ids, (UIntPtr)(ulong)count, categories, masks, groups);
-                } finally {
-                    Release(added);
-                }
-            }
+            using (var call = Call())
+                st = Native.locd_scene_set_filter(call.Handle, ids, (UIntPtr)(ulong)count, categories, masks, groups);
             Throw(st);
         }
 
@@ -453,15 +393,8 @@ namespace Locd
         {
             CheckCount(count);
             int st;
-            lock (sync) {
-                bool added = false;
-                try {
-                    IntPtr s = Acquire(ref added);
-                    st = Native.locd_scene_set_user(s, ids, (UIntPtr)(ulong)count, users);
-                } finally {
-                    Release(added);
-                }
-            }
+            using (var call = Call())
+                st = Native.locd_scene_set_user(call.Handle, ids, (UIntPtr)(ulong)count, users);
             Throw(st);
         }
 
@@ -488,15 +421,8 @@ namespace Locd
         {
             CheckCount(count);
             int st;
-            lock (sync) {
-                bool added = false;
-                try {
-                    IntPtr s = Acquire(ref added);
-                    st = Native.locd_scene_get_user(s, ids, (UIntPtr)(ulong)count, usersOut);
-                } finally {
-                    Release(added);
-                }
-            }
+            using (var call = Call())
+                st = Native.locd_scene_get_user(call.Handle, ids, (UIntPtr)(ulong)count, usersOut);
             Throw(st);
         }
 
@@ -529,15 +455,8 @@ namespace Locd
         public void Update(SceneUpdateFlags flags)
         {
             int st;
-            lock (sync) {
-                bool added = false;
-                try {
-                    IntPtr s = Acquire(ref added);
-                    st = Native.locd_scene_update(s, (uint)flags);
-                } finally {
-                    Release(added);
-                }
-            }
+            using (var call = Call())
+                st = Native.locd_scene_update(call.Handle, (uint)flags);
             Throw(st);
         }
 
@@ -562,17 +481,10 @@ namespace Locd
             ulong* data = null;
             UIntPtr n = UIntPtr.Zero;
             int st;
-            lock (sync) {
-                bool added = false;
-                try {
-                    IntPtr s = Acquire(ref added);
-                    st = which == 0 ? Native.locd_scene_pairs(s, &data, &n)
-                       : which == 1 ? Native.locd_scene_created(s, &data, &n)
-                       : Native.locd_scene_lost(s, &data, &n);
-                } finally {
-                    Release(added);
-                }
-            }
+            using (var call = Call())
+                st = which == 0 ? Native.locd_scene_pairs(call.Handle, &data, &n)
+                   : which == 1 ? Native.locd_scene_created(call.Handle, &data, &n)
+                   : Native.locd_scene_lost(call.Handle, &data, &n);
             Throw(st);
             count = (long)(ulong)n;
             return data;
@@ -694,20 +606,14 @@ namespace Locd
                 throw new ArgumentOutOfRangeException("capacity");
             UIntPtr n = UIntPtr.Zero;
             int st;
-            lock (sync) {
-                bool added = false;
-                try {
-                    IntPtr s = Acquire(ref added);
-                    var cap = (UIntPtr)(ulong)capacity;
-                    if (kind == 0)
-                        st = f != null || d == null ? Native.locd_scene_query_box_f32(s, f, mask, ids, cap, &n)
-                                                    : Native.locd_scene_query_box_f64(s, d, mask, ids, cap, &n);
-                    else
-                        st = f != null || d == null ? Native.locd_scene_query_point_f32(s, f, mask, ids, cap, &n)
-                                                    : Native.locd_scene_query_point_f64(s, d, mask, ids, cap, &n);
-                } finally {
-                    Release(added);
-                }
+            using (var call = Call()) {
+                var cap = (UIntPtr)(ulong)capacity;
+                if (kind == 0)
+                    st = f != null || d == null ? Native.locd_scene_query_box_f32(call.Handle, f, mask, ids, cap, &n)
+                                                : Native.locd_scene_query_box_f64(call.Handle, d, mask, ids, cap, &n);
+                else
+                    st = f != null || d == null ? Native.locd_scene_query_point_f32(call.Handle, f, mask, ids, cap, &n)
+                                                : Native.locd_scene_query_point_f64(call.Handle, d, mask, ids, cap, &n);
             }
             if (st != Native.LOCD_OK && st != (int)Status.BufferTooSmall)
                 throw LocdException.FromLastError(st);
@@ -738,17 +644,11 @@ namespace Locd
                 throw new ArgumentOutOfRangeException("capacity");
             UIntPtr n = UIntPtr.Zero;
             int st;
-            lock (sync) {
-                bool added = false;
-                try {
-                    IntPtr s = Acquire(ref added);
-                    var cap = (UIntPtr)(ulong)capacity;
-                    st = of != null || od == null
-                        ? Native.locd_scene_raycast_f32(s, of, df, maxT, mask, ids, t, cap, &n)
-                        : Native.locd_scene_raycast_f64(s, od, dd, maxT, mask, ids, t, cap, &n);
-                } finally {
-                    Release(added);
-                }
+            using (var call = Call()) {
+                var cap = (UIntPtr)(ulong)capacity;
+                st = of != null || od == null
+                    ? Native.locd_scene_raycast_f32(call.Handle, of, df, maxT, mask, ids, t, cap, &n)
+                    : Native.locd_scene_raycast_f64(call.Handle, od, dd, maxT, mask, ids, t, cap, &n);
             }
             if (st != Native.LOCD_OK && st != (int)Status.BufferTooSmall)
                 throw LocdException.FromLastError(st);

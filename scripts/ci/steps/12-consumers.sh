@@ -5,6 +5,11 @@
 #   - a C99 program (-std=c99 -Wall -Wextra -Wpedantic -Werror) with pkg-config's flags,
 #   - a C++17 program (-Wall -Wextra -Wpedantic -Werror) with pkg-config's flags,
 #   - a C99 program of the narrow phase with `pkg-config locd-narrow`,
+#   - each public header alone (`#include <locd/X.h>`) in C99 and C++17 with
+#     the same flags, every function it declares (beyond locd.h's) exported
+#     by its own library: locd.h, scene.h, service.h by liblocd, pipeline.h
+#     by liblocd_narrow (mpi.h, not installed here, from the tree with MPI's
+#     flags when mpicc is there),
 #   - a CMake project with find_package(locd) (the prefix moved elsewhere
 #     first: locdConfig.cmake must be relocatable),
 #   - a Meson project with locd as a subproject, whose `meson test --list`
@@ -121,6 +126,55 @@ narrow_program() {
   [ $st -eq 0 ] || [ $st -eq 77 ]
 }
 run_case narrow-c99 narrow_program
+
+headers_alone() {
+  local installed=$PREFIX/include/locd dir=$OUT/headers h name names=(locd) flags mpi_flags lib own stray
+  # Every header of the tree is installed (mpi.h only with MPI); each is checked, locd.h first.
+  for h in "$ROOT"/include/locd/*.h; do
+    name=$(basename "$h" .h)
+    [ "$name" = mpi ] || [ -f "$installed/$name.h" ] || { echo "include/locd/$name.h is not installed"; exit 1; }
+    [ "$name" = locd ] || names+=("$name")
+  done
+  mkdir -p "$dir"
+  declared() { { grep -oE '\blocd_[a-z0-9_]+ *\(' "$1" || true; } | sed 's/ *($//' | sort -u; }
+  exported() { nm -D --defined-only "$LIBDIR/$1" | awk '{ sub(/@.*/, "", $3); print $3 }' | sort -u; }
+  for name in "${names[@]}"; do
+    # shellcheck disable=SC2046
+    flags=$(echo $(pkg-config --cflags locd))
+    lib=liblocd.so
+    case $name in
+      pipeline) lib=liblocd_narrow.so ;;
+      mpi)
+        lib=
+        # Open MPI's headers as system headers (their own warnings are not locd's);
+        # the tree's mpi.h after the installed headers when it is not installed.
+        mpi_flags=$(mpicc --showme:compile 2>/dev/null) || { echo "locd/mpi.h: not checked (no Open MPI mpicc)"; continue; }
+        flags="$flags ${mpi_flags//-I/-isystem }"
+        [ -f "$installed/mpi.h" ] || flags="$flags -I$ROOT/include"
+        ;;
+    esac
+    printf '#include <locd/%s.h>\nint main(void) { return 0; }\n' "$name" > "$dir/$name.c"
+    cp "$dir/$name.c" "$dir/$name.cpp"
+    # shellcheck disable=SC2086
+    cc -std=c99 -Wall -Wextra -Wpedantic -Werror $flags -c "$dir/$name.c" -o "$dir/$name.c.o"
+    # shellcheck disable=SC2086
+    c++ -std=c++17 -Wall -Wextra -Wpedantic -Werror $flags -c "$dir/$name.cpp" -o "$dir/$name.cpp.o"
+    # The functions it declares beyond locd.h's (which every other header includes).
+    # shellcheck disable=SC2086
+    cc -std=c99 -E -P $flags "$dir/$name.c" > "$dir/$name.i"
+    own=$(declared "$dir/$name.i")
+    [ "$name" = locd ] || own=$(comm -23 <(echo "$own") <(declared "$dir/locd.i"))
+    if [ -n "$lib" ]; then
+      stray=$(comm -23 <(echo "$own") <(exported "$lib"))
+    else
+      stray=$(echo "$own" | grep -v '^locd_mpi_' || true)  # liblocd_mpi is not built here
+      lib="liblocd_mpi (locd_mpi_*)"
+    fi
+    [ -z "$stray" ] || { echo "locd/$name.h declares functions that are not $lib's:" $stray; exit 1; }
+    echo "locd/$name.h: compiles alone (C99, C++17); its $(echo "$own" | grep -c .) functions are $lib's"
+  done
+}
+run_case headers headers_alone
 
 cmake_project() {
   # Moved: the config files must find the library from their own location.

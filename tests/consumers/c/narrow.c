@@ -2,7 +2,7 @@
  *   cc -std=c99 -Wall -Wextra -Wpedantic -Werror narrow.c $(pkg-config --cflags --libs locd-narrow)
  * Two unit spheres 1.5 apart intersect, 2.5 apart they do not, tested by FCL. Without libccd
  * and FCL at build time the call returns LOCD_ERR_UNSUPPORTED (exit 77). */
-#include <locd/locd.h> /* brings locd/pipeline.h, the narrow phase's header */
+#include <locd/pipeline.h> /* the narrow phase (liblocd_narrow); includes locd/locd.h */
 #include <stdio.h>
 
 int main(void)

@@ -3,6 +3,7 @@
  * the ABI does not depend on build options, and say why they cannot work.
  * Option and statistics initializers (options.c) still work. */
 #include "core/core.h"
+#include "locd/pipeline.h"
 
 #define NO_NARROW() \
     lc_error(LOCD_ERR_UNSUPPORTED, "this locd was built without the narrow phase (libccd and FCL; meson -Dnarrow)")

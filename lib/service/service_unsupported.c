@@ -7,6 +7,7 @@
  * never created. The exported functions are the same as in every build, so
  * the ABI does not depend on the platform's features. */
 #include "engine/engine.h"
+#include "locd/service.h"
 
 #define LC_NO_SERVICE_WHY "it uses Unix domain sockets and POSIX shared memory (not available on Windows); use level 1"
 

@@ -1,6 +1,7 @@
-/* libccd paths: support functions of the locd shapes, GJK (yes/no), EPA or
- * MPR (contact data), a translational swept test, and meshes tested one
- * triangle at a time against a convex shape. */
+/* The libccd glue (as fcl_glue.cpp is FCL's): support functions of the
+ * locd shapes, GJK (yes/no), EPA or MPR (contact data), a translational
+ * swept test, and meshes tested one triangle at a time against a convex
+ * shape. */
 #include "core/core.h"
 #include "narrow/narrow.h"
 
