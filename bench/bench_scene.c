@@ -137,7 +137,7 @@ int main(int argc, char **argv)
         if (locd_scene_update(s, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS))
             return 1;
         ucpu[f] = cpu_ms() - c;
-        locd_scene_stats_get(s, &st);
+        locd_scene_get_stats(s, &st);
         upd[f] = st.ms_total;
         c = cpu_ms();
         t = now_ms();

@@ -410,7 +410,7 @@ int main(int argc, char **argv)
     const char *kernel = std::getenv("LOCD_KERNEL");
     locd_stats st;
     locd_stats_init(&st);
-    locd_engine_stats(eng, &st);
+    locd_engine_get_stats(eng, &st);
     std::printf("{\"label\":\"%s\",\"n\":%zu,\"static_fraction\":%.4g,\"moving\":%.4g,\"moved_per_frame\":%zu,"
                 "\"frames\":%zu,\"warmup\":%zu,\"threads\":%u,\"seed\":%llu,\"cpu\":\"%s\",\"kernel\":\"%s\",\"systems\":{",
                 a.label.c_str(), sc.n, a.static_frac, a.moving, m.moved, a.frames, a.warmup, st.threads,

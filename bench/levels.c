@@ -95,7 +95,7 @@ static double time_calls(locd_engine *e, const float *b, size_t n, int reps, loc
         locd_engine_find_pairs_f32(e, b, n, 0, p);
         t[r] = now_ms() - t0;
         locd_stats_init(&st);
-        locd_engine_stats(e, &st);
+        locd_engine_get_stats(e, &st);
         tr += st.ms_transfer;
     }
     qsort(t, (size_t)reps, sizeof *t, cmp_double);

@@ -94,7 +94,7 @@ int run_locd(uint32_t threads, const peer_scene &s, peer_pairs &out, peer_times 
         return 1;
     }
     locd_stats_init(&st);
-    locd_engine_stats(g_locd.eng, &st);
+    locd_engine_get_stats(g_locd.eng, &st);
     t.engine_ms = st.ms_total;
     t.threads = st.threads;
     // locd's peak is reached inside the calls; the copy below is the harness's.

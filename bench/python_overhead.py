@@ -64,7 +64,7 @@ def abi_stats():
     engine = locd.abi._engine_for(1).engine
     s = locd.abi.ffi.new("locd_stats *")
     locd.abi.lib.locd_stats_init(s)
-    locd.abi.lib.locd_engine_stats(engine, s)
+    locd.abi.lib.locd_engine_get_stats(engine, s)
     return s.ms_total
 
 

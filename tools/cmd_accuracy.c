@@ -113,7 +113,7 @@ static double timed_call(locd_engine *e, locd_pairs *p, const void *boxes, size_
     if (s != LOCD_OK)
         cli_die("accuracy: %s", locd_last_error());
     locd_stats_init(st);
-    locd_engine_stats(e, st);
+    locd_engine_get_stats(e, st);
     return c1 - c0;
 }
 

@@ -113,7 +113,7 @@ static double median_ms(const float *boxes, size_t n, size_t p, size_t repeat, s
         if (locd_engine_find_pairs_f32(eng, boxes, n, 0, pairs) != LOCD_OK)
             cli_die("bench: %s", locd_last_error());
         locd_stats_init(&st);
-        locd_engine_stats(eng, &st);
+        locd_engine_get_stats(eng, &st);
         ms[r] = st.ms_total;
     }
     med = cli_median(ms, repeat);

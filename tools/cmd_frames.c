@@ -337,7 +337,7 @@ static void run_frames(frames_run *r)
         {
             locd_scene_stats ss;
             locd_scene_stats_init(&ss);
-            ok(locd_scene_stats_get(r->scene, &ss), "stats");
+            ok(locd_scene_get_stats(r->scene, &ss), "stats");
             r->t_stage[0][f] = ss.ms_encode;
             r->t_stage[1][f] = ss.ms_merge;
             r->t_stage[2][f] = ss.ms_sweep;
@@ -365,7 +365,7 @@ static void report(frames_run *r)
     /* the means too: a scene's near-pair list is built again every few frames (docs/scene.md) */
     const double up_mean = cli_mean(r->t_update, r->a.frames), rb_mean = cli_mean(r->t_rebuild, r->a.frames);
     locd_scene_stats_init(&ss);
-    ok(locd_scene_stats_get(r->scene, &ss), "stats");
+    ok(locd_scene_get_stats(r->scene, &ss), "stats");
     cli_cpu_model(cpu, sizeof cpu);
     printf("{\"n\":%zu,\"static\":%zu,\"static_fraction\":%.4g,\"moving\":%.4g,\"moved_per_frame\":%zu,"
            "\"frames\":%zu,\"threads\":%u,\"seed\":%llu,\"step\":%.6g,"

@@ -232,7 +232,7 @@ static int run_repeats(const pairs_opts *p, locd_engine *eng, const cli_scene *s
             return 1;
         }
         locd_stats_init(st);
-        locd_engine_stats(eng, st);
+        locd_engine_get_stats(eng, st);
         times_record(times, r, st);
     }
     if (p->repeat > 1)

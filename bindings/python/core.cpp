@@ -265,7 +265,7 @@ public:
         {
             py::gil_scoped_release nogil;
             std::lock_guard<std::mutex> lock(mutex_);
-            st = engine_ ? locd_engine_stats(engine_, &s) : LOCD_ERR_INVALID_HANDLE;
+            st = engine_ ? locd_engine_get_stats(engine_, &s) : LOCD_ERR_INVALID_HANDLE;
         }
         if (st != LOCD_OK)
             raise_status(st);
@@ -353,7 +353,7 @@ public:
         {
             py::gil_scoped_release nogil;
             std::lock_guard<std::mutex> lock(mutex_);
-            st = job_ ? locd_job_stats(job_, &s) : LOCD_ERR_INVALID_HANDLE;
+            st = job_ ? locd_job_get_stats(job_, &s) : LOCD_ERR_INVALID_HANDLE;
         }
         if (st != LOCD_OK)
             raise_status(st);

@@ -229,7 +229,7 @@ public:
     {
         locd_scene_stats s;
         locd_scene_stats_init(&s);
-        run([&]() { return locd_scene_stats_get(scene_, &s); });
+        run([&]() { return locd_scene_get_stats(scene_, &s); });
         py::dict d;
         d["threads"] = s.threads;
         d["objects"] = s.objects;

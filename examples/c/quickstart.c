@@ -30,7 +30,7 @@ int main(void)
         printf("%u %u\n", locd_pairs_data(pairs)[2 * k], locd_pairs_data(pairs)[2 * k + 1]);
 
     locd_stats_init(&stats);
-    locd_engine_stats(engine, &stats);
+    locd_engine_get_stats(engine, &stats);
     printf("%llu pairs in %.3f ms\n", (unsigned long long)stats.pairs, stats.ms_total);
 
     locd_pairs_destroy(pairs);

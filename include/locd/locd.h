@@ -300,7 +300,10 @@ LOCD_API locd_status locd_engine_find_pairs_f64_into(locd_engine *engine, const 
 LOCD_API locd_status locd_engine_last_pairs(locd_engine *engine, const uint32_t **pairs, size_t *count);
 
 /* Statistics of the engine's last successful call. Set stats->size first
- * (locd_stats_init); only the first stats->size bytes are written. */
+ * (locd_stats_init); only the first stats->size bytes are written. Every
+ * handle's statistics are read by locd_<handle>_get_stats. */
+LOCD_API locd_status locd_engine_get_stats(const locd_engine *engine, locd_stats *stats);
+/* Deprecated: the same as locd_engine_get_stats (kept for the ABI). */
 LOCD_API locd_status locd_engine_stats(const locd_engine *engine, locd_stats *stats);
 
 /* ------------------------------------------------------------------ */
@@ -327,8 +330,10 @@ LOCD_API locd_status locd_job_wait(locd_job *job, int64_t timeout_ms);
  * job's error. A second take is LOCD_ERR_INVALID_ARGUMENT. */
 LOCD_API locd_status locd_job_take(locd_job *job, locd_pairs *out);
 /* Statistics of the finished job (set stats->size first, as for
- * locd_engine_stats). While the job runs it returns LOCD_PENDING and leaves
+ * locd_engine_get_stats). While the job runs it returns LOCD_PENDING and leaves
  * *stats unchanged; once it failed, the job's error. */
+LOCD_API locd_status locd_job_get_stats(const locd_job *job, locd_stats *stats);
+/* Deprecated: the same as locd_job_get_stats (kept for the ABI). */
 LOCD_API locd_status locd_job_stats(const locd_job *job, locd_stats *stats);
 /* Asks the job to stop; a later wait returns LOCD_ERR_CANCELLED unless it had finished. */
 LOCD_API locd_status locd_job_cancel(locd_job *job);
@@ -396,7 +401,7 @@ LOCD_API locd_status locd_merge_entries(const uint64_t *const *runs, const size_
 
 /* One pass over ascending entries of the whole scene: appends exactly the
  * overlapping pairs to *out (after clearing it), in sweep order. stats may be
- * NULL; else (size set, as for locd_engine_stats) it receives objects,
+ * NULL; else (size set, as for locd_engine_get_stats) it receives objects,
  * entries, candidates, exact_tests and pairs, and its other fields are left
  * as they were. */
 LOCD_API locd_status locd_sweep_f32(const locd_grid *grid, const float *boxes, size_t n, const uint64_t *entries,

@@ -184,9 +184,9 @@ typedef struct locd_scene_stats {
 #define LOCD_SCENE_STATS_MIN_SIZE 8u
 
 LOCD_API void locd_scene_stats_init(locd_scene_stats *stats);
-/* Statistics of the last update (only the first stats->size bytes are written).
- * Named unlike locd_engine_stats and locd_job_stats because locd_scene_stats
- * is the struct's name: C gives a typedef and a function one namespace. */
+/* Statistics of the last update (only the first stats->size bytes are written). */
+LOCD_API locd_status locd_scene_get_stats(const locd_scene *scene, locd_scene_stats *stats);
+/* Deprecated: the same as locd_scene_get_stats (kept for the ABI). */
 LOCD_API locd_status locd_scene_stats_get(const locd_scene *scene, locd_scene_stats *stats);
 
 /* ------------------------------------------------------------------ */

@@ -311,6 +311,11 @@ locd_status locd_engine_last_pairs(locd_engine *engine, const uint32_t **pairs, 
 
 locd_status locd_engine_stats(const locd_engine *engine, locd_stats *stats)
 {
+    return locd_engine_get_stats(engine, stats);
+}
+
+locd_status locd_engine_get_stats(const locd_engine *engine, locd_stats *stats)
+{
     locd_status st = lc_engine_check(engine);
     if (st || (st = lc_stats_check_out(stats)) != LOCD_OK)
         return st;

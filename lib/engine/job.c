@@ -202,6 +202,11 @@ locd_status locd_job_take(locd_job *job, locd_pairs *out)
 
 locd_status locd_job_stats(const locd_job *job, locd_stats *stats)
 {
+    return locd_job_get_stats(job, stats);
+}
+
+locd_status locd_job_get_stats(const locd_job *job, locd_stats *stats)
+{
     locd_status st = job_check(job);
     if (st || (st = lc_stats_check_out(stats)) != LOCD_OK)
         return st;

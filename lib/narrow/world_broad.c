@@ -342,7 +342,7 @@ static locd_status find_in_scene(locd_world *w, uint64_t *candidates)
     }
     w->pairs->count = b->nkeys;
     locd_scene_stats_init(&ss);
-    *candidates = locd_scene_stats_get(b->scene, &ss) == LOCD_OK ? ss.candidates : b->nkeys;
+    *candidates = locd_scene_get_stats(b->scene, &ss) == LOCD_OK ? ss.candidates : b->nkeys;
     return LOCD_OK;
 }
 
@@ -387,7 +387,7 @@ static locd_status find_from_scratch(locd_world *w, uint32_t find_flags, uint64_
     }
     w->pairs->count = kept;
     locd_stats_init(&bs);
-    *candidates = locd_engine_stats(w->engine, &bs) == LOCD_OK ? bs.candidates : m;
+    *candidates = locd_engine_get_stats(w->engine, &bs) == LOCD_OK ? bs.candidates : m;
     return LOCD_OK;
 }
 

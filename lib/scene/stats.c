@@ -11,6 +11,11 @@ void locd_scene_stats_init(locd_scene_stats *stats)
 
 locd_status locd_scene_stats_get(const locd_scene *s, locd_scene_stats *stats)
 {
+    return locd_scene_get_stats(s, stats);
+}
+
+locd_status locd_scene_get_stats(const locd_scene *s, locd_scene_stats *stats)
+{
     locd_status st;
     if ((st = lc_scene_check_handle(s)) != LOCD_OK ||
         (st = lc_struct_check(stats, sizeof *stats, LOCD_SCENE_STATS_MIN_SIZE, "stats")) != LOCD_OK)

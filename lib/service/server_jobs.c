@@ -351,7 +351,7 @@ static void run_job(runner *r, lc_srv_job *j)
     if (job_cancelled(j)) /* cancelled while running: dropped */
         return;
     locd_stats_init(&st);
-    locd_engine_stats(r->engine, &st);
+    locd_engine_get_stats(r->engine, &st);
     answer(j, LOCD_OK, NULL, -1, &st, locd_pairs_data(r->pairs), locd_pairs_count(r->pairs));
 }
 

@@ -165,7 +165,7 @@ namespace Locd
                 using (var call = Ref()) {
                     Native.locd_stats s;
                     Native.locd_stats_init(&s);
-                    LocdException.Check(Native.locd_engine_stats(call.Handle, &s));
+                    LocdException.Check(Native.locd_engine_get_stats(call.Handle, &s));
                     return new EngineStats(s);
                 }
             }

@@ -309,6 +309,9 @@ namespace Locd
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_engine_last_pairs(IntPtr engine, uint** pairs, UIntPtr* count);
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_engine_get_stats(IntPtr engine, locd_stats* stats);
+        // Deprecated: the same as locd_engine_get_stats.
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_engine_stats(IntPtr engine, locd_stats* stats);
 
         // ---- asynchronous jobs ----
@@ -322,6 +325,9 @@ namespace Locd
         public static extern int locd_job_wait(IntPtr job, long timeout_ms);
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_job_take(IntPtr job, IntPtr out_pairs);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_job_get_stats(IntPtr job, locd_stats* stats);
+        // Deprecated: the same as locd_job_get_stats.
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_job_stats(IntPtr job, locd_stats* stats);
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
@@ -542,6 +548,9 @@ namespace Locd
         public static extern int locd_scene_lost(IntPtr scene, ulong** pairs, UIntPtr* count);
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
         public static extern void locd_scene_stats_init(locd_scene_stats* stats);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_get_stats(IntPtr scene, locd_scene_stats* stats);
+        // Deprecated: the same as locd_scene_get_stats.
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_scene_stats_get(IntPtr scene, locd_scene_stats* stats);
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]

@@ -225,7 +225,7 @@ namespace Locd
                 Native.locd_scene_stats_init(&stats);
                 int st;
                 using (var call = Call())
-                    st = Native.locd_scene_stats_get(call.Handle, &stats);
+                    st = Native.locd_scene_get_stats(call.Handle, &stats);
                 Throw(st);
                 return new SceneStats(stats);
             }
