@@ -1,6 +1,6 @@
-"""Hard inputs never break exactness (issue 8), from Python.
+"""Hard inputs never break exactness, from Python.
 
-The same hard cases as tests/test_hard_cases.c, smaller, through every engine
+The same hard cases as tests/test_hard_cases*.c, smaller, through every engine
 the installed package offers: level 1 at 1, 2, 3 and 8 threads, level 2
 (worker processes) and level 3 (a locd.Service) when the library supports
 them, and engines with other octree knobs. Each scene is compared with an

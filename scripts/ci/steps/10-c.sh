@@ -12,7 +12,7 @@ meson test -C build-ci/c --print-errorlogs --num-processes "$JOBS" || rc=$?
 cp build-ci/c/meson-logs/testlog.junit.xml "$LOCD_RESULTS/c.junit.xml"
 for kernel in avx2 scalar; do
     LOCD_KERNEL=$kernel meson test -C build-ci/c --no-rebuild --print-errorlogs --num-processes "$JOBS" \
-        engine hard_cases determinism || rc=$?
+        engine hard_cases hard_cases_shapes hard_cases_input determinism || rc=$?
     sed "s/<testsuite name=\"\([^\"]*\)\"/<testsuite name=\"\1 (LOCD_KERNEL=$kernel)\"/; s/<testcase name=\"/<testcase name=\"$kernel: /g" \
         build-ci/c/meson-logs/testlog.junit.xml >"$LOCD_RESULTS/c-$kernel.junit.xml"
 done

@@ -1,0 +1,153 @@
+/* The near-pair list (lib/scene/near_list.c): the fat boxes' pairs, kept
+ * while every box stays inside its fat box, so that whole-scene moves of
+ * small steps cost a pass over the list. Through its builds, its frames,
+ * its outputs' overflows and its drops, on 1, 2 and 3 threads; every
+ * update against the engine's own find and the path its statistics show. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "runner.h"
+
+#include "scene_util.h"
+
+/* What a frame of near_list_follows_whole_scene_moves does, and which
+ * path its update must take. */
+typedef struct near_frame {
+    const char *what;
+    int near; /* 1: from the near-pair list; 0: from scratch (with or without building it) */
+} near_frame;
+
+/* The near-pair list (near_list.c) serves whole-scene moves of small
+ * steps: a from-scratch update builds it, the next ones take it while every
+ * box stays inside its fat box. Three scenes (1, 2 and 3 threads: the pass's
+ * outputs closed up from one, two and three regions) go through each way,
+ * a quarter of the objects static and each update checked against the
+ * engine's own find (pairs, created, lost) and the path its statistics show:
+ * steps; one object out of its fat box (built again); every box shrunk to
+ * a point and back (a set that falls and grows past the rows' regions and
+ * the events': the rows written again, the events from the diff); a group
+ * filter set (built again with it); every object far twice (the second list
+ * served nothing: the next builds wait); the last object removed, then one
+ * added in its slot (ids ascending with a gap: the rows' ids read, not
+ * computed); an object removed (no list). */
+static void near_list_follows_whole_scene_moves(void)
+{
+    static const near_frame plan[] = {
+        {"first update", 0},   {"step: build", 0},         {"step", 1},           {"one object out", 0},
+        {"points", 1},         {"back", 1},                {"filter: build", 0},  {"step", 1},
+        {"all far: build", 0}, {"all far: no build", 0},   {"step: wait", 0},     {"step: build", 0},
+        {"step", 1},           {"step", 1},                {"remove the last", 0}, {"add one: build", 0},
+        {"step", 1},           {"remove one", 0},
+    };
+    const size_t n = 72000, nd = n - n / 4, nplan = sizeof plan / sizeof plan[0];
+    const double edge = 0.0153;
+    locd_engine *e[3], *er = su_new_engine(2, NULL);
+    locd_scene *s[3];
+    locd_scene_add_options o;
+    locd_id *ids = malloc(n * sizeof *ids), *ids2 = malloc(n * sizeof *ids2), *before, *now;
+    float *f = malloc(n * 6 * sizeof *f), *pt = malloc(n * 6 * sizeof *pt), last[6];
+    uint64_t *groups = malloc(n * sizeof *groups);
+    size_t k, nbefore, nnow, live = n;
+    uint32_t grouped = 0;
+    ts_rng r;
+    int i, a;
+    size_t frame;
+    ts_seed(&r, 1313);
+    su_cube_boxes(&r, f, n, edge, 0.0);
+    locd_scene_add_options_init(&o);
+    o.flags = LOCD_OBJECT_STATIC;
+    for (i = 0; i < 3; i++) {
+        e[i] = su_new_engine((uint32_t)i + 1, NULL);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e[i], NULL, &s[i]));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[i], f, nd, NULL, i ? ids2 : ids));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[i], f + 6 * nd, n - nd, &o, (i ? ids2 : ids) + nd));
+        if (i)
+            TEST_ASSERT_EQUAL_MEMORY(ids, ids2, n * sizeof *ids);
+    }
+    before = malloc(2 * sizeof *before), nbefore = 0;
+    for (frame = 0; frame < nplan; frame++) {
+        const char *w = plan[frame].what;
+        size_t moved = nd;
+        if (!strcmp(w, "points")) {
+            memcpy(pt, f, n * 6 * sizeof *f);
+            for (k = 0; k < nd; k++)
+                for (a = 0; a < 3; a++)
+                    f[6 * k + a] = f[6 * k + 3 + a] = 0.5f * (f[6 * k + a] + f[6 * k + 3 + a]);
+        } else if (!strcmp(w, "back")) {
+            memcpy(f, pt, n * 6 * sizeof *f);
+        } else if (!strncmp(w, "all far", 7)) {
+            su_cube_boxes(&r, f, nd, edge, 0.0);
+        } else if (frame) {
+            su_cube_boxes(&r, f, nd, edge, 0.06 * edge); /* steps of up to 0.03 edge: a fat box holds two */
+        } else {
+            moved = 0;
+        }
+        if (!strcmp(w, "one object out"))
+            for (a = 0; a < 3; a++)
+                f[6 * 777 + a] += (float)edge, f[6 * 777 + 3 + a] += (float)edge;
+        if (!strcmp(w, "filter: build")) {
+            grouped = 5;
+            for (k = 0; k < n; k++)
+                groups[k] = k % grouped ? 0 : 7;
+        }
+        if (!strcmp(w, "add one: build")) /* (the last slot again, with a new serial: ids ascend, with a gap) */
+            memcpy(f + 6 * (n - 1), last, sizeof last);
+        for (i = 0; i < 3; i++) {
+            if (!strcmp(w, "remove the last"))
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s[i], &ids[n - 1], 1));
+            if (!strcmp(w, "add one: build")) {
+                locd_id id;
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s[i], last, 1, &o, &id));
+                TEST_ASSERT_TRUE(id > ids[n - 2]);
+                if (i == 0)
+                    ids[n - 1] = id;
+                TEST_ASSERT_EQUAL_UINT64(ids[n - 1], id);
+            }
+            if (grouped && !strcmp(w, "filter: build"))
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_set_filter(s[i], ids, n, NULL, NULL, groups));
+            if (!strcmp(w, "remove one"))
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_remove(s[i], &ids[nd - 1], 1));
+            if (moved)
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s[i], ids, f, !strcmp(w, "remove one") ? nd - 1 : nd));
+        }
+        if (!strcmp(w, "remove one") || !strcmp(w, "remove the last")) { /* the reference without it: far away */
+            const size_t gone = !strcmp(w, "remove one") ? nd - 1 : n - 1;
+            memcpy(last, f + 6 * gone, sizeof last);
+            for (a = 0; a < 3; a++)
+                f[6 * gone + a] = 100.0f, f[6 * gone + 3 + a] = 100.0f;
+            live--;
+        }
+        if (!strcmp(w, "add one: build"))
+            live++;
+        now = su_engine_rows_filtered(er, f, ids, n, grouped, nd, &nnow);
+        TEST_ASSERT_TRUE(!strcmp(w, "points") ? nnow < n / 8 : nnow > n / 2);
+        for (i = 0; i < 3; i++) {
+            locd_scene_stats st;
+            su_check_against(s[i], now, nnow, before, nbefore);
+            locd_scene_stats_init(&st);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_stats_get(s[i], &st));
+            TEST_ASSERT_EQUAL_UINT64(live, st.objects);
+            if (plan[frame].near != (st.rebuilt == 0 && st.coasted == st.moved && st.entries == 0))
+                LT_FAIL("frame %zu (%s), %d threads: %s the near-pair list", frame, w, i + 1,
+                        plan[frame].near ? "not from" : "from");
+        }
+        free(before);
+        before = now, nbefore = nnow;
+    }
+    free(before);
+    for (i = 0; i < 3; i++) {
+        locd_scene_destroy(s[i]);
+        locd_engine_destroy(e[i]);
+    }
+    locd_engine_destroy(er);
+    free(f), free(pt), free(ids), free(ids2), free(groups);
+}
+
+static const lt_test tests[] = {
+    LT_TEST(near_list_follows_whole_scene_moves),
+};
+
+int main(void)
+{
+    return LT_RUN(tests);
+}
