@@ -143,8 +143,62 @@ static void near_list_follows_whole_scene_moves(void)
     free(f), free(pt), free(ids), free(ids2), free(groups);
 }
 
+/* A lattice of unit cubes that touch exactly (faces, edges, corners),
+ * their places shuffled among the ids (each closed test then meets its
+ * equality with either object first), moving all together in dyadic steps, so that they go on touching; every
+ * other frame every second column steps one more 1/1024 along x, and its
+ * faces part from their neighbours' by exactly that gap, then touch again.
+ * The near-pair list must serve these frames (stats.coasted: every object)
+ * and give every touching pair (closed intervals), as the engine's find. */
+static void near_list_serves_a_touching_lattice(void)
+{
+    enum { SIDE = 42 };
+    const size_t n = (size_t)SIDE * SIDE * SIDE;
+    const float step = 1.0f / 1024.0f;
+    locd_engine *e = su_new_engine(2, NULL), *er = su_new_engine(2, NULL);
+    locd_scene *s;
+    locd_id *ids = malloc(n * sizeof *ids), *before = NULL, *now;
+    float *f = malloc(n * 6 * sizeof *f);
+    size_t x, y, z, k, nbefore = 0, nnow;
+    int frame, served = 0;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    for (k = 0; k < n; k++) {
+        const size_t p = (k * 40501u) % n; /* (40501 is coprime with 42^3: a permutation) */
+        x = p / (SIDE * SIDE), y = p / SIDE % SIDE, z = p % SIDE;
+        f[6 * k] = (float)x, f[6 * k + 1] = (float)y, f[6 * k + 2] = (float)z;
+        f[6 * k + 3] = (float)x + 1.0f, f[6 * k + 4] = (float)y + 1.0f, f[6 * k + 5] = (float)z + 1.0f;
+    }
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n, NULL, ids));
+    for (frame = 0; frame < 8; frame++) {
+        locd_scene_stats st;
+        if (frame) {
+            for (k = 0; k < n; k++) {
+                const int odd = (int)f[6 * k] % 2; /* (its column, before the frame's steps) */
+                const float dx = step + ((frame & 1) && odd ? step : 0.0f) - (!(frame & 1) && frame > 1 && odd ? step : 0.0f);
+                f[6 * k] += dx, f[6 * k + 3] += dx;
+                f[6 * k + 1] += step, f[6 * k + 4] += step;
+            }
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s, ids, f, n));
+        }
+        now = su_engine_rows(er, f, ids, n, 0, &nnow);
+        su_check_against(s, now, nnow, before, nbefore);
+        locd_scene_stats_init(&st);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_get_stats(s, &st));
+        served += frame && !st.rebuilt && st.coasted == n;
+        free(before);
+        before = now, nbefore = nnow;
+    }
+    LT_PRINT("touching lattice: the near-pair list served %d of 7 frames\n", served);
+    TEST_ASSERT_TRUE(served >= 4);
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    locd_engine_destroy(er);
+    free(before), free(f), free(ids);
+}
+
 static const lt_test tests[] = {
     LT_TEST(near_list_follows_whole_scene_moves),
+    LT_TEST(near_list_serves_a_touching_lattice),
 };
 
 int main(void)
