@@ -219,7 +219,59 @@ static void levels_2_and_3_are_unsupported(void)
     locd_engine_destroy(e);
 }
 
+/* A count the scene can never hold is refused before the arrays are read:
+ * the buffers here are one element long (reading past them would crash
+ * under the sanitizers, or read garbage), the counts far larger. For add,
+ * more ids than a scene ever issues; for move, remove and set_filter, more
+ * ids than live objects (such a batch must repeat or name a stale id). */
+static void huge_counts_are_refused_before_any_read(void)
+{
+    locd_engine *e = su_new_engine(1, NULL);
+    locd_scene *s;
+    float fb[6] = {0, 0, 0, 1, 1, 1};
+    double db[6] = {0, 0, 0, 1, 1, 1};
+    locd_id id, out[1];
+    uint64_t one = 1;
+    const size_t huge = SIZE_MAX / 6;
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, fb, 1, NULL, &id));
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_TOO_MANY_OBJECTS, locd_scene_add_f32(s, fb, huge, NULL, out));
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_TOO_MANY_OBJECTS, locd_scene_add_f64(s, db, huge, NULL, out));
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_TOO_MANY_OBJECTS, locd_scene_move_f32(s, &id, fb, huge));
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_TOO_MANY_OBJECTS, locd_scene_move_f64(s, &id, db, 2));
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_TOO_MANY_OBJECTS, locd_scene_remove(s, &id, huge));
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_TOO_MANY_OBJECTS, locd_scene_set_filter(s, &id, huge, &one, NULL, NULL));
+    TEST_ASSERT_EQUAL_size_t(1, locd_scene_count(s));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s, &id, fb, 1)); /* the scene is as it was */
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s, 0));
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+}
+
+/* A move of [a NaN box, then a stale id]: the first bad position (0) is
+ * named, as scene.h promises. */
+static void first_bad_position_is_named(void)
+{
+    locd_engine *e = su_new_engine(1, NULL);
+    locd_scene *s;
+    double b[12] = {0, 0, 0, 1, 1, 1, 0, 0, 0, 1, 1, 1};
+    locd_id ids[2];
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b, 2, NULL, ids));
+    b[1] = NAN;
+    ids[1] = 777;
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_NONFINITE, locd_scene_move_f64(s, ids, b, 2));
+    TEST_ASSERT_EQUAL_INT64(0, locd_last_error_index());
+    b[1] = 0;
+    TEST_ASSERT_EQUAL_INT(LOCD_ERR_STALE_ID, locd_scene_move_f64(s, ids, b, 2));
+    TEST_ASSERT_EQUAL_INT64(1, locd_last_error_index());
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+}
+
 static const lt_test tests[] = {
+    LT_TEST(huge_counts_are_refused_before_any_read),
+    LT_TEST(first_bad_position_is_named),
     LT_TEST(empty_scene_updates),
     LT_TEST(hard_cases),
     LT_TEST(bad_batches_change_nothing),

@@ -238,10 +238,14 @@ static void large_moves_on_the_pool(void)
     mv[30000] = ids1[10];                       /* repeated */
     mv[50000] = ids1[50000] + ((uint64_t)7 << 32); /* stale: wrong serial */
     b[6 * 20000 + 1] = NAN;
+    /* each position's id and box together: the first bad position is named */
+    bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_NONFINITE, 20000);
+    b[6 * 20000 + 1] = m.o[20000].box[1];
+    bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_DUPLICATE_ID, 30000);
+    mv[30000] = ids1[30000];
     bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_STALE_ID, 50000);
     mv[50000] = ids1[50000];
-    bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_DUPLICATE_ID, 30000);
-    b[6 * 20000 + 1] = m.o[20000].box[1];
+    mv[30000] = ids1[10];
     bad_move_both(s1, s2, mv, b, 1, n, LOCD_ERR_DUPLICATE_ID, 30000); /* the only fault */
     mv[30000] = ids1[30000];
     mv[100000] = ids1[10]; /* repeated across the two threads' halves */

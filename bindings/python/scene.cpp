@@ -111,9 +111,12 @@ public:
 
     uint32_t threads()
     {
-        py::gil_scoped_release nogil;
-        std::lock_guard<std::mutex> lock(mutex_);
-        return engine_ ? locd_engine_threads(engine_) : 0;
+        uint32_t n = 0;
+        run([&]() {
+            n = locd_engine_threads(engine_);
+            return LOCD_OK;
+        });
+        return n;
     }
 
     size_t count()
@@ -251,37 +254,40 @@ public:
         return d;
     }
 
-    // kind 0: box (6 values), 1: point (3 values).
-    py::array_t<uint64_t> query(int kind, const py::array &shape, uint64_t mask)
+    // Overlaps: kind 0 box (6 values), 1 point (3), 2 sphere (3 and radius). Float64 always: a query is
+    // exact in float64 whatever the scene's precision, and no finite value overflows.
+    py::array_t<uint64_t> overlap(int kind, const py::array &shape, double radius, uint64_t mask)
     {
-        const void *q = f64_ ? static_cast<const void *>(ptr_of<double>(shape, "query"))
-                             : static_cast<const void *>(ptr_of<float>(shape, "query"));
+        const double *q = ptr_of<double>(shape, "query");
+        locd_query_filter f;
+        locd_query_filter_init(&f);
+        f.mask = mask;
         std::vector<locd_id> ids;
         size_t m = 0;
         grow_until_fits(ids, nullptr, m, [&](locd_id *out, double *, size_t cap, size_t *count) {
             if (kind == 0)
-                return f64_ ? locd_scene_query_box_f64(scene_, static_cast<const double *>(q), mask, out, cap, count)
-                            : locd_scene_query_box_f32(scene_, static_cast<const float *>(q), mask, out, cap, count);
-            return f64_ ? locd_scene_query_point_f64(scene_, static_cast<const double *>(q), mask, out, cap, count)
-                        : locd_scene_query_point_f32(scene_, static_cast<const float *>(q), mask, out, cap, count);
+                return locd_scene_overlap_box_f64(scene_, q, &f, out, cap, count);
+            if (kind == 1)
+                return locd_scene_overlap_point_f64(scene_, q, &f, out, cap, count);
+            return locd_scene_overlap_sphere_f64(scene_, q, radius, &f, out, cap, count);
         });
         return ids_to_array(ids, m);
     }
 
-    py::tuple raycast(const py::array &origin, const py::array &direction, double max_t, uint64_t mask)
+    // Casts: kind 0 ray (origin), 1 box (6 values); every hit sorted by (t, id), or the mode's one.
+    py::tuple cast(int kind, const py::array &from, const py::array &direction, double max_t, uint32_t mode,
+                   uint64_t mask)
     {
-        const void *o = f64_ ? static_cast<const void *>(ptr_of<double>(origin, "origin"))
-                             : static_cast<const void *>(ptr_of<float>(origin, "origin"));
-        const void *d = f64_ ? static_cast<const void *>(ptr_of<double>(direction, "direction"))
-                             : static_cast<const void *>(ptr_of<float>(direction, "direction"));
+        const double *o = ptr_of<double>(from, "origin"), *d = ptr_of<double>(direction, "direction");
+        locd_query_filter f;
+        locd_query_filter_init(&f);
+        f.mask = mask;
         std::vector<locd_id> ids;
         std::vector<double> ts;
         size_t m = 0;
         grow_until_fits(ids, &ts, m, [&](locd_id *out, double *t, size_t cap, size_t *count) {
-            return f64_ ? locd_scene_raycast_f64(scene_, static_cast<const double *>(o),
-                                                 static_cast<const double *>(d), max_t, mask, out, t, cap, count)
-                        : locd_scene_raycast_f32(scene_, static_cast<const float *>(o),
-                                                 static_cast<const float *>(d), max_t, mask, out, t, cap, count);
+            return kind == 0 ? locd_scene_cast_ray_f64(scene_, o, d, max_t, mode, &f, out, t, cap, count)
+                             : locd_scene_cast_box_f64(scene_, o, d, max_t, mode, &f, out, t, cap, count);
         });
         py::array_t<double> t_out(static_cast<py::ssize_t>(m));
         if (m)
@@ -289,7 +295,77 @@ public:
         return py::make_tuple(ids_to_array(ids, m), t_out);
     }
 
+    // Batches: cast kind 0 rays, 1 boxes; overlap kind 0 boxes, 1 points, 2 spheres. Every hit: (offsets
+    // int64 (n+1,), ids, t) or, for overlaps, (offsets, ids); closest and any: (ids, t), 0 and inf when
+    // a query hit nothing.
+    py::tuple cast_batch(int kind, const py::array &from, const py::array &directions, const py::array &max_t,
+                         uint32_t mode, uint64_t mask)
+    {
+        const double *v = ptr_of<double>(from, "origins"), *d = ptr_of<double>(directions, "directions"),
+                     *mt = ptr_of<double>(max_t, "max_t");
+        const size_t n = static_cast<size_t>(from.shape(0));
+        return batch(true, mode, [&](const locd_query_filter *f, locd_hits *h) {
+            return kind == 0 ? locd_scene_cast_ray_batch_f64(scene_, v, d, mt, n, mode, f, h)
+                             : locd_scene_cast_box_batch_f64(scene_, v, d, mt, n, mode, f, h);
+        }, mask);
+    }
+
+    py::tuple overlap_batch(int kind, const py::array &shapes, const py::object &radii, uint64_t mask)
+    {
+        const double *v = ptr_of<double>(shapes, "queries");
+        const double *r = radii.is_none() ? nullptr : ptr_of<double>(py::reinterpret_borrow<py::array>(radii), "radii");
+        const size_t n = static_cast<size_t>(shapes.shape(0));
+        return batch(false, LOCD_HIT_ALL, [&](const locd_query_filter *f, locd_hits *h) {
+            if (kind == 0)
+                return locd_scene_overlap_box_batch_f64(scene_, v, n, f, h);
+            if (kind == 1)
+                return locd_scene_overlap_point_batch_f64(scene_, v, n, f, h);
+            return locd_scene_overlap_sphere_batch_f64(scene_, v, r, n, f, h);
+        }, mask);
+    }
+
 private:
+    // A batch into a locd_hits of its own, copied out into numpy arrays while the lock is held.
+    template <typename F> py::tuple batch(bool cast, uint32_t mode, F call, uint64_t mask)
+    {
+        locd_query_filter f;
+        locd_query_filter_init(&f);
+        f.mask = mask;
+        locd_hits *h = nullptr;
+        std::vector<uint64_t> off;
+        std::vector<locd_id> ids;
+        std::vector<double> ts;
+        locd_status st;
+        {
+            py::gil_scoped_release nogil;
+            std::lock_guard<std::mutex> lock(mutex_);
+            st = !scene_ ? LOCD_ERR_INVALID_HANDLE : locd_hits_create(nullptr, &h);
+            if (st == LOCD_OK)
+                st = call(&f, h);
+            if (st == LOCD_OK) {
+                const size_t q = locd_hits_queries(h), m = locd_hits_count(h);
+                off.assign(locd_hits_offsets(h), locd_hits_offsets(h) + q + 1);
+                ids.assign(locd_hits_ids(h), locd_hits_ids(h) + m);
+                if (cast)
+                    ts.assign(locd_hits_t(h), locd_hits_t(h) + m);
+            }
+            locd_hits_destroy(h);
+        }
+        check(st);
+        py::array_t<uint64_t> ids_out(static_cast<py::ssize_t>(ids.size()));
+        if (!ids.empty())
+            std::memcpy(ids_out.mutable_data(), ids.data(), ids.size() * sizeof(locd_id));
+        py::array_t<double> t_out(static_cast<py::ssize_t>(ts.size()));
+        if (!ts.empty())
+            std::memcpy(t_out.mutable_data(), ts.data(), ts.size() * sizeof(double));
+        if (cast && mode != LOCD_HIT_ALL)
+            return py::make_tuple(ids_out, t_out);
+        py::array_t<int64_t> off_out(static_cast<py::ssize_t>(off.size()));
+        for (size_t k = 0; k < off.size(); k++)
+            off_out.mutable_data()[k] = static_cast<int64_t>(off[k]);
+        return cast ? py::make_tuple(off_out, ids_out, t_out) : py::make_tuple(off_out, ids_out);
+    }
+
     // Runs one C call on the scene without the GIL, under the lock; raises on
     // failure.
     template <typename F> void run(F call)
@@ -368,7 +444,11 @@ void locd_bind_scene(py::module_ &m)
         .def("get_user", &Scene::get_user, py::arg("ids"))
         .def("update", &Scene::update, py::arg("pairs"), py::arg("events"))
         .def("stats", &Scene::stats)
-        .def("query", &Scene::query, py::arg("kind"), py::arg("shape"), py::arg("mask"))
-        .def("raycast", &Scene::raycast, py::arg("origin"), py::arg("direction"), py::arg("max_t"),
+        .def("overlap", &Scene::overlap, py::arg("kind"), py::arg("shape"), py::arg("radius"), py::arg("mask"))
+        .def("cast", &Scene::cast, py::arg("kind"), py::arg("origin"), py::arg("direction"), py::arg("max_t"),
+             py::arg("mode"), py::arg("mask"))
+        .def("cast_batch", &Scene::cast_batch, py::arg("kind"), py::arg("origins"), py::arg("directions"),
+             py::arg("max_t"), py::arg("mode"), py::arg("mask"))
+        .def("overlap_batch", &Scene::overlap_batch, py::arg("kind"), py::arg("queries"), py::arg("radii"),
              py::arg("mask"));
 }

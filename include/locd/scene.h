@@ -222,6 +222,128 @@ LOCD_API locd_status locd_scene_raycast_f64(const locd_scene *scene, const doubl
                                             double max_t, uint64_t mask, locd_id *ids_out, double *t_out,
                                             size_t capacity, size_t *count);
 
+/* ------------------------------------------------------------------ */
+/* Queries with a filter, sphere and cast queries, hit modes, batches  */
+/* ------------------------------------------------------------------ */
+
+/* The queries below see the scene as it is now, like those above. They
+ * walk a bounding-volume tree over the objects, which the first query after
+ * a change brings up to date (docs/queries.md); locd_scene_prepare_queries
+ * does it ahead, on the calling thread. Several threads may query at once. */
+LOCD_API locd_status locd_scene_prepare_queries(locd_scene *scene);
+
+/* A per-candidate callback: return nonzero to reject the object (its id
+ * and its user value, locd_scene_set_user). Called only for objects that
+ * the query's shape meets and whose category passes the mask; a batch calls
+ * it from the engine's threads at once (it must be thread-safe). */
+typedef int (*locd_query_reject_fn)(void *user, locd_id id, uint64_t user_value);
+
+/* Which objects a query reports: category & mask != 0, and not rejected
+ * by the callback (when not NULL). NULL for a filter: every object. */
+typedef struct locd_query_filter {
+    uint32_t size;                /* sizeof(locd_query_filter) */
+    uint32_t reserved;            /* 0 */
+    uint64_t mask;                /* default all bits set */
+    locd_query_reject_fn reject;  /* default NULL */
+    void *user;                   /* passed to reject */
+} locd_query_filter;
+#define LOCD_QUERY_FILTER_MIN_SIZE 16u
+LOCD_API void locd_query_filter_init(locd_query_filter *filter);
+
+/* The casts' hit modes: every hit sorted by (t, id); the closest (the
+ * smallest (t, id)); any one hit (the first found: a line of sight). */
+#define LOCD_HIT_ALL 0u
+#define LOCD_HIT_CLOSEST 1u
+#define LOCD_HIT_ANY 2u
+
+/* Overlaps: objects whose box overlaps the box, contains the point, or
+ * lies within `radius` of center (with d the distance from center to the
+ * box per axis, 0 inside: (dx*dx + dy*dy) + dz*dz <= radius*radius, in
+ * float64). Ids ascending into ids_out (capacity ids); *count the hits;
+ * LOCD_ERR_BUFFER_TOO_SMALL (nothing written) when they do not fit. */
+LOCD_API locd_status locd_scene_overlap_box_f32(const locd_scene *scene, const float *box,
+                                                const locd_query_filter *filter, locd_id *ids_out,
+                                                size_t capacity, size_t *count);
+LOCD_API locd_status locd_scene_overlap_box_f64(const locd_scene *scene, const double *box,
+                                                const locd_query_filter *filter, locd_id *ids_out,
+                                                size_t capacity, size_t *count);
+LOCD_API locd_status locd_scene_overlap_point_f32(const locd_scene *scene, const float *point,
+                                                  const locd_query_filter *filter, locd_id *ids_out,
+                                                  size_t capacity, size_t *count);
+LOCD_API locd_status locd_scene_overlap_point_f64(const locd_scene *scene, const double *point,
+                                                  const locd_query_filter *filter, locd_id *ids_out,
+                                                  size_t capacity, size_t *count);
+LOCD_API locd_status locd_scene_overlap_sphere_f32(const locd_scene *scene, const float *center, double radius,
+                                                   const locd_query_filter *filter, locd_id *ids_out,
+                                                   size_t capacity, size_t *count);
+LOCD_API locd_status locd_scene_overlap_sphere_f64(const locd_scene *scene, const double *center, double radius,
+                                                   const locd_query_filter *filter, locd_id *ids_out,
+                                                   size_t capacity, size_t *count);
+
+/* Casts: a ray (the segment origin + t * direction, 0 <= t <= max_t) or a
+ * box moved along a segment (box + t * direction), and each object's entry
+ * time t (0 when they touch at the start; the slab test in float64,
+ * docs/queries.md). max_t may be +inf. LOCD_HIT_ALL: every hit, sorted by
+ * (t, id); LOCD_HIT_CLOSEST and LOCD_HIT_ANY: *count is 0 or 1. */
+LOCD_API locd_status locd_scene_cast_ray_f32(const locd_scene *scene, const float *origin, const float *direction,
+                                             double max_t, uint32_t mode, const locd_query_filter *filter,
+                                             locd_id *ids_out, double *t_out, size_t capacity, size_t *count);
+LOCD_API locd_status locd_scene_cast_ray_f64(const locd_scene *scene, const double *origin, const double *direction,
+                                             double max_t, uint32_t mode, const locd_query_filter *filter,
+                                             locd_id *ids_out, double *t_out, size_t capacity, size_t *count);
+LOCD_API locd_status locd_scene_cast_box_f32(const locd_scene *scene, const float *box, const float *direction,
+                                             double max_t, uint32_t mode, const locd_query_filter *filter,
+                                             locd_id *ids_out, double *t_out, size_t capacity, size_t *count);
+LOCD_API locd_status locd_scene_cast_box_f64(const locd_scene *scene, const double *box, const double *direction,
+                                             double max_t, uint32_t mode, const locd_query_filter *filter,
+                                             locd_id *ids_out, double *t_out, size_t capacity, size_t *count);
+
+/* A batch's hits: for query k, ids[offsets[k], offsets[k + 1]) and (casts)
+ * t likewise; a query's ids ascending (overlaps) or by (t, id) (casts).
+ * With LOCD_HIT_CLOSEST or LOCD_HIT_ANY every query has one entry:
+ * offsets[k] = k, and LOCD_ID_NONE with t = +inf when it hit nothing.
+ * Owned by the caller; a batch replaces its contents. */
+typedef struct locd_hits locd_hits;
+LOCD_API locd_status locd_hits_create(const locd_allocator *allocator, locd_hits **out);
+LOCD_API void locd_hits_destroy(locd_hits *hits);
+LOCD_API size_t locd_hits_queries(const locd_hits *hits);
+LOCD_API size_t locd_hits_count(const locd_hits *hits);
+LOCD_API const uint64_t *locd_hits_offsets(const locd_hits *hits); /* queries + 1 */
+LOCD_API const locd_id *locd_hits_ids(const locd_hits *hits);      /* count */
+LOCD_API const double *locd_hits_t(const locd_hits *hits);         /* count; NULL after an overlap batch */
+
+/* Batches: n queries of one kind in one call, run on the engine's threads
+ * (on the calling thread when the engine is busy); the hits do not depend
+ * on the thread count. Arrays hold n queries: 3 values a point, origin,
+ * direction or center, 6 a box; max_t and radii n doubles. A bad query
+ * fails the batch (locd_last_error_index names it); *hits is then empty. */
+LOCD_API locd_status locd_scene_cast_ray_batch_f32(const locd_scene *scene, const float *origins,
+                                                   const float *directions, const double *max_t, size_t n,
+                                                   uint32_t mode, const locd_query_filter *filter, locd_hits *hits);
+LOCD_API locd_status locd_scene_cast_ray_batch_f64(const locd_scene *scene, const double *origins,
+                                                   const double *directions, const double *max_t, size_t n,
+                                                   uint32_t mode, const locd_query_filter *filter, locd_hits *hits);
+LOCD_API locd_status locd_scene_cast_box_batch_f32(const locd_scene *scene, const float *boxes,
+                                                   const float *directions, const double *max_t, size_t n,
+                                                   uint32_t mode, const locd_query_filter *filter, locd_hits *hits);
+LOCD_API locd_status locd_scene_cast_box_batch_f64(const locd_scene *scene, const double *boxes,
+                                                   const double *directions, const double *max_t, size_t n,
+                                                   uint32_t mode, const locd_query_filter *filter, locd_hits *hits);
+LOCD_API locd_status locd_scene_overlap_box_batch_f32(const locd_scene *scene, const float *boxes, size_t n,
+                                                      const locd_query_filter *filter, locd_hits *hits);
+LOCD_API locd_status locd_scene_overlap_box_batch_f64(const locd_scene *scene, const double *boxes, size_t n,
+                                                      const locd_query_filter *filter, locd_hits *hits);
+LOCD_API locd_status locd_scene_overlap_point_batch_f32(const locd_scene *scene, const float *points, size_t n,
+                                                        const locd_query_filter *filter, locd_hits *hits);
+LOCD_API locd_status locd_scene_overlap_point_batch_f64(const locd_scene *scene, const double *points, size_t n,
+                                                        const locd_query_filter *filter, locd_hits *hits);
+LOCD_API locd_status locd_scene_overlap_sphere_batch_f32(const locd_scene *scene, const float *centers,
+                                                         const double *radii, size_t n,
+                                                         const locd_query_filter *filter, locd_hits *hits);
+LOCD_API locd_status locd_scene_overlap_sphere_batch_f64(const locd_scene *scene, const double *centers,
+                                                         const double *radii, size_t n,
+                                                         const locd_query_filter *filter, locd_hits *hits);
+
 #ifdef __cplusplus
 }
 #endif

@@ -61,6 +61,7 @@ enum lc_magic {
     LC_MAGIC_CONTACTS = 0x4c4f434e, /* "LOCN" narrow/ */
     LC_MAGIC_SHM = 0x4c4f434d,      /* "LOCM" levels/levels.h: the shm control block */
     LC_MAGIC_SCENE = 0x4c4f4343,    /* "LOCC" scene/ */
+    LC_MAGIC_HITS = 0x4c4f4348,     /* "LOCH" scene/query_batch.c */
     LC_MAGIC_DEAD = 0x4c4f4358      /* "LOCX" a destroyed handle */
 };
 

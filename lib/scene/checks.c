@@ -67,26 +67,59 @@ locd_status lc_scene_check_ids_live(const locd_scene *s, const locd_id *ids, siz
     return LOCD_OK;
 }
 
-locd_status lc_scene_check_ids(locd_scene *s, const locd_id *ids, size_t n)
+/* A new stamp for a batch (the stamps are scratch, not state: a failing
+ * batch may leave them changed). */
+static uint32_t new_stamp(lc_slots *sl)
 {
-    size_t k;
-    locd_status st = lc_scene_check_ids_live(s, ids, n);
-    if (st)
-        return st;
-    /* A stamp per batch marks the slots seen; the stamps are scratch, not
-       state, so a failing batch may leave them changed. */
-    if (++s->slots.stamp_now == 0) {
-        memset(s->slots.stamp, 0, s->slots.slot_cap * sizeof *s->slots.stamp);
-        s->slots.stamp_now = 1;
+    if (++sl->stamp_now == 0) {
+        memset(sl->stamp, 0, sl->slot_cap * sizeof *sl->stamp);
+        sl->stamp_now = 1;
     }
-    for (k = 0; k < n; k++) {
-        uint32_t slot = LC_ID_SLOT(ids[k]);
-        if (k + LC_AHEAD < n) /* the ids are live: their slots are in range */
-            __builtin_prefetch(s->slots.stamp + LC_ID_SLOT(ids[k + LC_AHEAD]), 1);
-        if (s->slots.stamp[slot] == s->slots.stamp_now)
-            return lc_error_box(LOCD_ERR_DUPLICATE_ID, (int64_t)k, "id %llu at %zu appears earlier in the batch",
-                                (unsigned long long)ids[k], k);
-        s->slots.stamp[slot] = s->slots.stamp_now;
+    return sl->stamp_now;
+}
+
+/* Position k of a batch: its id live and not earlier in the batch, its box
+ * (when boxes is not NULL) valid. */
+static locd_status check_position(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t k)
+{
+    lc_slots *sl = &s->slots;
+    const int64_t slot = lc_scene_slot(s, ids[k]);
+    if (slot < 0)
+        return lc_error_box(LOCD_ERR_STALE_ID, (int64_t)k, "id %llu at %zu was removed or never issued by this scene",
+                            (unsigned long long)ids[k], k);
+    if (sl->stamp[slot] == sl->stamp_now)
+        return lc_error_box(LOCD_ERR_DUPLICATE_ID, (int64_t)k, "id %llu at %zu appears earlier in the batch",
+                            (unsigned long long)ids[k], k);
+    sl->stamp[slot] = sl->stamp_now;
+    if (boxes) {
+        double b[6];
+        int a;
+        for (a = 0; a < 6; a++)
+            b[a] = f64 ? ((const double *)boxes)[6 * k + (size_t)a] : (double)((const float *)boxes)[6 * k + (size_t)a];
+        return check_box(b, k);
     }
     return LOCD_OK;
+}
+
+locd_status lc_scene_check_batch(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t n)
+{
+    size_t k;
+    locd_status st;
+    if (n > s->slots.live) /* before any read: such a batch repeats or names a stale id */
+        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu ids, more than the scene's %zu objects", n, s->slots.live);
+    if (n && !ids)
+        return lc_error(LOCD_ERR_NULL_POINTER, "ids is NULL");
+    new_stamp(&s->slots);
+    for (k = 0; k < n; k++) {
+        if (k + LC_AHEAD < n)
+            lc_slot_prefetch(&s->slots, ids[k + LC_AHEAD]);
+        if ((st = check_position(s, ids, boxes, f64, k)) != LOCD_OK)
+            return st;
+    }
+    return LOCD_OK;
+}
+
+locd_status lc_scene_check_ids(locd_scene *s, const locd_id *ids, size_t n)
+{
+    return lc_scene_check_batch(s, ids, NULL, 0, n);
 }

@@ -33,7 +33,11 @@ LC_INLINE locd_status lc_scene_box_fault(const double *b, int *axis)
 }
 locd_status lc_scene_check_boxes_f32(const float *boxes, size_t n);
 locd_status lc_scene_check_boxes_f64(const double *boxes, size_t n);
-/* Every id live and none twice (stamps only). */
+/* Every id live and none twice (stamps only): each position in order, so
+ * the error names the first bad one; with boxes (not NULL: floats or
+ * doubles), each position's box too. n above the live objects is refused
+ * before any read. */
+locd_status lc_scene_check_batch(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t n);
 locd_status lc_scene_check_ids(locd_scene *s, const locd_id *ids, size_t n);
 /* Every id live (duplicates allowed: for reads). */
 locd_status lc_scene_check_ids_live(const locd_scene *s, const locd_id *ids, size_t n);

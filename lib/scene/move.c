@@ -329,8 +329,8 @@ static void take_stamps(lc_slots *sl, move_ctx *c, size_t n)
     sl->stamp_now += (uint32_t)n;
 }
 
-/* The checks' passes: 1, then (ids that do not ascend) the stamps. 0 when
- * the batch is bad: the serial checks then name the first bad position. */
+/* The checks' passes: 1, then (ids that do not ascend) the stamps. When
+ * the batch is bad, the serial checks name its first bad position. */
 static locd_status check_batch(locd_scene *s, move_ctx *c, uint32_t k)
 {
     locd_status st;
@@ -344,8 +344,7 @@ static locd_status check_batch(locd_scene *s, move_ctx *c, uint32_t k)
     }
     if (!any_bad(c, k))
         return LOCD_OK;
-    if ((st = lc_scene_check_ids(s, c->ids, c->n)) == LOCD_OK)
-        st = c->f64 ? lc_scene_check_boxes_f64(c->boxes, c->n) : lc_scene_check_boxes_f32(c->boxes, c->n);
+    st = lc_scene_check_batch(s, c->ids, c->boxes, c->f64, c->n);
     if (st == LOCD_OK) /* cannot happen: the passes and the checks test the same */
         st = lc_error(LOCD_ERR_INTERNAL, "the move's checks disagree");
     return st;

@@ -57,6 +57,7 @@ locd_status locd_scene_create(locd_engine *engine, const locd_scene_config *conf
     s->threads = engine->threads;
     s->config_flags = cfg.flags;
     lc_pairs_init_embedded(&s->found, s->alloc);
+    lc_query_tree_init(&s->qtree);
     locd_scene_stats_init(&s->stats);
     if (cfg.capacity_hint) {
         size_t hint = cfg.capacity_hint > UINT32_MAX ? UINT32_MAX : (size_t)cfg.capacity_hint;
@@ -76,6 +77,7 @@ void locd_scene_destroy(locd_scene *s)
     if (!s || s->magic != LC_MAGIC_SCENE)
         return;
     a = s->alloc;
+    lc_query_tree_fini(s);
     lc_partners_drop(s);
     lc_entries_fini(s);
     lc_scene_slots_fini(s);
@@ -116,11 +118,11 @@ static locd_status add_common(locd_scene *s, const void *boxes, int f64, size_t 
         return lc_error(LOCD_ERR_INVALID_ARGUMENT, "options->flags 0x%x has unknown bits", o.flags);
     if (n && !ids_out)
         return lc_error(LOCD_ERR_NULL_POINTER, "ids_out is NULL");
+    if ((uint64_t)n > (uint64_t)(LC_MAX_SERIAL - s->slots.serial)) /* (before any read of the boxes) */
+        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "a scene issues at most %u ids in its lifetime", LC_MAX_SERIAL);
     st = f64 ? lc_scene_check_boxes_f64(boxes, n) : lc_scene_check_boxes_f32(boxes, n);
     if (st)
         return st;
-    if ((uint64_t)n > (uint64_t)(LC_MAX_SERIAL - s->slots.serial))
-        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "a scene issues at most %u ids in its lifetime", LC_MAX_SERIAL);
     if ((st = lc_scene_reserve(s, n)) != LOCD_OK || (st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK ||
         (f64 && (st = lc_scene_need_doubles(s, boxes, n)) != LOCD_OK))
         return st;
@@ -129,6 +131,7 @@ static locd_status add_common(locd_scene *s, const void *boxes, int f64, size_t 
         uint32_t slot = lc_scene_take_slot(s);
         s->slots.id[slot] = (locd_id)(++s->slots.serial) << 32 | slot;
         s->slots.cat[slot] = attr(o.categories, o.category, i);
+        s->slots.ncat0 += s->slots.cat[slot] == 0;
         s->slots.mask[slot] = attr(o.masks, o.mask, i);
         s->slots.group[slot] = attr(o.groups, o.group, i);
         s->slots.user[slot] = attr(o.users, o.user, i);
@@ -166,16 +169,18 @@ static locd_status move_common(locd_scene *s, const locd_id *ids, const void *bo
     size_t i;
     if ((st = lc_scene_check_handle(s)) != LOCD_OK)
         return st;
+    if (n > s->slots.live) /* before any read: such a batch repeats or names a stale id */
+        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu ids, more than the scene's %zu objects", n, s->slots.live);
+    if (n && !boxes)
+        return lc_error(LOCD_ERR_NULL_POINTER, "boxes is NULL");
     s->slots.epoch++; /* (a move of every object in slot order hands over what it finds) */
     if (lc_scene_move_parallel(s, ids, boxes, f64, n, &st)) {
         if (st == LOCD_OK)
             lc_clear_error();
         return st;
     }
-    if ((st = lc_scene_check_ids(s, ids, n)) != LOCD_OK)
-        return st;
-    st = f64 ? lc_scene_check_boxes_f64(boxes, n) : lc_scene_check_boxes_f32(boxes, n);
-    if (st || (st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK ||
+    if ((st = lc_scene_check_batch(s, ids, boxes, f64, n)) != LOCD_OK ||
+        (st = lc_scene_reserve_lists(s, n, 0)) != LOCD_OK ||
         (f64 && (st = lc_scene_need_doubles(s, boxes, n)) != LOCD_OK))
         return st;
     for (i = 0; i < n; i++) {
@@ -213,6 +218,7 @@ locd_status locd_scene_remove(locd_scene *s, const locd_id *ids, size_t n)
             s->slots.live_static--;
         if (s->slots.flags[slot] & LC_SLOT_INEXACT)
             s->slots.ninexact--;
+        s->slots.ncat0 -= s->slots.cat[slot] == 0;
         s->slots.flags[slot] = (uint8_t)((s->slots.flags[slot] & ~(LC_SLOT_LIVE | LC_SLOT_INEXACT)) | LC_SLOT_REMOVED);
         ((uint32_t *)s->slots.removed.data)[s->slots.nremoved++] = slot;
     }
@@ -233,7 +239,9 @@ locd_status locd_scene_set_filter(locd_scene *s, const locd_id *ids, size_t n, c
         return st;
     for (i = 0; i < n; i++) {
         uint32_t slot = LC_ID_SLOT(ids[i]);
+        s->slots.ncat0 -= s->slots.cat[slot] == 0;
         s->slots.cat[slot] = attr(categories, s->slots.cat[slot], i);
+        s->slots.ncat0 += s->slots.cat[slot] == 0;
         s->slots.mask[slot] = attr(masks, s->slots.mask[slot], i);
         s->slots.group[slot] = attr(groups, s->slots.group[slot], i);
         lc_scene_mark_dirty(s, slot);

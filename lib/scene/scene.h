@@ -17,7 +17,9 @@
  *   search.h        the pairs of the moved objects: the search and the partner-list pass
  *   path.h          the choice of the update's path and the back-off waits
  *   update.h        the update (update.c, incremental.c, encode_moved.c, relist.c, moved_pairs.c)
- * query.c answers the queries, stats.c the statistics. */
+ *   query_tree.h    the query tree, kept lazily for the queries
+ *   query.h         the queries (query.c, query_shape.c, query_walk.c, query_batch.c)
+ * stats.c gives the statistics. */
 #ifndef LOCD_SCENE_IMPL_H
 #define LOCD_SCENE_IMPL_H
 
@@ -31,6 +33,7 @@
 #include "scene/pair_set.h"
 #include "scene/partner_lists.h"
 #include "scene/path.h"
+#include "scene/query_tree.h"
 #include "scene/slots.h"
 
 struct locd_scene {
@@ -51,6 +54,7 @@ struct locd_scene {
     lc_handover handover;
     lc_near near;
     lc_backoff backoff;
+    lc_query_tree qtree;
     locd_pairs found; /* the engine's pairs of a find (from scratch, the partner and near-pair lists' builds) */
     locd_scene_stats stats;
 };

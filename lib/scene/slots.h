@@ -64,6 +64,7 @@ typedef struct lc_slots {
     lc_buf free_slots; /* uint32 stack */
     size_t nfree;
     uint32_t serial; /* serials issued */
+    size_t ncat0;    /* live objects of category 0 (no query mask passes them) */
     /* the changes since the last update */
     lc_buf dirty; /* uint32 slots flagged LC_SLOT_DIRTY */
     size_t ndirty;

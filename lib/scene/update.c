@@ -116,6 +116,7 @@ static void commit(lc_update *u)
     lc_pair_set_take(&s->set, &u->next, u->in_place, &u->cr, &u->lo);
     s->set.show_pairs = (u->flags & LOCD_SCENE_UPDATE_PAIRS) != 0;
     s->set.show_events = (u->flags & LOCD_SCENE_UPDATE_EVENTS) != 0;
+    lc_query_tree_note_update(s);
     lc_slots_clear_changes(s);
 }
 

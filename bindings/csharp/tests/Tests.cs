@@ -129,6 +129,7 @@ namespace Locd.Tests
                 { "locd_scene_config", typeof(Native.locd_scene_config) },
                 { "locd_scene_add_options", typeof(Native.locd_scene_add_options) },
                 { "locd_scene_stats", typeof(Native.locd_scene_stats) },
+                { "locd_query_filter", typeof(Native.locd_query_filter) },
             };
             int checkedCount = 0;
             foreach (string line in File.ReadAllLines(path)) {

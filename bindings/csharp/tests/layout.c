@@ -158,5 +158,12 @@ int main(void)
     OFF(locd_scene_stats, ms_merge);
     OFF(locd_scene_stats, ms_sweep);
     OFF(locd_scene_stats, ms_events);
+    SIZE(locd_query_filter);
+    OFF(locd_query_filter, size);
+    OFF(locd_query_filter, reserved);
+    OFF(locd_query_filter, mask);
+    OFF(locd_query_filter, reject);
+    OFF(locd_query_filter, user);
+
     return 0;
 }

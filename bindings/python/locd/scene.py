@@ -3,8 +3,8 @@
 Objects live in the scene under stable uint64 ids (never 0, never reused).
 They are added, moved, removed and re-filtered in batches; :meth:`Scene.update`
 gives the full set of overlapping pairs and the pairs created and lost since
-the previous update. Queries (box, point, ray segment) see the scene as it is
-now. The C side is include/locd/scene.h; docs/scene.md explains the design.
+the previous update. Queries (box, point, sphere, ray segment, swept box; one at
+a time or in batches) see the scene as it is now. The C side is include/locd/scene.h; docs/scene.md explains the design.
 
 >>> import numpy as np, locd
 >>> scene = locd.Scene()
@@ -129,11 +129,11 @@ class Scene:
             raise TypeError("dtype must be numpy.float32 or numpy.float64, got %s" % dt)
         if threads is not None:
             threads = operator.index(threads)
-            if threads < 1:
-                raise ValueError("threads must be >= 1 (or None for one per core), got %d" % threads)
+            if not 1 <= threads <= 0xFFFFFFFF:
+                raise ValueError("threads must be 1 .. 2**32-1 (or None for one per core), got %d" % threads)
         capacity = operator.index(capacity)
-        if capacity < 0:
-            raise ValueError("capacity must be >= 0, got %d" % capacity)
+        if not 0 <= capacity <= _U64_MAX:
+            raise ValueError("capacity must be 0 .. 2**64-1, got %d" % capacity)
         self._dtype = dt
         self._core = _core.Scene(threads or 0, dt == np.dtype(np.float64), capacity)
 
@@ -187,15 +187,6 @@ class Scene:
         if n is not None and arr.shape[0] != n:
             raise ValueError("boxes has %d rows for %d ids" % (arr.shape[0], n))
         with np.errstate(over="ignore"):  # too large for float32: inf, which the library names
-            return np.ascontiguousarray(arr, dtype=self._dtype)
-
-    def _vector(self, name: str, value: Any, size: int) -> np.ndarray:
-        arr = value if isinstance(value, np.ndarray) else np.asarray(value, dtype=np.float64)
-        if arr.dtype.kind not in "fiu":
-            raise TypeError("%s must hold numbers, got dtype %s" % (name, arr.dtype))
-        if arr.shape != (size,):
-            raise ValueError("%s must have shape (%d,), got shape %s" % (name, size, arr.shape))
-        with np.errstate(over="ignore"):
             return np.ascontiguousarray(arr, dtype=self._dtype)
 
     # -- changes, in batches --------------------------------------------------
@@ -259,20 +250,101 @@ class Scene:
         return self._core.stats()
 
     # -- queries --------------------------------------------------------------
+    # Queries read their shapes as float64 whatever the scene's dtype: exact for every float32 value, and
+    # no finite value overflows. Batches run on the scene's threads, the GIL released.
     def query_box(self, box: Any, mask: Any = ALL) -> np.ndarray:
         """Ids (ascending, uint64) of the objects whose box overlaps ``box``
         (6 values, closed) and whose category has a bit in ``mask``."""
-        return self._core.query(0, self._vector("box", box, 6), _u64_scalar("mask", mask))
+        return self._core.overlap(0, _shape("box", box, 6), 0.0, _u64_scalar("mask", mask))
 
     def query_point(self, point: Any, mask: Any = ALL) -> np.ndarray:
         """Ids (ascending) of the objects whose box contains ``point`` (on a face, edge or corner counts)."""
-        return self._core.query(1, self._vector("point", point, 3), _u64_scalar("mask", mask))
+        return self._core.overlap(1, _shape("point", point, 3), 0.0, _u64_scalar("mask", mask))
 
-    def raycast(self, origin: Any, direction: Any, max_t: float, mask: Any = ALL) -> Tuple[np.ndarray, np.ndarray]:
+    def query_sphere(self, center: Any, radius: Any, mask: Any = ALL) -> np.ndarray:
+        """Ids (ascending) of the objects whose box lies within ``radius`` of ``center``: with d the
+        distance from the centre to the box per axis (0 inside), ``(dx*dx + dy*dy) + dz*dz <= r*r``
+        in float64."""
+        return self._core.overlap(2, _shape("center", center, 3), _real("radius", radius), _u64_scalar("mask", mask))
+
+    def raycast(self, origin: Any, direction: Any, max_t: Any, mask: Any = ALL) -> Tuple[np.ndarray, np.ndarray]:
         """Objects whose box meets the segment ``origin + t * direction``, 0 <= t <= max_t.
 
         Returns ``(ids, t)``: uint64 ids and their float64 entry parameters
         (0 when the origin is inside the box), sorted by t, then id.
-        ``direction`` need not be unit length."""
-        return self._core.raycast(self._vector("origin", origin, 3), self._vector("direction", direction, 3),
-                                  float(max_t), _u64_scalar("mask", mask))
+        ``direction`` need not be unit length; ``max_t`` may be ``math.inf``."""
+        return self._core.cast(0, _shape("origin", origin, 3), _shape("direction", direction, 3),
+                               _real("max_t", max_t), 0, _u64_scalar("mask", mask))
+
+    def sweep_box(self, box: Any, direction: Any, max_t: Any, mask: Any = ALL) -> Tuple[np.ndarray, np.ndarray]:
+        """Objects that ``box`` meets as it moves to ``box + t * direction``, 0 <= t <= max_t.
+
+        Returns ``(ids, t)``: each object's first touch t (0 when they touch at the start), sorted by
+        (t, id)."""
+        return self._core.cast(1, _shape("box", box, 6), _shape("direction", direction, 3),
+                               _real("max_t", max_t), 0, _u64_scalar("mask", mask))
+
+    def raycast_batch(self, origins: Any, directions: Any, max_t: Any, mask: Any = ALL, *,
+                      mode: str = "all") -> Tuple[np.ndarray, ...]:
+        """n rays at once (``origins``, ``directions``: (n, 3); ``max_t``: a scalar or n values).
+
+        ``mode="all"``: ``(offsets, ids, t)``, ray k's hits ``ids[offsets[k]:offsets[k+1]]``
+        sorted by (t, id); ``offsets`` is (n+1,) int64. ``mode="closest"`` (the smallest (t, id)) or
+        ``"any"`` (the first found: a line of sight): ``(ids, t)`` of shape (n,), 0 and inf where a ray
+        hit nothing. The hits do not depend on the scene's thread count."""
+        if mode not in _MODES:
+            raise ValueError("mode must be 'all', 'closest' or 'any', got %r" % (mode,))
+        o = _shapes("origins", origins, 3)
+        d = _shapes("directions", directions, 3, len(o))
+        return self._core.cast_batch(0, o, d, _reals("max_t", max_t, len(o)), _MODES[mode], _u64_scalar("mask", mask))
+
+    def query_box_batch(self, boxes: Any, mask: Any = ALL) -> Tuple[np.ndarray, np.ndarray]:
+        """n box queries at once (``boxes``: (n, 6)): ``(offsets, ids)``, query k's ids ascending in
+        ``ids[offsets[k]:offsets[k+1]]``."""
+        return self._core.overlap_batch(0, _shapes("boxes", boxes, 6), None, _u64_scalar("mask", mask))
+
+
+_MODES = {"all": 0, "closest": 1, "any": 2}
+
+
+def _real(name: str, value: Any) -> float:
+    """A number (not a bool or a string) as a float; its range is the library's to check."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError("%s must be a number, got %r" % (name, value))
+    return float(value)
+
+
+def _reals(name: str, value: Any, n: int) -> np.ndarray:
+    """A number for all n, or n numbers, as a (n,) float64 array."""
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)):
+        return np.full(n, float(value))
+    arr = value if isinstance(value, np.ndarray) else np.asarray(value)
+    if arr.dtype.kind not in "fiu":
+        raise TypeError("%s must hold numbers, got dtype %s" % (name, arr.dtype))
+    if arr.shape != (n,):
+        raise ValueError("%s must be a number or have shape (%d,), got shape %s" % (name, n, arr.shape))
+    return np.ascontiguousarray(arr, dtype=np.float64)
+
+
+def _shape(name: str, value: Any, size: int) -> np.ndarray:
+    """A query's shape: `size` numbers as a (size,) float64 array."""
+    arr = value if isinstance(value, np.ndarray) else np.asarray(value)
+    if arr.dtype.kind not in "fiu":
+        raise TypeError("%s must hold numbers, got dtype %s" % (name, arr.dtype))
+    if arr.shape != (size,):
+        raise ValueError("%s must have shape (%d,), got shape %s" % (name, size, arr.shape))
+    return np.ascontiguousarray(arr, dtype=np.float64)
+
+
+def _shapes(name: str, value: Any, size: int, n: Optional[int] = None) -> np.ndarray:
+    """n queries' shapes: an (n, size) float64 array."""
+    arr = value if isinstance(value, np.ndarray) else np.asarray(value)
+    if arr.dtype.kind not in "fiu":
+        raise TypeError("%s must hold numbers, got dtype %s" % (name, arr.dtype))
+    if arr.ndim == 1 and arr.shape[0] == 0:
+        arr = arr.reshape(0, size)
+    if arr.ndim != 2 or arr.shape[1] != size:
+        raise ValueError("%s must have shape (n, %d), got shape %s" % (name, size, arr.shape))
+    if n is not None and arr.shape[0] != n:
+        raise ValueError("%s has %d rows for %d queries" % (name, arr.shape[0], n))
+    return np.ascontiguousarray(arr, dtype=np.float64)

@@ -567,6 +567,118 @@ namespace Locd
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
         public static extern int locd_scene_raycast_f64(IntPtr scene, double* origin, double* direction, double max_t, ulong mask,
                                                         ulong* ids_out, double* t_out, UIntPtr capacity, UIntPtr* count);
+
+        // ---- queries with a filter, sphere and cast queries, batches (scene.h) ----
+        public const uint LOCD_HIT_ALL = 0;
+        public const uint LOCD_HIT_CLOSEST = 1;
+        public const uint LOCD_HIT_ANY = 2;
+
+        /// <summary>int (*)(void *user, locd_id id, uint64_t user_value): nonzero rejects the candidate.</summary>
+        [UnmanagedFunctionPointer(CallingConvention.Cdecl)]
+        public delegate int locd_query_reject_fn(IntPtr user, ulong id, ulong user_value);
+
+        /// <summary>locd_query_filter; initialize with locd_query_filter_init.</summary>
+        [StructLayout(LayoutKind.Sequential)]
+        public struct locd_query_filter
+        {
+            public uint size;
+            public uint reserved;
+            public ulong mask;
+            public IntPtr reject; // locd_query_reject_fn, or zero
+            public IntPtr user;
+        }
+
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_prepare_queries(IntPtr scene);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_query_filter_init(locd_query_filter* filter);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_box_f32(IntPtr scene, float* box, locd_query_filter* filter,
+                                                            ulong* ids_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_box_f64(IntPtr scene, double* box, locd_query_filter* filter,
+                                                            ulong* ids_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_point_f32(IntPtr scene, float* point, locd_query_filter* filter,
+                                                              ulong* ids_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_point_f64(IntPtr scene, double* point, locd_query_filter* filter,
+                                                              ulong* ids_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_sphere_f32(IntPtr scene, float* center, double radius,
+                                                               locd_query_filter* filter, ulong* ids_out,
+                                                               UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_sphere_f64(IntPtr scene, double* center, double radius,
+                                                               locd_query_filter* filter, ulong* ids_out,
+                                                               UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_cast_ray_f32(IntPtr scene, float* origin, float* direction, double max_t,
+                                                         uint mode, locd_query_filter* filter, ulong* ids_out,
+                                                         double* t_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_cast_ray_f64(IntPtr scene, double* origin, double* direction,
+                                                         double max_t, uint mode, locd_query_filter* filter,
+                                                         ulong* ids_out, double* t_out, UIntPtr capacity,
+                                                         UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_cast_box_f32(IntPtr scene, float* box, float* direction, double max_t,
+                                                         uint mode, locd_query_filter* filter, ulong* ids_out,
+                                                         double* t_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_cast_box_f64(IntPtr scene, double* box, double* direction, double max_t,
+                                                         uint mode, locd_query_filter* filter, ulong* ids_out,
+                                                         double* t_out, UIntPtr capacity, UIntPtr* count);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_hits_create(locd_allocator* allocator, IntPtr* out_hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern void locd_hits_destroy(IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern UIntPtr locd_hits_queries(IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern UIntPtr locd_hits_count(IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern ulong* locd_hits_offsets(IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern ulong* locd_hits_ids(IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern double* locd_hits_t(IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_cast_ray_batch_f32(IntPtr scene, float* origins, float* directions,
+                                                               double* max_t, UIntPtr n, uint mode,
+                                                               locd_query_filter* filter, IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_cast_ray_batch_f64(IntPtr scene, double* origins, double* directions,
+                                                               double* max_t, UIntPtr n, uint mode,
+                                                               locd_query_filter* filter, IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_cast_box_batch_f32(IntPtr scene, float* boxes, float* directions,
+                                                               double* max_t, UIntPtr n, uint mode,
+                                                               locd_query_filter* filter, IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_cast_box_batch_f64(IntPtr scene, double* boxes, double* directions,
+                                                               double* max_t, UIntPtr n, uint mode,
+                                                               locd_query_filter* filter, IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_box_batch_f32(IntPtr scene, float* boxes, UIntPtr n,
+                                                                  locd_query_filter* filter, IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_box_batch_f64(IntPtr scene, double* boxes, UIntPtr n,
+                                                                  locd_query_filter* filter, IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_point_batch_f32(IntPtr scene, float* points, UIntPtr n,
+                                                                    locd_query_filter* filter, IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_point_batch_f64(IntPtr scene, double* points, UIntPtr n,
+                                                                    locd_query_filter* filter, IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_sphere_batch_f32(IntPtr scene, float* centers, double* radii,
+                                                                     UIntPtr n, locd_query_filter* filter,
+                                                                     IntPtr hits);
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
+        public static extern int locd_scene_overlap_sphere_batch_f64(IntPtr scene, double* centers, double* radii,
+                                                                     UIntPtr n, locd_query_filter* filter,
+                                                                     IntPtr hits);
         // ================================ end of scene ================================
     }
 }

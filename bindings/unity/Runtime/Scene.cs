@@ -135,7 +135,7 @@ namespace Locd
     /// Calls from several threads are serialized. Dispose it (or let the
     /// finalizer do it) to free it.
     /// </summary>
-    public sealed unsafe class Scene : IDisposable
+    public sealed unsafe partial class Scene : IDisposable
     {
         /// <summary>A mask with every category bit set.</summary>
         public const ulong AllCategories = ulong.MaxValue;

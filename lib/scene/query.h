@@ -1,0 +1,75 @@
+/* Queries: their shapes, checked (query_shape.c); the walks over the
+ * query tree (query_walk.c), one test in float64 for a node's lane and for
+ * an object; the single queries (query.c) and the batches (query_batch.c).
+ * docs/queries.md. */
+#ifndef LOCD_SCENE_QUERY_H
+#define LOCD_SCENE_QUERY_H
+
+#include "scene/slots.h"
+
+enum { LC_SHAPE_BOX, LC_SHAPE_SPHERE, LC_SHAPE_CAST };
+
+/* What a query asks. A box (a point: lo == hi); a sphere; a cast: box
+ * [lo, hi] moved by t * d, 0 <= t <= max_t (a ray: lo == hi, the origin). */
+typedef struct lc_shape {
+    int kind;
+    double lo[3], hi[3];
+    double c[3], r2;
+    double d[3], max_t;
+} lc_shape;
+
+/* A hit: the object's id and the cast's entry time (0 for the overlaps). */
+typedef struct lc_hit {
+    double t;
+    locd_id id;
+} lc_hit;
+
+/* A walk's own room for its stack and hits (the heap's beyond). */
+#define LC_WALK_STACK 256
+#define LC_WALK_HITS 32
+
+/* One walk: the query, its filter and mode, its hits or its best hit. */
+typedef struct lc_walk {
+    const locd_scene *s;
+    const lc_shape *q;
+    uint64_t mask;
+    int check_cat;        /* some live object's category may fail the mask (else no read of it) */
+    locd_query_reject_fn reject;
+    void *user;
+    uint32_t mode;        /* LOCD_HIT_* (casts); overlaps take every hit */
+    int fast;             /* a cast whose node test may take the reciprocals */
+    double inv[3];        /* 1 / d (0 where d is) */
+    lc_hit *hit;          /* every hit (LOCD_HIT_ALL, overlaps): hit_in, or the heap's */
+    size_t nhit, hit_cap;
+    lc_hit best;          /* the closest or the first (t +inf, id LOCD_ID_NONE: none) */
+    int failed;           /* no memory for the hits */
+    uint32_t *stack;      /* the walk's nodes to see, and their entry times (casts) */
+    double *stack_t;
+    size_t stack_cap;
+    lc_hit hit_in[LC_WALK_HITS];
+    uint32_t stack_in[LC_WALK_STACK];
+    double stack_tin[LC_WALK_STACK];
+} lc_walk;
+
+/* A walk of query q with filter f (NULL: every object; mask as given). */
+locd_status lc_walk_init(lc_walk *w, const locd_scene *s, const lc_shape *q, uint32_t mode,
+                         const locd_query_filter *f, uint64_t mask);
+/* The walk of its query over the scene's tree (synced) and extra list;
+ * the hits in w. 0 on no memory. */
+int lc_walk_run(lc_walk *w);
+/* The walk's scratch (hits, stack) back to the allocator. */
+void lc_walk_fini(const locd_allocator *a, lc_walk *w);
+/* The hits sorted by (t, id), each object once. */
+void lc_walk_sort(lc_walk *w);
+
+/* ---- the shapes (query_shape.c), each checked: an error names query k ---- */
+/* A box (6 values) or a point (3). */
+locd_status lc_shape_box(lc_shape *q, const double *v, int point, size_t k);
+locd_status lc_shape_sphere(lc_shape *q, const double *center, double radius, size_t k);
+/* A cast of a box (6 values) or a ray's origin (3) along direction d to max_t. */
+locd_status lc_shape_cast(lc_shape *q, const double *v, int box, const double *d, double max_t, size_t k);
+/* v[0, n) as doubles into out (floats widen exactly); out itself when v is NULL or already doubles. */
+const double *lc_widen(const void *v, int f32, double *out, int n);
+locd_status lc_check_mode(uint32_t mode);
+
+#endif
