@@ -16,13 +16,13 @@
 #include <Jolt/Core/TempAllocator.h>
 #include <Jolt/Physics/Body/BodyCreationSettings.h>
 #include <Jolt/Physics/Collision/BroadPhase/BroadPhaseQuery.h>
+#include <Jolt/Physics/Collision/CastResult.h>
 #include <Jolt/Physics/Collision/CollisionCollectorImpl.h>
 #include <Jolt/Physics/Collision/RayCast.h>
 #include <Jolt/Physics/Collision/Shape/BoxShape.h>
 #include <Jolt/Physics/PhysicsSystem.h>
 #include <Jolt/RegisterTypes.h>
 
-#include <map>
 #include <string>
 
 using namespace qb;
@@ -85,14 +85,15 @@ int main(int argc, char **argv)
                                     JPH::Quat::sIdentity(), JPH::EMotionType::Static, 0);
         ids[i] = bi.CreateBody(s)->GetID();
     }
+    // A body's box, by the body's index (taken now: AddBodiesPrepare reorders the ids).
+    std::vector<uint32_t> index(ps.GetMaxBodies());
+    for (size_t i = 0; i < sc.n; i++)
+        index[ids[i].GetIndex()] = (uint32_t)i;
     JPH::BodyInterface::AddState st = bi.AddBodiesPrepare(ids.data(), (int)ids.size());
     bi.AddBodiesFinalize(ids.data(), (int)ids.size(), st, JPH::EActivation::DontActivate);
     ps.OptimizeBroadPhase();
     std::printf("{\"system\": \"jolt\", \"setup\": \"bodies and broad phase\", \"n\": %zu, \"ms\": %.3f}\n", sc.n,
                 (now_us() - t0) / 1e3);
-    std::map<uint32_t, uint32_t> index; // body id -> box
-    for (size_t i = 0; i < sc.n; i++)
-        index[ids[i].GetIndexAndSequenceNumber()] = (uint32_t)i;
     const JPH::BroadPhaseQuery &bq = ps.GetBroadPhaseQuery();
     const char *names[] = {"ray_short_all", "ray_short_closest", "ray_long_all", "ray_long_closest", "box"};
     const std::vector<Query> shortq = draw(sc, nq, 0.05, 11), longq = draw(sc, nq, 1.5, 12), boxq = draw(sc, nq, 0.0, 13);
@@ -109,7 +110,7 @@ int main(int argc, char **argv)
                     JPH::AllHitCollisionCollector<JPH::CollideShapeBodyCollector> c;
                     bq.CollideAABox(JPH::AABox(JPH::Vec3(x.b[0], x.b[1], x.b[2]), JPH::Vec3(x.b[3], x.b[4], x.b[5])), c);
                     for (const JPH::BodyID &h : c.mHits)
-                        hits++, sum += mix(k, index[h.GetIndexAndSequenceNumber()]);
+                        hits++, sum += mix(k, index[h.GetIndex()]);
                     continue;
                 }
                 const JPH::RayCast ray{JPH::Vec3(x.o[0], x.o[1], x.o[2]), JPH::Vec3(x.d[0], x.d[1], x.d[2])};
@@ -117,12 +118,12 @@ int main(int argc, char **argv)
                     JPH::ClosestHitCollisionCollector<JPH::RayCastBodyCollector> c;
                     bq.CastRay(ray, c);
                     if (c.HadHit())
-                        hits++, sum += mix(k, index[c.mHit.mBodyID.GetIndexAndSequenceNumber()]);
+                        hits++, sum += mix(k, index[c.mHit.mBodyID.GetIndex()]);
                 } else {
                     JPH::AllHitCollisionCollector<JPH::RayCastBodyCollector> c;
                     bq.CastRay(ray, c);
                     for (const JPH::BroadPhaseCastResult &h : c.mHits)
-                        hits++, sum += mix(k, index[h.mBodyID.GetIndexAndSequenceNumber()]);
+                        hits++, sum += mix(k, index[h.mBodyID.GetIndex()]);
                 }
             }
             us.push_back((now_us() - a) / (double)nq);

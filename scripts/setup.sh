@@ -8,6 +8,9 @@ APT_PKGS="build-essential pkg-config ninja-build libccd-dev libfcl-dev libeigen3
 abigail-tools mono-mcs valgrind libopenmpi-dev openmpi-bin \
 libbullet-dev libcgal-dev libgmp-dev libmpfr-dev python3-venv time cmake"
 
+# The query benchmark's ray-traversal reference (bench/queries_peers): Embree 3.
+APT_PKGS="$APT_PKGS libembree-dev"
+
 # Windows x86_64 plugin: the mingw-w64 cross compiler (posix threads:
 # winpthreads) and wine to run its C tests (CI step 35-windows).
 APT_PKGS="$APT_PKGS gcc-mingw-w64-x86-64-posix wine64"

@@ -514,6 +514,122 @@ static void hard_cases(void)
     free(m.o);
 }
 
+/* ---- grazing queries at every scale ---- */
+
+/* A corner of box b: bit a of `which` picks max on axis a. */
+static void corner(const double *b, unsigned which, double *p)
+{
+    int a;
+    for (a = 0; a < 3; a++)
+        p[a] = b[a + 3 * (int)((which >> a) & 1u)];
+}
+
+/* One query that grazes object j of m (its kind from `kind`): a ray ending
+ * on a corner, a ray along a face, a box cast whose corner reaches the
+ * object's, a sphere through a corner, a box touching a face. The tree's
+ * node tests in floats must never drop such a hit (the brute force decides
+ * whether it is one). */
+static void grazing_query(ts_rng *r, const model *m, double lo, double span, int kind, query *q)
+{
+    const double *b = m->o[ts_next(r) % m->n].box;
+    double p[3], o[3];
+    int a;
+    memset(q, 0, sizeof *q);
+    q->mode = (uint32_t)(ts_next(r) % 3);
+    corner(b, (unsigned)(ts_next(r) % 8), p);
+    for (a = 0; a < 3; a++)
+        o[a] = lo + span * ts_uniform(r);
+    switch (kind) {
+    case 0: /* a ray that ends on the corner */
+        q->kind = 3, q->num = 1.0;
+        for (a = 0; a < 3; a++)
+            q->v[a] = o[a], q->d[a] = p[a] - o[a];
+        break;
+    case 1: /* a ray in the plane of a face */
+        a = (int)(ts_next(r) % 3);
+        q->kind = 3, q->num = ts_uniform(r) < 0.2 ? INFINITY : 2.0;
+        memcpy(q->v, o, sizeof o);
+        q->v[a] = p[a];
+        for (a = 0; a < 3; a++)
+            q->d[a] = q->v[a] == p[a] ? 0.0 : p[a] - q->v[a];
+        break;
+    case 2: /* a box cast whose max corner reaches the corner at t = 1 */
+        q->kind = 4, q->num = 1.0;
+        for (a = 0; a < 3; a++) {
+            const double h = 0.01 * span * ts_uniform(r);
+            q->v[a] = o[a] - h, q->v[a + 3] = o[a];
+            q->d[a] = p[a] - o[a];
+        }
+        break;
+    case 3: /* a sphere whose radius is the distance to the corner */
+        q->kind = 2;
+        memcpy(q->v, o, sizeof o);
+        q->num = sqrt((o[0] - p[0]) * (o[0] - p[0]) + (o[1] - p[1]) * (o[1] - p[1]) + (o[2] - p[2]) * (o[2] - p[2]));
+        break;
+    default: /* a box whose min corner is the corner */
+        q->kind = 0;
+        for (a = 0; a < 3; a++)
+            q->v[a] = p[a], q->v[a + 3] = p[a] + 0.05 * span * ts_uniform(r);
+        break;
+    }
+}
+
+/* Scenes from 1e-300 to 1e300 wide, near the origin and far from it, as
+ * doubles and (where floats hold them) as floats; queries that graze
+ * their objects. The node tests' slack and their ranges (queries.md). */
+static void grazing_queries_at_every_scale(void)
+{
+    static const double scales[] = {1e-300, 1e-40, 1e-20, 1e-3, 1.0, 3e6, 1e18, 1e30, 1e36, 1e100, 1e300};
+    size_t i;
+    int f32, far, k, kind;
+    for (i = 0; i < sizeof scales / sizeof scales[0]; i++)
+        for (far = 0; far < 2; far++)
+            for (f32 = 0; f32 < 2; f32++) {
+                const double span = scales[i] / (far ? 1024.0 : 1.0), lo = far ? scales[i] : 0.0;
+                locd_engine *e;
+                locd_scene *s;
+                model m;
+                ts_rng r;
+                if (f32 && (lo + 2 * span > 1e38 || span < 1e-37))
+                    continue;
+                e = new_engine(1, NULL);
+                memset(&m, 0, sizeof m);
+                ts_seed(&r, 1000 + 4 * i + 2 * (size_t)far + (size_t)f32);
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+                {
+                    double b[6 * 300];
+                    float fb[6 * 300];
+                    locd_id ids[300];
+                    int a;
+                    for (k = 0; k < 300; k++)
+                        for (a = 0; a < 3; a++) {
+                            b[6 * k + a] = lo + span * ts_uniform(&r);
+                            b[6 * k + a + 3] = b[6 * k + a] + (k % 7 == 0 ? 0.0 : 0.05 * span * ts_uniform(&r));
+                        }
+                    for (k = 0; k < 6 * 300; k++)
+                        fb[k] = (float)b[k], b[k] = f32 ? (double)fb[k] : b[k];
+                    for (k = 0; k < 300; k++) /* (floats may round min above max: make them a point) */
+                        for (a = 0; a < 3; a++)
+                            if (b[6 * k + a] > b[6 * k + a + 3])
+                                b[6 * k + a + 3] = b[6 * k + a], fb[6 * k + a + 3] = fb[6 * k + a];
+                    TEST_ASSERT_EQUAL_INT(LOCD_OK, f32 ? locd_scene_add_f32(s, fb, 300, NULL, ids)
+                                                       : locd_scene_add_f64(s, b, 300, NULL, ids));
+                    for (k = 0; k < 300; k++)
+                        m_put(&m, ids[k], b + 6 * k, 1, (uint64_t)k);
+                }
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_update(s, 0));
+                for (k = 0; k < 60; k++)
+                    for (kind = 0; kind < 5; kind++) {
+                        query q;
+                        grazing_query(&r, &m, lo, span, kind, &q);
+                        check_query(s, &m, &q, ~(uint64_t)0, 0);
+                    }
+                locd_scene_destroy(s);
+                locd_engine_destroy(e);
+                free(m.o);
+            }
+}
+
 /* ---- bad input ---- */
 
 static void bad_queries_fail_and_change_nothing(void)
@@ -644,6 +760,7 @@ static const lt_test tests[] = {
     LT_TEST(queries_follow_the_scene),
     LT_TEST(batches_match_one_by_one),
     LT_TEST(hard_cases),
+    LT_TEST(grazing_queries_at_every_scale),
     LT_TEST(bad_queries_fail_and_change_nothing),
     LT_TEST(allocation_failures),
 };

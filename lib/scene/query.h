@@ -1,6 +1,7 @@
 /* Queries: their shapes, checked (query_shape.c); the walks over the
- * query tree (query_walk.c), one test in float64 for a node's lane and for
- * an object; the single queries (query.c) and the batches (query_batch.c).
+ * query tree (query_walk.c): a node's four lanes tested at once in floats,
+ * bounds that never pass by a hit, then each object's exact test in
+ * float64; the single queries (query.c) and the batches (query_batch.c).
  * docs/queries.md. */
 #ifndef LOCD_SCENE_QUERY_H
 #define LOCD_SCENE_QUERY_H
@@ -24,6 +25,20 @@ typedef struct lc_hit {
     locd_id id;
 } lc_hit;
 
+/* The query in floats, for the node tests (query_walk.c): its box rounded
+ * outward; for a cast, per axis, the reciprocal of the direction, the
+ * query's side and the lanes' bounds the cast enters and leaves by, and
+ * the slack that makes the float times bounds of the exact ones. */
+typedef struct lc_fquery {
+    float lo[3], hi[3];         /* the box, rounded outward, within +-FLT_MAX */
+    float enter_q[3], leave_q[3], inv[3], slack[3], max_t;
+    uint32_t enter_at[3], leave_at[3]; /* byte offsets of the lanes' bounds in a node */
+    float c[3], gap_err[3], r2; /* a sphere: its centre, a bound of the gaps' error, r^2 rounded up */
+    uint32_t moving;            /* cast: bit a: d[a] != 0 */
+    int exact_box;              /* a box whose floats are its values: a leaf's node test is the object's */
+    int fast;                   /* the float test holds (values in range); else each lane's exact test */
+} lc_fquery;
+
 /* A walk's own room for its stack and hits (the heap's beyond). */
 #define LC_WALK_STACK 256
 #define LC_WALK_HITS 32
@@ -37,18 +52,17 @@ typedef struct lc_walk {
     locd_query_reject_fn reject;
     void *user;
     uint32_t mode;        /* LOCD_HIT_* (casts); overlaps take every hit */
-    int fast;             /* a cast whose node test may take the reciprocals */
-    double inv[3];        /* 1 / d (0 where d is) */
+    lc_fquery f;          /* the query in floats, for the node tests */
     lc_hit *hit;          /* every hit (LOCD_HIT_ALL, overlaps): hit_in, or the heap's */
     size_t nhit, hit_cap;
     lc_hit best;          /* the closest or the first (t +inf, id LOCD_ID_NONE: none) */
     int failed;           /* no memory for the hits */
     uint32_t *stack;      /* the walk's nodes to see, and their entry times (casts) */
-    double *stack_t;
+    float *stack_t;
     size_t stack_cap;
     lc_hit hit_in[LC_WALK_HITS];
     uint32_t stack_in[LC_WALK_STACK];
-    double stack_tin[LC_WALK_STACK];
+    float stack_tin[LC_WALK_STACK];
 } lc_walk;
 
 /* A walk of query q with filter f (NULL: every object; mask as given). */

@@ -37,8 +37,7 @@ static locd_status check_box(const double *v, int point, size_t k, double *lo, d
 
 locd_status lc_shape_box(lc_shape *q, const double *v, int point, size_t k)
 {
-    memset(q, 0, sizeof *q);
-    q->kind = LC_SHAPE_BOX;
+    q->kind = LC_SHAPE_BOX; /* (the fields its kind uses: no memset, a query's setup is on its clock) */
     if (!v)
         return lc_error(LOCD_ERR_NULL_POINTER, point ? "point is NULL" : "box is NULL");
     return check_box(v, point, k, q->lo, q->hi);
@@ -47,7 +46,6 @@ locd_status lc_shape_box(lc_shape *q, const double *v, int point, size_t k)
 locd_status lc_shape_sphere(lc_shape *q, const double *center, double radius, size_t k)
 {
     int a;
-    memset(q, 0, sizeof *q);
     q->kind = LC_SHAPE_SPHERE;
     if (!center)
         return lc_error(LOCD_ERR_NULL_POINTER, "center is NULL");
@@ -66,7 +64,6 @@ locd_status lc_shape_cast(lc_shape *q, const double *v, int box, const double *d
 {
     locd_status st;
     int a;
-    memset(q, 0, sizeof *q);
     q->kind = LC_SHAPE_CAST;
     if (!v || !d)
         return lc_error(LOCD_ERR_NULL_POINTER, box ? "box or direction is NULL" : "origin or direction is NULL");

@@ -36,7 +36,7 @@ typedef char lc_qt_node_is_128_bytes[sizeof(lc_qt_node) == 128 ? 1 : -1];
 
 typedef struct lc_query_tree {
     int valid;              /* built (the changes since are pending or in the scene's change lists) */
-    lc_qt_node *node;       /* leaves first, the root last */
+    lc_qt_node *node;       /* depth first: a node before its children, the root first */
     size_t nnodes, node_cap;
     uint32_t root;
     uint32_t levels;
