@@ -412,12 +412,6 @@ static int stack_room(lc_walk *w, size_t used, size_t more)
     return 1;
 }
 
-/* The best hit's entry time so far (closest): farther nodes are passed by. */
-LC_INLINE double bound_t(const lc_walk *w)
-{
-    return w->q->kind == LC_SHAPE_CAST && w->mode == LOCD_HIT_CLOSEST ? w->best.t : INFINITY;
-}
-
 /* Node i pushed, its two lines asked for while the other lanes are seen to. */
 LC_INLINE void push(lc_walk *w, size_t *top, uint32_t i, float t)
 {
@@ -428,48 +422,95 @@ LC_INLINE void push(lc_walk *w, size_t *top, uint32_t i, float t)
     ++*top;
 }
 
-/* The lanes met in order of entry time (nearest first): objects tested,
- * nodes pushed farthest first. Returns 1 to stop the walk. */
+/* Two keys in order (branch free). */
+LC_INLINE void order2(uint64_t *a, uint64_t *b)
+{
+    const uint64_t lo = *a < *b ? *a : *b, hi = *a < *b ? *b : *a;
+    *a = lo, *b = hi;
+}
+
+/* A cast's node: its objects met tested (those entered before the best
+ * hit so far), its nodes met pushed farthest first (entered before the
+ * best hit). Returns 1 to stop the walk. A lane's sort key is its time's
+ * bits (times are >= 0: their bits order as they do) above its index; a
+ * lane not pushed sorts last. */
 static int visit(lc_walk *w, const lc_qt_node *nd, uint32_t met, const float *t, size_t *top)
 {
-    uint32_t order[4], n = 0, k, x;
-    for (k = 0; k < LC_QT_WIDTH; k++)
-        if (met & (1u << k)) {
-            for (x = n; x > 0 && t[order[x - 1]] > t[k]; x--)
-                order[x] = order[x - 1];
-            order[x] = k, n++;
-        }
-    for (x = 0; x < n; x++) /* the objects, nearest first */
-        if ((nd->objects & (1u << order[x])) && t[order[x]] <= bound_t(w) && try_lane(w, nd, order[x]))
+    uint32_t objs = met & nd->objects, kids = met & ~(uint32_t)nd->objects, k, bits;
+    uint64_t key[4];
+    for (; objs; objs &= objs - 1) {
+        k = (uint32_t)__builtin_ctz(objs);
+        if (t[k] <= w->best.t && try_lane(w, nd, k))
             return 1;
-    for (x = n; x-- > 0;)
-        if (!(nd->objects & (1u << order[x])) && t[order[x]] <= bound_t(w))
-            push(w, top, nd->child[order[x]], t[order[x]]);
+    }
+    if (!(kids & (kids - 1))) { /* one node or none */
+        if (kids && t[k = (uint32_t)__builtin_ctz(kids)] <= w->best.t)
+            push(w, top, nd->child[k], t[k]);
+        return 0;
+    }
+    for (k = 0; k < LC_QT_WIDTH; k++) {
+        memcpy(&bits, &t[k], sizeof bits);
+        key[k] = (kids & (1u << k)) && t[k] <= w->best.t ? (uint64_t)bits << 2 | k : UINT64_MAX;
+    }
+    order2(&key[0], &key[1]), order2(&key[2], &key[3]);
+    order2(&key[0], &key[2]), order2(&key[1], &key[3]);
+    order2(&key[1], &key[2]);
+    for (k = LC_QT_WIDTH; k-- > 0;)
+        if (key[k] != UINT64_MAX)
+            push(w, top, nd->child[key[k] & 3u], t[key[k] & 3u]);
     return 0;
 }
 
-static int walk_tree(lc_walk *w)
+/* The walk of an overlap, or of a cast after all its hits or any one: the
+ * lanes met in no order (the hits are sorted after). */
+static void walk_overlap(lc_walk *w, size_t top)
 {
-    const lc_query_tree *qt = &w->s->qtree;
-    size_t top = 0;
-    if (qt->root == LC_QT_NONE)
-        return 1;
-    if (!stack_room(w, 0, 4 * (size_t)qt->levels + 8))
-        return 0;
-    prepare(w);
-    w->stack[top] = qt->root, w->stack_t[top++] = 0.0f;
+    const lc_qt_node *node = w->s->qtree.node;
+    while (top) {
+        const lc_qt_node *nd = &node[w->stack[--top]];
+        float t[4];
+        const uint32_t met = lanes_met(w, nd, t);
+        uint32_t objs = met & nd->objects, kids = met & ~(uint32_t)nd->objects;
+        for (; objs; objs &= objs - 1)
+            if (try_lane(w, nd, (uint32_t)__builtin_ctz(objs)))
+                return;
+        for (; kids; kids &= kids - 1)
+            push(w, &top, nd->child[__builtin_ctz(kids)], 0.0f);
+    }
+}
+
+/* The walk of a cast after its closest hit: front to back, nodes entered
+ * after the best hit so far passed by. */
+static void walk_cast(lc_walk *w, size_t top)
+{
+    const lc_qt_node *node = w->s->qtree.node;
     while (top) {
         const lc_qt_node *nd;
         float t[4];
         uint32_t met;
         --top;
-        if (w->stack_t[top] > bound_t(w))
+        if (w->stack_t[top] > w->best.t)
             continue;
-        nd = &qt->node[w->stack[top]];
+        nd = &node[w->stack[top]];
         met = lanes_met(w, nd, t);
         if (met && visit(w, nd, met, t, &top))
-            return !w->failed;
+            return;
     }
+}
+
+static int walk_tree(lc_walk *w)
+{
+    const lc_query_tree *qt = &w->s->qtree;
+    if (qt->root == LC_QT_NONE)
+        return 1;
+    if (!stack_room(w, 0, 4 * (size_t)qt->levels + 8))
+        return 0;
+    prepare(w);
+    w->stack[0] = qt->root, w->stack_t[0] = 0.0f;
+    if (w->q->kind == LC_SHAPE_CAST && w->mode == LOCD_HIT_CLOSEST)
+        walk_cast(w, 1);
+    else
+        walk_overlap(w, 1);
     return !w->failed;
 }
 
@@ -495,18 +536,34 @@ int lc_walk_run(lc_walk *w)
     return !w->failed;
 }
 
+LC_INLINE int hit_before(const lc_hit *a, const lc_hit *b)
+{
+    return a->t < b->t || (a->t == b->t && a->id < b->id);
+}
+
 static int cmp_hit(const void *pa, const void *pb)
 {
     const lc_hit *a = pa, *b = pb;
-    if (a->t != b->t)
-        return a->t < b->t ? -1 : 1;
-    return (a->id > b->id) - (a->id < b->id);
+    return hit_before(a, b) ? -1 : hit_before(b, a);
 }
+
+/* Below this many hits an insertion sort: a query's few hits sorted
+ * by qsort's calls through a pointer took a third of a box query's time. */
+#define LC_SORT_SMALL 48
 
 void lc_walk_sort(lc_walk *w)
 {
-    if (w->nhit > 1)
+    size_t k, x;
+    if (w->nhit > LC_SORT_SMALL) {
         qsort(w->hit, w->nhit, sizeof *w->hit, cmp_hit);
+        return;
+    }
+    for (k = 1; k < w->nhit; k++) {
+        const lc_hit h = w->hit[k];
+        for (x = k; x > 0 && hit_before(&h, &w->hit[x - 1]); x--)
+            w->hit[x] = w->hit[x - 1];
+        w->hit[x] = h;
+    }
 }
 
 void lc_walk_fini(const locd_allocator *a, lc_walk *w)
