@@ -306,17 +306,30 @@ static uint32_t exact_lanes(const lc_walk *w, const lc_qt_node *nd, float t[4])
     return m;
 }
 
-/* The lanes of nd the shape may meet (bits), and lower bounds of their
- * entry times in t (casts; 0 else). */
-static uint32_t lanes_met(const lc_walk *w, const lc_qt_node *nd, float t[4])
+/* How a walk tests its nodes' lanes (a walk is compiled for each). */
+enum { LANES_BOX, LANES_SPHERE, LANES_CAST, LANES_EXACT };
+
+static int lanes_of(const lc_walk *w)
 {
-    const lc_fquery *f = &w->f;
-    if (!f->fast)
+    if (!w->f.fast)
+        return LANES_EXACT;
+    return w->q->kind == LC_SHAPE_CAST ? LANES_CAST : w->q->kind == LC_SHAPE_BOX ? LANES_BOX : LANES_SPHERE;
+}
+
+/* The lanes of nd the shape may meet (bits), and lower bounds of their
+ * entry times in t (casts; 0 else). `how` is a constant where it is
+ * inlined. */
+LC_INLINE uint32_t lanes_met(const lc_walk *w, const lc_qt_node *nd, float t[4], int how)
+{
+    switch (how) {
+    case LANES_CAST:
+        return cast_lanes(&w->f, nd, t);
+    case LANES_EXACT:
         return exact_lanes(w, nd, t);
-    if (w->q->kind == LC_SHAPE_CAST)
-        return cast_lanes(f, nd, t);
-    t[0] = t[1] = t[2] = t[3] = 0.0f;
-    return w->q->kind == LC_SHAPE_BOX ? bits_of(box_mask(f, nd)) : sphere_lanes(f, nd);
+    default:
+        t[0] = t[1] = t[2] = t[3] = 0.0f;
+        return how == LANES_BOX ? bits_of(box_mask(&w->f, nd)) : sphere_lanes(&w->f, nd);
+    }
 }
 
 /* ---- hits ---- */
@@ -463,13 +476,14 @@ static int visit(lc_walk *w, const lc_qt_node *nd, uint32_t met, const float *t,
 
 /* The walk of an overlap, or of a cast after all its hits or any one: the
  * lanes met in no order (the hits are sorted after). */
-static void walk_overlap(lc_walk *w, size_t top)
+LC_INLINE void walk_overlap(lc_walk *w, int how)
 {
     const lc_qt_node *node = w->s->qtree.node;
+    size_t top = 1;
     while (top) {
         const lc_qt_node *nd = &node[w->stack[--top]];
         float t[4];
-        const uint32_t met = lanes_met(w, nd, t);
+        const uint32_t met = lanes_met(w, nd, t, how);
         uint32_t objs = met & nd->objects, kids = met & ~(uint32_t)nd->objects;
         for (; objs; objs &= objs - 1)
             if (try_lane(w, nd, (uint32_t)__builtin_ctz(objs)))
@@ -481,9 +495,10 @@ static void walk_overlap(lc_walk *w, size_t top)
 
 /* The walk of a cast after its closest hit: front to back, nodes entered
  * after the best hit so far passed by. */
-static void walk_cast(lc_walk *w, size_t top)
+LC_INLINE void walk_cast(lc_walk *w, int how)
 {
     const lc_qt_node *node = w->s->qtree.node;
+    size_t top = 1;
     while (top) {
         const lc_qt_node *nd;
         float t[4];
@@ -492,11 +507,19 @@ static void walk_cast(lc_walk *w, size_t top)
         if (w->stack_t[top] > w->best.t)
             continue;
         nd = &node[w->stack[top]];
-        met = lanes_met(w, nd, t);
+        met = lanes_met(w, nd, t, how);
         if (met && visit(w, nd, met, t, &top))
             return;
     }
 }
+
+/* The walks, one compiled for each node test. */
+static void walk_box(lc_walk *w) { walk_overlap(w, LANES_BOX); }
+static void walk_sphere(lc_walk *w) { walk_overlap(w, LANES_SPHERE); }
+static void walk_cast_all(lc_walk *w) { walk_overlap(w, LANES_CAST); }
+static void walk_exact(lc_walk *w) { walk_overlap(w, LANES_EXACT); }
+static void walk_closest(lc_walk *w) { walk_cast(w, LANES_CAST); }
+static void walk_closest_exact(lc_walk *w) { walk_cast(w, LANES_EXACT); }
 
 static int walk_tree(lc_walk *w)
 {
@@ -508,9 +531,14 @@ static int walk_tree(lc_walk *w)
     prepare(w);
     w->stack[0] = qt->root, w->stack_t[0] = 0.0f;
     if (w->q->kind == LC_SHAPE_CAST && w->mode == LOCD_HIT_CLOSEST)
-        walk_cast(w, 1);
+        (lanes_of(w) == LANES_CAST ? walk_closest : walk_closest_exact)(w);
     else
-        walk_overlap(w, 1);
+        switch (lanes_of(w)) {
+        case LANES_BOX: walk_box(w); break;
+        case LANES_SPHERE: walk_sphere(w); break;
+        case LANES_CAST: walk_cast_all(w); break;
+        default: walk_exact(w); break;
+        }
     return !w->failed;
 }
 
