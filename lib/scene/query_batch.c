@@ -117,6 +117,14 @@ static void hits_empty(locd_hits *h)
 
 /* ---- the batch ---- */
 
+/* A thread's hits (every-hit batches): its chunks' hits in the order it
+ * ran them; a line of its own (the threads write theirs at the end). */
+typedef struct thread_run {
+    lc_hit *hit;
+    size_t n, cap;
+    char pad[64 - sizeof(lc_hit *) - 2 * sizeof(size_t)];
+} thread_run;
+
 /* One batch: its queries (arrays as given), their kind, the filter. */
 typedef struct batch {
     const locd_scene *s;
@@ -125,14 +133,12 @@ typedef struct batch {
     const double *num;          /* max_t or radii */
     size_t n;
     uint32_t mode;
-    const locd_query_filter *filter;
+    const locd_query_filter *filter; /* (checked) */
     int one;                    /* one entry a query (closest, any) */
     locd_hits *out;
     size_t next;                /* the next chunk (atomic) */
     uint64_t *count;            /* every hit: per query */
-    lc_walk walk[LC_MAX_THREADS];
-    lc_hit *run[LC_MAX_THREADS]; /* every hit: each thread's chunks' hits, in the order it ran them */
-    size_t nrun[LC_MAX_THREADS], run_cap[LC_MAX_THREADS];
+    thread_run run[LC_MAX_THREADS];
     size_t *chunk_at;           /* every hit: the chunk's first hit in its thread's run */
     uint8_t *chunk_by;          /* and the thread */
     int failed;
@@ -152,28 +158,28 @@ static locd_status shape_of(const batch *b, size_t k, lc_shape *q)
     return lc_shape_cast(q, v, b->box, lc_widen((const char *)b->d + vb * 3 * k, b->f32, td, 3), b->num[k], k);
 }
 
-/* A thread's hits of one query appended to its run. 0 on no memory. */
-static int keep(batch *b, uint32_t t, const lc_walk *w)
+/* A walk's hits appended to its thread's run r. 0 on no memory. */
+static int keep(const locd_allocator *a, thread_run *r, const lc_walk *w)
 {
-    if (b->nrun[t] + w->nhit > b->run_cap[t]) {
-        const size_t cap = lc_grow_cap(b->run_cap[t], b->nrun[t] + w->nhit);
-        lc_hit *r = lc_alloc(b->s->alloc, cap * sizeof *r);
-        if (!r)
+    if (r->n + w->nhit > r->cap) {
+        const size_t cap = lc_grow_cap(r->cap, r->n + w->nhit);
+        lc_hit *h = lc_alloc(a, cap * sizeof *h);
+        if (!h)
             return 0;
-        if (b->nrun[t])
-            memcpy(r, b->run[t], b->nrun[t] * sizeof *r);
-        lc_free(b->s->alloc, b->run[t], b->run_cap[t] * sizeof *r);
-        b->run[t] = r, b->run_cap[t] = cap;
+        if (r->n)
+            memcpy(h, r->hit, r->n * sizeof *h);
+        lc_free(a, r->hit, r->cap * sizeof *h);
+        r->hit = h, r->cap = cap;
     }
-    memcpy(b->run[t] + b->nrun[t], w->hit, w->nhit * sizeof *w->hit);
-    b->nrun[t] += w->nhit;
+    memcpy(r->hit + r->n, w->hit, w->nhit * sizeof *w->hit);
+    r->n += w->nhit;
     return 1;
 }
 
-/* Query k on thread t: its best hit into the result, or its hits to the run. */
-static int one_query(batch *b, uint32_t t, size_t k)
+/* Query k on a thread's walk: its best hit into the result, or its hits
+ * to the thread's run. 0 on no memory. */
+static int one_query(batch *b, lc_walk *w, thread_run *r, size_t k)
 {
-    lc_walk *w = &b->walk[t];
     lc_shape q;
     shape_of(b, k, &q); /* (checked before the run) */
     w->q = &q;
@@ -185,25 +191,35 @@ static int one_query(batch *b, uint32_t t, size_t k)
     }
     lc_walk_sort(w);
     b->count[k] = w->nhit;
-    return keep(b, t, w);
+    return keep(b->s->alloc, r, w);
 }
 
-static void task_batch(void *arg, uint32_t t, uint32_t k)
+/* A thread's part: chunks taken until none is left. Its walk and its run
+ * are its own until the end (no line shared with another thread's). */
+static void task_batch(void *arg, uint32_t t, uint32_t nthreads)
 {
     batch *b = arg;
+    thread_run r = b->run[t];
+    lc_walk w;
+    lc_shape none;
     size_t c;
-    (void)k;
+    (void)nthreads;
+    none.kind = b->kind;
+    lc_walk_init(&w, b->s, &none, b->mode, b->filter, ~(uint64_t)0); /* (the filter was checked) */
     while ((c = __atomic_fetch_add(&b->next, 1, __ATOMIC_RELAXED)) * LC_BATCH_CHUNK < b->n) {
         const size_t first = c * LC_BATCH_CHUNK, end = first + LC_BATCH_CHUNK < b->n ? first + LC_BATCH_CHUNK : b->n;
         size_t q;
         if (!b->one)
-            b->chunk_at[c] = b->nrun[t], b->chunk_by[c] = (uint8_t)t;
+            b->chunk_at[c] = r.n, b->chunk_by[c] = (uint8_t)t;
         for (q = first; q < end; q++)
-            if (!one_query(b, t, q)) {
+            if (!one_query(b, &w, &r, q)) {
                 __atomic_store_n(&b->failed, 1, __ATOMIC_RELAXED);
-                return;
+                goto done;
             }
     }
+done:
+    lc_walk_fini(b->s->alloc, &w);
+    b->run[t] = r;
 }
 
 /* The chunks' hits, in query order, into the result. */
@@ -220,7 +236,7 @@ static locd_status lay_out(batch *b)
         return st;
     for (c = 0; c < nchunks; c++) {
         const size_t first = c * LC_BATCH_CHUNK, end = first + LC_BATCH_CHUNK < b->n ? first + LC_BATCH_CHUNK : b->n;
-        const lc_hit *r = b->run[b->chunk_by[c]] + b->chunk_at[c];
+        const lc_hit *r = b->run[b->chunk_by[c]].hit + b->chunk_at[c];
         for (k = h->offsets[first]; k < h->offsets[end]; k++, r++)
             h->ids[k] = r->id, h->t[k] = r->t;
     }
@@ -233,27 +249,24 @@ static void batch_fini(batch *b)
     const locd_allocator *a = b->s->alloc;
     const size_t nchunks = (b->n + LC_BATCH_CHUNK - 1) / LC_BATCH_CHUNK;
     uint32_t t;
-    for (t = 0; t < LC_MAX_THREADS; t++) {
-        lc_walk_fini(a, &b->walk[t]);
-        lc_free(a, b->run[t], b->run_cap[t] * sizeof *b->run[t]);
-    }
+    for (t = 0; t < LC_MAX_THREADS; t++)
+        lc_free(a, b->run[t].hit, b->run[t].cap * sizeof *b->run[t].hit);
     lc_free(a, b->count, (b->n ? b->n : 1) * sizeof *b->count);
     lc_free(a, b->chunk_at, (nchunks ? nchunks : 1) * sizeof *b->chunk_at);
     lc_free(a, b->chunk_by, (nchunks ? nchunks : 1) * sizeof *b->chunk_by);
 }
 
-/* The walks (one a thread), the scratch, the result's room. */
-static locd_status batch_prepare(batch *b, uint32_t k)
+/* The filter checked; the scratch and the result's room. */
+static locd_status batch_prepare(batch *b)
 {
     const locd_allocator *a = b->s->alloc;
     const size_t nchunks = (b->n + LC_BATCH_CHUNK - 1) / LC_BATCH_CHUNK;
+    lc_walk w;
     lc_shape none;
     locd_status st;
-    uint32_t t;
-    memset(&none, 0, sizeof none);
-    for (t = 0; t < k; t++)
-        if ((st = lc_walk_init(&b->walk[t], b->s, &none, b->mode, b->filter, ~(uint64_t)0)) != LOCD_OK)
-            return st;
+    none.kind = b->kind;
+    if ((st = lc_walk_init(&w, b->s, &none, b->mode, b->filter, ~(uint64_t)0)) != LOCD_OK)
+        return st;
     if ((st = hits_room(b->out, b->n, b->one ? b->n : 0)) != LOCD_OK)
         return st;
     if (b->one)
@@ -273,7 +286,7 @@ static locd_status batch_run(batch *b)
     const int pool = b->s->threads > 1 && b->n >= LC_BATCH_SPLIT && lc_engine_acquire(e);
     const uint32_t k = pool ? b->s->threads : 1;
     locd_status st;
-    if ((st = batch_prepare(b, k)) == LOCD_OK) {
+    if ((st = batch_prepare(b)) == LOCD_OK) {
         if (pool)
             lc_pool_run(b->s->pool, k, task_batch, b);
         else
