@@ -17,6 +17,8 @@
 /* From this share of changed objects (1/2^k of the tree's) the sync writes
  * every lane again instead of the changed ones. */
 #define LC_QT_FULL_SHIFT 3
+/* A full refit asks for the boxes of the node this far ahead. */
+#define LC_QT_AHEAD 8
 
 void lc_query_tree_init(lc_query_tree *t)
 {
@@ -147,23 +149,36 @@ static double area_of(const float lo[3], const float hi[3])
 }
 
 /* Writes node i's union into its parent's lane; returns the change of the
- * lane's area (for the leaves' sum). */
-static double lift(lc_query_tree *t, uint32_t i)
+ * lane's area (for the leaves' sum); *changed: whether the lane did. */
+static double lift(lc_query_tree *t, uint32_t i, int *changed)
 {
     const lc_qt_node *nd = &t->node[i];
     float lo[3], hi[3], olo[3], ohi[3];
     lc_qt_node *p;
     uint32_t lane;
     int a;
+    *changed = 0;
     if (nd->parent == LC_QT_NONE)
         return 0.0;
     p = &t->node[nd->parent >> 2], lane = nd->parent & 3u;
     node_union(nd, lo, hi);
     for (a = 0; a < 3; a++) {
         olo[a] = p->lo[a][lane], ohi[a] = p->hi[a][lane];
+        *changed |= olo[a] != lo[a] || ohi[a] != hi[a];
         p->lo[a][lane] = lo[a], p->hi[a][lane] = hi[a];
     }
     return area_of(lo, hi) - area_of(olo, ohi);
+}
+
+/* Node i's union into its parent, and on up while a lane changes (an
+ * ancestor whose lane stayed holds what it held). */
+static void lift_up(lc_query_tree *t, uint32_t i)
+{
+    int changed = 1;
+    while (changed && t->node[i].parent != LC_QT_NONE) {
+        t->area += lift(t, i, &changed);
+        i = t->node[i].parent >> 2;
+    }
 }
 
 /* ---- the build ---- */
@@ -334,8 +349,9 @@ static uint32_t make_node(builder *bd, size_t b, size_t e, uint32_t parent, uint
             t->where[bd->order[cut[k]]] = i << 2 | k;
         } else {
             const uint32_t c = make_node(bd, cut[k], cut[k + 1], i << 2 | k, depth + 1);
+            int changed;
             t->node[i].child[k] = c;
-            t->area += lift(t, c);
+            t->area += lift(t, c, &changed);
         }
     }
     return i;
@@ -439,9 +455,8 @@ LC_INLINE int live(const lc_slots *sl, uint32_t slot)
 }
 
 /* One changed slot: its lane written again (cleared when it holds no
- * object now), or the extra list told; a node whose lane changed goes on
- * the dirty list (once). */
-static void take_change(const lc_slots *sl, lc_query_tree *t, uint32_t slot, uint32_t *dirty, size_t *ndirty)
+ * object now) and lifted into its ancestors, or the extra list told. */
+static void take_change(const lc_slots *sl, lc_query_tree *t, uint32_t slot)
 {
     const uint32_t w = t->where[slot];
     lc_qt_node *nd;
@@ -462,35 +477,33 @@ static void take_change(const lc_slots *sl, lc_query_tree *t, uint32_t slot, uin
         lane_clear(nd, w & 3u);
         t->where[slot] = LC_QT_NONE;
     }
-    if (!nd->dirty) {
-        nd->dirty = 1;
-        dirty[(*ndirty)++] = w >> 2;
-    }
+    lift_up(t, w >> 2);
 }
 
-static int cmp_desc(const void *pa, const void *pb)
-{
-    const uint32_t a = *(const uint32_t *)pa, b = *(const uint32_t *)pb;
-    return (a < b) - (a > b);
-}
+/* How far ahead the sync asks for what it reads: the changed objects'
+ * places, boxes and leaves are scattered over arrays far larger than the
+ * caches (a sync waited on each in turn). */
+#define LC_QT_FAR 16
+#define LC_QT_NEAR 8
 
-/* The dirty nodes' bounds into their parents: with every ancestor (once),
- * from the last index down, so that a node comes after its children (they
- * follow it in the array). */
-static void refit_dirty(lc_query_tree *t, uint32_t *dirty, size_t n)
+/* take_change for each slot of list[0, n), each read asked for ahead. */
+static void take_changes(const lc_slots *sl, lc_query_tree *t, const uint32_t *list, size_t n)
 {
     size_t k;
     for (k = 0; k < n; k++) {
-        const uint32_t p = t->node[dirty[k]].parent;
-        if (p != LC_QT_NONE && !t->node[p >> 2].dirty) {
-            t->node[p >> 2].dirty = 1;
-            dirty[n++] = p >> 2;
+        if (k + LC_QT_FAR < n)
+            __builtin_prefetch(&t->where[list[k + LC_QT_FAR]]);
+        if (k + LC_QT_NEAR < n) {
+            const uint32_t slot = list[k + LC_QT_NEAR], w = t->where[slot];
+            __builtin_prefetch(sl->fbox + 6 * (size_t)slot);
+            __builtin_prefetch(&sl->flags[slot]);
+            if (w != LC_QT_NONE && !(w & LC_QT_EXTRA)) {
+                const lc_qt_node *nd = &t->node[w >> 2];
+                __builtin_prefetch(nd);
+                __builtin_prefetch((const char *)nd + 64);
+            }
         }
-    }
-    qsort(dirty, n, sizeof *dirty, cmp_desc);
-    for (k = 0; k < n; k++) {
-        t->area += lift(t, dirty[k]);
-        t->node[dirty[k]].dirty = 0;
+        take_change(sl, t, list[k]);
     }
 }
 
@@ -499,24 +512,12 @@ static void refit_dirty(lc_query_tree *t, uint32_t *dirty, size_t n)
 static locd_status refit_changed(locd_scene *s, lc_query_tree *t, size_t changes)
 {
     const lc_slots *sl = &s->slots;
-    const uint32_t *d = sl->dirty.data, *r = sl->removed.data;
-    uint32_t *dirty = lc_alloc(s->alloc, (t->nnodes ? t->nnodes : 1) * sizeof *dirty);
-    size_t k, n = 0;
     locd_status st;
-    if (!dirty)
-        return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the query tree");
-    if ((st = extra_room(s->alloc, t, changes)) != LOCD_OK) {
-        lc_free(s->alloc, dirty, (t->nnodes ? t->nnodes : 1) * sizeof *dirty);
+    if ((st = extra_room(s->alloc, t, changes)) != LOCD_OK)
         return st;
-    }
-    for (k = 0; k < t->npending; k++)
-        take_change(sl, t, t->pending[k], dirty, &n);
-    for (k = 0; k < sl->ndirty; k++)
-        take_change(sl, t, d[k], dirty, &n);
-    for (k = 0; k < sl->nremoved; k++)
-        take_change(sl, t, r[k], dirty, &n);
-    refit_dirty(t, dirty, n);
-    lc_free(s->alloc, dirty, (t->nnodes ? t->nnodes : 1) * sizeof *dirty);
+    take_changes(sl, t, t->pending, t->npending);
+    take_changes(sl, t, sl->dirty.data, sl->ndirty);
+    take_changes(sl, t, sl->removed.data, sl->nremoved);
     return LOCD_OK;
 }
 
@@ -529,7 +530,11 @@ static locd_status refit_all(locd_scene *s, lc_query_tree *t)
     size_t i, k;
     uint32_t lane;
     locd_status st;
-    for (i = 0; i < t->nnodes; i++)
+    for (i = 0; i < t->nnodes; i++) {
+        if (i + LC_QT_AHEAD < t->nnodes) /* the boxes of a node ahead asked for (they are scattered) */
+            for (lane = 0; lane < LC_QT_WIDTH; lane++)
+                if (t->node[i + LC_QT_AHEAD].objects & (1u << lane))
+                    __builtin_prefetch(sl->fbox + 6 * (size_t)t->node[i + LC_QT_AHEAD].child[lane]);
         for (lane = 0; lane < LC_QT_WIDTH; lane++) {
             lc_qt_node *nd = &t->node[i];
             if (!(nd->objects & (1u << lane)))
@@ -541,6 +546,7 @@ static locd_status refit_all(locd_scene *s, lc_query_tree *t)
                 lane_clear(nd, lane);
             }
         }
+    }
     for (k = t->nextra; k-- > 0;)
         if (!live(sl, t->extra[k]))
             extra_remove(t, (uint32_t)k);
@@ -550,8 +556,10 @@ static locd_status refit_all(locd_scene *s, lc_query_tree *t)
                 return st;
             extra_add(t, (uint32_t)k);
         }
-    for (i = t->nnodes; i-- > 0;) /* a node's children follow it in the array */
-        t->area += lift(t, (uint32_t)i);
+    for (i = t->nnodes; i-- > 0;) { /* a node's children follow it in the array */
+        int changed;
+        t->area += lift(t, (uint32_t)i, &changed);
+    }
     return LOCD_OK;
 }
 

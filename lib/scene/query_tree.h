@@ -21,7 +21,8 @@
 
 /* A node: the bounds of its four lanes (floats rounded outward, so they
  * hold the boxes; an empty lane +inf..-inf), what each lane holds (a node
- * or, with its bit in `objects`, an object's slot), the parent's lane. */
+ * or, with its bit in `objects`, an object's slot), the parent's lane.
+ * Two cache lines. */
 typedef struct lc_qt_node {
     float lo[3][LC_QT_WIDTH], hi[3][LC_QT_WIDTH];
     uint32_t child[LC_QT_WIDTH];
@@ -29,7 +30,7 @@ typedef struct lc_qt_node {
     uint8_t objects;  /* bit k: lane k holds an object */
     uint8_t inexact;  /* bit k: lane k's object's box is not floats exactly (test its doubles) */
     uint8_t level;    /* 0: a leaf (its lanes hold objects) */
-    uint8_t dirty;    /* a refit is to recompute this node's bounds in its parent */
+    uint8_t pad8;
     uint32_t pad[2];
 } lc_qt_node;
 typedef char lc_qt_node_is_128_bytes[sizeof(lc_qt_node) == 128 ? 1 : -1];
