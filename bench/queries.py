@@ -102,10 +102,12 @@ def run_grid(args, exe, jolt, locd, results):
 
 def load(results):
     """{(kind, n, state, query): {system: median us}}, setup ms {(kind, n, system)}, batch rows."""
-    cells, setup, batch = {}, {}, {}
+    cells, setup, batch, frames = {}, {}, {}, {}
     for text in (results / "queries.jsonl").read_text().splitlines():
         ln = json.loads(text)
-        if ln.get("batch"):
+        if ln.get("setup") == "frame":
+            frames.setdefault((ln["kind"], ln["n"]), []).append((ln["update_ms"], ln["sync_ms"]))
+        elif ln.get("batch"):
             batch.setdefault((ln["query"], ln["n"], ln["threads"]), []).append(ln["us"])
         elif "setup" in ln:
             setup.setdefault((ln["kind"], ln["n"], ln["system"]), []).append(ln["ms"])
@@ -119,7 +121,8 @@ def load(results):
         med[key]["_sums"] = {s: vals[-1][2] for s, vals in systems.items()}
     setup = {k: statistics.median(v) for k, v in setup.items()}
     batch = {k: statistics.median(v) for k, v in batch.items()}
-    return med, setup, batch
+    frames = {k: (statistics.median(u for u, _ in v), statistics.median(x for _, x in v)) for k, v in frames.items()}
+    return med, setup, batch, frames
 
 
 def fmt_us(us):
@@ -171,7 +174,7 @@ def goals(med):
 
 
 def report(args, results, img_dir, meta):
-    med, setup, batch = load(results)
+    med, setup, batch, frames = load(results)
     L = ["## Queries: rays and boxes", ""]
     L.append("What a ray or a box meets, one query at a time on one thread: locd's scene "
              "(`locd_scene_cast_ray_f32`, `locd_scene_overlap_box_f32`; its query tree, "
@@ -198,8 +201,15 @@ def report(args, results, img_dir, meta):
     L.append("### After %d frames of 1%% of the boxes moving" % FRAMES)
     L.append("")
     L.append("The boxes moved, every system told (locd: `locd_scene_move_f32` and `locd_scene_update` each "
-             "frame; Bullet: `setAabb`; FCL: `update`); the first query after the frames brings locd's tree up "
-             "to date (refits the moved boxes' leaves), outside the timed queries.")
+             "frame, then `locd_scene_prepare_queries`, as a game that queries every frame; Bullet: `setAabb`; "
+             "FCL: `update`). The tree's sync (its moved lanes written again and lifted into their ancestors) is "
+             "outside the timed queries; what it costs per frame, beside the update's own time (medians over the "
+             "frames, 1 thread for the sync, the engine's 2 for the update):")
+    L.append("")
+    L.append("| scene | n | update, ms | query tree sync, ms |")
+    L.append("|---|---|---|---|")
+    for (kind, n), (u, x) in sorted(frames.items()):
+        L.append("| %s | %s | %.3f | %.3f |" % (kind, bench_run.fmt_n(n), u, x))
     L.append("")
     L += table(med, "frames", ["locd", "bullet_dbvt", "fcl_dynamic_aabb_tree"])
     L.append("")

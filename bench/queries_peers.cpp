@@ -80,9 +80,15 @@ struct Locd : System {
             mid[k] = ids[m[k]];
             std::memcpy(&b[6 * k], &sc.box[6 * (size_t)m[k]], 6 * sizeof(float));
         }
+        const double a = now_us();
         if (locd_scene_move_f32(s, mid.data(), b.data(), m.size()) || locd_scene_update(s, 0))
             std::abort();
+        const double u = now_us();
+        if (locd_scene_prepare_queries(s)) // as a game that queries every frame: the tree's sync
+            std::abort();
+        update_ms.push_back((u - a) / 1e3), sync_ms.push_back((now_us() - u) / 1e3);
     }
+    std::vector<double> update_ms, sync_ms; // per frame
     // The index of a box from its id: its slot (one batch added them in order).
     static uint32_t index(locd_id id) { return (uint32_t)(id & 0xffffffffu); }
     void one(int kind, const Query &x, uint64_t k, uint64_t &hits, uint64_t &sum)
@@ -455,6 +461,15 @@ int main(int argc, char **argv)
         for (auto &s : sys)
             s->moved(sc, moved);
     }
+    for (auto &s : sys)
+        if (Locd *l = dynamic_cast<Locd *>(s.get()))
+            if (!l->batch && !l->update_ms.empty()) {
+                std::sort(l->update_ms.begin(), l->update_ms.end());
+                std::sort(l->sync_ms.begin(), l->sync_ms.end());
+                std::printf("{\"system\": \"locd\", \"setup\": \"frame\", \"n\": %zu, \"update_ms\": %.3f, "
+                            "\"sync_ms\": %.3f}\n", sc.n, l->update_ms[l->update_ms.size() / 2],
+                            l->sync_ms[l->sync_ms.size() / 2]);
+            }
     const char *state = frames ? "frames" : "first";
     std::vector<Query> q[NQUERY];
     q[RAY_SHORT_ALL] = q[RAY_SHORT_CLOSEST] = draw(sc, nq, 0.05, 11);
