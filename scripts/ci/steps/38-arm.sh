@@ -6,7 +6,8 @@
 # byte for byte and the result with brute force: determinism (every scene
 # kind, both precisions, 1 and 3 threads: NEON against scalar, scalar
 # against brute force), between (the two-set query, every kernel), sweep_buckets
-# (dense cells' buckets, every kernel), blocks
+# (dense cells' buckets, every kernel), blocks, queries (the query tree's
+# node tests on NEON registers, against brute force)
 # (the building blocks against brute force) and the touching-boxes cases of
 # hard_cases. Then the CLI's pairs file of a 100,000-box scene with
 # LOCD_KERNEL=neon must be scalar's, byte for byte.
@@ -30,7 +31,7 @@ echo "cross build: $((t1 - t0)) s"
 aarch64-linux-gnu-nm "$B/lib/liblocd.so" | grep ' scan_neon' >/dev/null || { echo "no NEON kernel in liblocd.so"; exit 1; }
 
 rc=0
-meson test -C "$B" --no-rebuild --print-errorlogs --num-processes "$JOBS" determinism between blocks sweep_buckets || rc=$?
+meson test -C "$B" --no-rebuild --print-errorlogs --num-processes "$JOBS" determinism between blocks sweep_buckets queries || rc=$?
 cp "$B/meson-logs/testlog.junit.xml" "$LOCD_RESULTS/arm.junit.xml"
 LOCD_TEST_FILTER=touching meson test -C "$B" --no-rebuild --print-errorlogs hard_cases || rc=$?
 cp "$B/meson-logs/testlog.junit.xml" "$LOCD_RESULTS/arm-hard.junit.xml"
