@@ -2,6 +2,9 @@
 
 #include <pthread.h>
 #include <stdlib.h>
+#ifdef _WIN32
+#include <malloc.h>
+#endif
 #include <string.h>
 
 /* Each block carries a header with its size and a tag, so a free() with the
@@ -33,8 +36,13 @@ static void *fa_alloc(size_t size, void *user)
     pthread_mutex_unlock(&fa_mu);
     if (fail || size > (size_t)-1 - sizeof *h)
         return NULL;
+#ifdef _WIN32 /* (mingw has no posix_memalign) */
+    if (!(mem = _aligned_malloc(sizeof *h + size, 16)))
+        return NULL;
+#else
     if (posix_memalign(&mem, 16, sizeof *h + size) != 0)
         return NULL;
+#endif
     h = mem;
     h->size = size;
     h->tag = FA_TAG;
@@ -63,7 +71,11 @@ static void fa_free(void *ptr, size_t size, void *user)
     fa_c.live_bytes -= size;
     pthread_mutex_unlock(&fa_mu);
     h->tag = 0;
+#ifdef _WIN32
+    _aligned_free(h);
+#else
     free(h);
+#endif
 }
 
 static const locd_allocator fa_hook = {fa_alloc, fa_free, NULL};
