@@ -171,7 +171,8 @@ static int keep(const locd_allocator *a, thread_run *r, const lc_walk *w)
         lc_free(a, r->hit, r->cap * sizeof *h);
         r->hit = h, r->cap = cap;
     }
-    memcpy(r->hit + r->n, w->hit, w->nhit * sizeof *w->hit);
+    if (w->nhit) /* (a run with no hits yet has no array) */
+        memcpy(r->hit + r->n, w->hit, w->nhit * sizeof *w->hit);
     r->n += w->nhit;
     return 1;
 }

@@ -82,8 +82,10 @@ void lc_query_tree_note_update(locd_scene *s)
         lc_free(s->alloc, t->pending, t->pending_cap * sizeof *t->pending);
         t->pending = p, t->pending_cap = cap;
     }
-    memcpy(t->pending + t->npending, sl->dirty.data, sl->ndirty * sizeof *t->pending);
-    memcpy(t->pending + t->npending + sl->ndirty, sl->removed.data, sl->nremoved * sizeof *t->pending);
+    if (sl->ndirty) /* (an empty list may have no array) */
+        memcpy(t->pending + t->npending, sl->dirty.data, sl->ndirty * sizeof *t->pending);
+    if (sl->nremoved)
+        memcpy(t->pending + t->npending + sl->ndirty, sl->removed.data, sl->nremoved * sizeof *t->pending);
     t->npending += more;
 }
 
