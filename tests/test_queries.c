@@ -485,6 +485,7 @@ static void hard_cases(void)
             {3, 3, 1, 0, 0, 0, 0, 1},    {2, 2, 2, 0, 0, 0, 0, 1},    {0, 0, 0, 0, 0, 0, 0, 1},
             {2, 2, 1, 1, 1, 1, 0, 2},    {2.5, 2.5, 1.5, 0, 0, 0, 0.5, 2},
             {1e7, 1e7, 1e7 - 1, 0, 0, 1, 1, 3},
+            {0.5, 0.5, -5, 0, 0, 1e-310, INFINITY, 3}, /* every entry time overflows to +inf: still hits */
         };
         size_t c;
         uint32_t mode;

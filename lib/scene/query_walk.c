@@ -368,7 +368,8 @@ static int take(lc_walk *w, uint32_t slot, double t)
         put_hit(w, t, id);
         return w->failed;
     }
-    if (t < w->best.t || (t == w->best.t && id < w->best.id))
+    /* (the first hit is taken even at t = +inf: a time can overflow) */
+    if (w->best.id == LOCD_ID_NONE || t < w->best.t || (t == w->best.t && id < w->best.id))
         w->best.t = t, w->best.id = id;
     return w->mode == LOCD_HIT_ANY;
 }
