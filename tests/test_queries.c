@@ -486,6 +486,7 @@ static void hard_cases(void)
             {2, 2, 1, 1, 1, 1, 0, 2},    {2.5, 2.5, 1.5, 0, 0, 0, 0.5, 2},
             {1e7, 1e7, 1e7 - 1, 0, 0, 1, 1, 3},
             {0.5, 0.5, -5, 0, 0, 1e-310, INFINITY, 3}, /* every entry time overflows to +inf: still hits */
+            {2, 2, 2, 0, 0, 0, 1e300, 2}, {2, 2, 2, 0, 0, 0, INFINITY, 2}, /* r*r overflows: every object */
         };
         size_t c;
         uint32_t mode;

@@ -23,7 +23,12 @@
  *
  * Batches: a call that fails changes nothing (the whole batch is rejected);
  * locd_last_error_index() names the first bad position in the batch and
- * locd_last_error() says what is wrong with it.
+ * locd_last_error() says what is wrong with it. One exception: a batch whose
+ * count n no scene could hold (add: beyond 2^32 - 1 objects; move, remove,
+ * set_filter, set_user: more ids than the scene has objects, so one must be
+ * stale or repeated) fails with LOCD_ERR_TOO_MANY_OBJECTS and index -1
+ * before its arrays are read (such an n is usually a caller's bug, and the
+ * arrays may not be that long).
  *
  * Threads: one thread at a time may change or update a scene. Queries only
  * read: several threads may query at once while nobody changes the scene.

@@ -101,12 +101,19 @@ static locd_status check_position(locd_scene *s, const locd_id *ids, const void 
     return LOCD_OK;
 }
 
+locd_status lc_scene_check_count(const locd_scene *s, size_t n)
+{
+    if (n > s->slots.live) /* such a batch repeats or names a stale id; its arrays may be shorter */
+        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu ids, more than the scene's %zu objects", n, s->slots.live);
+    return LOCD_OK;
+}
+
 locd_status lc_scene_check_batch(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t n)
 {
     size_t k;
     locd_status st;
-    if (n > s->slots.live) /* before any read: such a batch repeats or names a stale id */
-        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu ids, more than the scene's %zu objects", n, s->slots.live);
+    if ((st = lc_scene_check_count(s, n)) != LOCD_OK)
+        return st;
     if (n && !ids)
         return lc_error(LOCD_ERR_NULL_POINTER, "ids is NULL");
     new_stamp(&s->slots);

@@ -38,6 +38,8 @@ locd_status lc_scene_check_boxes_f64(const double *boxes, size_t n);
  * doubles), each position's box too. n above the live objects is refused
  * before any read. */
 locd_status lc_scene_check_batch(locd_scene *s, const locd_id *ids, const void *boxes, int f64, size_t n);
+/* n ids no more than the live objects (checked before any read). */
+locd_status lc_scene_check_count(const locd_scene *s, size_t n);
 locd_status lc_scene_check_ids(locd_scene *s, const locd_id *ids, size_t n);
 /* Every id live (duplicates allowed: for reads). */
 locd_status lc_scene_check_ids_live(const locd_scene *s, const locd_id *ids, size_t n);

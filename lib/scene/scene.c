@@ -169,8 +169,8 @@ static locd_status move_common(locd_scene *s, const locd_id *ids, const void *bo
     size_t i;
     if ((st = lc_scene_check_handle(s)) != LOCD_OK)
         return st;
-    if (n > s->slots.live) /* before any read: such a batch repeats or names a stale id */
-        return lc_error(LOCD_ERR_TOO_MANY_OBJECTS, "%zu ids, more than the scene's %zu objects", n, s->slots.live);
+    if ((st = lc_scene_check_count(s, n)) != LOCD_OK)
+        return st;
     if (n && !boxes)
         return lc_error(LOCD_ERR_NULL_POINTER, "boxes is NULL");
     s->slots.epoch++; /* (a move of every object in slot order hands over what it finds) */
