@@ -29,15 +29,16 @@ names the query in its batch (0 for a single query).
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import operator
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, Iterator, Optional, Tuple
 
 import numpy as np
 
-from . import _core
+from . import _core, _errors
 from ._errors import STATUS as _STATUS
-from ._errors import DuplicateIdError, InvalidBoxError, InvalidQueryError, StaleIdError
+from ._errors import DuplicateIdError, InvalidArgumentError, InvalidBoxError, InvalidQueryError, StaleIdError
 
 __all__ = ["Scene", "SceneUpdate", "StaleIdError", "DuplicateIdError", "InvalidQueryError", "ALL"]
 
@@ -224,11 +225,15 @@ class Scene:
     def move(self, ids: Any, boxes: Any) -> None:
         """Gives object ids[k] the box boxes[k]."""
         i = _u64_array("ids", ids)
-        self._core.move(i, self._boxes(boxes, len(i)))
+        b = self._boxes(boxes, len(i))
+        with self._first_bad_position(i, b):
+            self._core.move(i, b)
 
     def remove(self, ids: Any) -> None:
         """Removes the objects; their pairs are lost pairs at the next update."""
-        self._core.remove(_u64_array("ids", ids))
+        i = _u64_array("ids", ids)
+        with self._first_bad_position(i):
+            self._core.remove(i)
 
     def set_filter(self, ids: Any, *, category: Any = None, mask: Any = None, group: Any = None) -> None:
         """Sets category, mask and/or group (None keeps it) of the objects: scalars or n values."""
@@ -241,17 +246,58 @@ class Scene:
             s, arr = _attribute(name, v, n)
             return arr if arr is not None else np.full(n, s, dtype=np.uint64)
 
-        self._core.set_filter(i, values("category", category), values("mask", mask), values("group", group))
+        c, m, g = values("category", category), values("mask", mask), values("group", group)
+        with self._first_bad_position(i):
+            self._core.set_filter(i, c, m, g)
 
     def set_user(self, ids: Any, user: Any) -> None:
         """Sets the user values of the objects (a scalar or n values)."""
         i = _u64_array("ids", ids)
         s, arr = _attribute("user", user, len(i))
-        self._core.set_user(i, arr if arr is not None else np.full(len(i), s, dtype=np.uint64))
+        users = arr if arr is not None else np.full(len(i), s, dtype=np.uint64)
+        with self._first_bad_position(i):
+            self._core.set_user(i, users)
 
     def user(self, ids: Any) -> np.ndarray:
         """The user values of the objects, as a uint64 array."""
         return self._core.get_user(_u64_array("ids", ids))
+
+    @contextlib.contextmanager
+    def _first_bad_position(self, ids: np.ndarray, boxes: Optional[np.ndarray] = None) -> Iterator[None]:
+        """The library refuses a batch of more ids than the scene holds objects before it reads the
+        batch (LOCD_ERR_TOO_MANY_OBJECTS, no index): such a batch names a stale id or an id twice.
+        This names its first bad position as for any other bad batch (StaleIdError,
+        DuplicateIdError or, for a move, InvalidBoxError, each with ``.index``), in the library's
+        order for a position: the id stale, the id earlier in the batch, the box bad."""
+        try:
+            yield
+        except InvalidArgumentError as e:
+            if e.name != "ERR_TOO_MANY_OBJECTS":
+                raise
+            n = len(ids)
+            seen = np.ones(n, dtype=bool)
+            seen[np.unique(ids, return_index=True)[1]] = False
+            at_dup = int(np.argmax(seen)) if seen.any() else n
+            try:
+                self._core.get_user(ids)  # names the first stale id (it reads any number of ids)
+                stale = None
+            except StaleIdError as s:
+                stale = s
+            at_stale = stale.index if stale is not None else n
+            at_box, box_status = n, ""
+            if boxes is not None:
+                nonfinite = ~np.isfinite(boxes).all(axis=1)
+                bad = np.flatnonzero(nonfinite | (boxes[:, :3] > boxes[:, 3:]).any(axis=1))
+                if len(bad):
+                    at_box = int(bad[0])
+                    box_status = "ERR_NONFINITE" if nonfinite[at_box] else "ERR_INVERTED_BOX"
+            at = min(at_stale, at_dup, at_box)
+            if at == n:  # (nothing found: another thread changed the scene meanwhile)
+                raise
+            if at == at_stale:
+                raise stale from None
+            status = "ERR_DUPLICATE_ID" if at == at_dup else box_status
+            raise _errors.from_status(_STATUS[status], "", e.detail, at) from None
 
     # -- update ---------------------------------------------------------------
     def update(self) -> SceneUpdate:
