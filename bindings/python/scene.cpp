@@ -33,6 +33,26 @@ namespace {
     locd_py_raise(status, locd_last_error(), static_cast<long long>(locd_last_error_index()));
 }
 
+// The same for a failed query: bad input raises locd.InvalidQueryError, naming the query.
+[[noreturn]] void query_raise(locd_status status)
+{
+    const std::string detail = locd_last_error();
+    const long long index = static_cast<long long>(locd_last_error_index());
+    py::object exc = py::module_::import("locd._errors")
+                         .attr("from_status")(status, locd_status_string(status), detail, index, true);
+    PyErr_SetObject(reinterpret_cast<PyObject *>(Py_TYPE(exc.ptr())), exc.ptr());
+    throw py::error_already_set();
+}
+
+// Using a closed scene: locd.ClosedError (a ValueError), as for a closed engine.
+[[noreturn]] void raise_closed()
+{
+    py::object exc = py::module_::import("locd._errors")
+                         .attr("ClosedError")(static_cast<int>(LOCD_ERR_INVALID_HANDLE), "the scene is closed");
+    PyErr_SetObject(reinterpret_cast<PyObject *>(Py_TYPE(exc.ptr())), exc.ptr());
+    throw py::error_already_set();
+}
+
 // An (n,) or (n, 6) etc. array as (pointer, element count), checked to be
 // C-contiguous and of the expected item size (locd/scene.py converts).
 template <typename T> const T *ptr_of(const py::array &a, const char *what)
@@ -351,7 +371,7 @@ private:
             }
             locd_hits_destroy(h);
         }
-        check(st);
+        check(st, true);
         py::array_t<uint64_t> ids_out(static_cast<py::ssize_t>(ids.size()));
         if (!ids.empty())
             std::memcpy(ids_out.mutable_data(), ids.data(), ids.size() * sizeof(locd_id));
@@ -359,11 +379,13 @@ private:
         if (!ts.empty())
             std::memcpy(t_out.mutable_data(), ts.data(), ts.size() * sizeof(double));
         if (cast && mode != LOCD_HIT_ALL)
-            return py::make_tuple(ids_out, t_out);
+            return py::tuple(py::make_tuple(ids_out, t_out));
         py::array_t<int64_t> off_out(static_cast<py::ssize_t>(off.size()));
         for (size_t k = 0; k < off.size(); k++)
             off_out.mutable_data()[k] = static_cast<int64_t>(off[k]);
-        return cast ? py::make_tuple(off_out, ids_out, t_out) : py::make_tuple(off_out, ids_out);
+        if (cast)
+            return py::tuple(py::make_tuple(off_out, ids_out, t_out));
+        return py::tuple(py::make_tuple(off_out, ids_out));
     }
 
     // Runs one C call on the scene without the GIL, under the lock; raises on
@@ -404,15 +426,19 @@ private:
                 cap = m;
             }
         }
-        check(st);
+        check(st, true);
     }
 
-    void check(locd_status st)
+    // Raises for a failed call (query: a query's, whose bad input names the query).
+    void check(locd_status st, bool query = false)
     {
         if (st == LOCD_ERR_INVALID_HANDLE && !scene_)
-            throw py::value_error("the scene is closed");
-        if (st != LOCD_OK)
+            raise_closed();
+        if (st != LOCD_OK) {
+            if (query)
+                query_raise(st);
             scene_raise(st);
+        }
     }
 
     locd_engine *engine_ = nullptr;

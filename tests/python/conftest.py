@@ -1,5 +1,7 @@
 """Shared helpers for the Python tests of locd (run against the *installed* package)."""
 import os
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -51,6 +53,33 @@ def uniform_scene(n, seed=1, dtype=np.float32):
     w = (4.0 * max(n, 1)) ** (-1.0 / 3.0)
     lo = rng.random((n, 3)) * (1 - w)
     return np.ascontiguousarray(np.hstack([lo, lo + w]).astype(dtype))
+
+
+def progress_during(call):
+    """Runs call() while a Python thread records timestamps; returns (the
+    duration of call in s, the longest stretch in the middle 80% of the call
+    during which the thread recorded nothing)."""
+    stamps = []
+    stop = threading.Event()
+
+    def ticker():
+        while not stop.is_set():
+            stamps.append(time.perf_counter())
+            time.sleep(0.0005)  # needs the GIL back to go on
+
+    t = threading.Thread(target=ticker)
+    t.start()
+    while not stamps:
+        time.sleep(0.001)
+    start = time.perf_counter()
+    call()
+    end = time.perf_counter()
+    stop.set()
+    t.join()
+    duration = end - start
+    lo, hi = start + 0.1 * duration, end - 0.1 * duration
+    inside = [lo] + [s for s in stamps if lo <= s <= hi] + [hi]
+    return duration, max(b - a for a, b in zip(inside, inside[1:]))
 
 
 @pytest.fixture

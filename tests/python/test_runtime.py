@@ -1,6 +1,4 @@
 """Zero-copy input and GIL release, each checked with a negative control so the check can fail."""
-import threading
-import time
 import tracemalloc
 
 import numpy as np
@@ -8,7 +6,7 @@ import pytest
 
 import locd
 import locd.abi
-from conftest import uniform_scene
+from conftest import progress_during, uniform_scene
 
 MODULES = [pytest.param(locd.find_pairs, id="pybind11"), pytest.param(locd.abi.find_pairs, id="cffi")]
 
@@ -67,33 +65,6 @@ def test_c_receives_the_numpy_buffer_itself():
 
 
 # -- GIL ------------------------------------------------------------------------------
-def progress_during(call):
-    """Runs call() while a Python thread records timestamps; returns (the
-    duration of call in s, the longest stretch in the middle 80% of the call
-    during which the thread recorded nothing)."""
-    stamps = []
-    stop = threading.Event()
-
-    def ticker():
-        while not stop.is_set():
-            stamps.append(time.perf_counter())
-            time.sleep(0.0005)  # needs the GIL back to go on
-
-    t = threading.Thread(target=ticker)
-    t.start()
-    while not stamps:
-        time.sleep(0.001)
-    start = time.perf_counter()
-    call()
-    end = time.perf_counter()
-    stop.set()
-    t.join()
-    duration = end - start
-    lo, hi = start + 0.1 * duration, end - 0.1 * duration
-    inside = [lo] + [s for s in stamps if lo <= s <= hi] + [hi]
-    return duration, max(b - a for a, b in zip(inside, inside[1:]))
-
-
 @pytest.mark.parametrize("find", MODULES)
 def test_gil_is_released_during_the_call(find):
     # 2e6 boxes: one thread's find of 1e6 took 49 ms on an AMD EPYC (AVX-512), under the 50 ms below

@@ -617,10 +617,9 @@ def test_cffi_declares_the_scene():
 
 
 def test_scene_calls_release_the_gil():
-    """Another Python thread keeps running during add and update (test_runtime.py's detector,
-    whose negative control shows it sees a call that holds the GIL)."""
-    from conftest import uniform_scene
-    from test_runtime import progress_during
+    """Another Python thread keeps running during add and update (conftest.py's detector, whose
+    negative control in test_runtime.py shows it sees a call that holds the GIL)."""
+    from conftest import progress_during, uniform_scene
 
     boxes = uniform_scene(300_000, seed=5)
     with locd.Scene(threads=1) as scene:
@@ -630,3 +629,38 @@ def test_scene_calls_release_the_gil():
         duration, gap = progress_during(scene.update)
         assert duration > 0.02, "the update is too short to tell (%.3f s)" % duration
         assert gap < 0.5 * duration, "update: no Python progress for %.3f s of a %.3f s call" % (gap, duration)
+
+
+def test_batches_longer_than_the_scene_name_their_first_bad_position():
+    """A batch of more ids than the scene holds must name a stale id or an id twice: the error names the
+    first bad position, as for any other bad batch (the library refuses such a batch before reading it),
+    and the scene is unchanged."""
+    scene = locd.Scene()
+    a, b = scene.add([[0, 0, 0, 1, 1, 1], [2, 0, 0, 3, 1, 1]]).tolist()
+    gone = int(scene.add([[5, 5, 5, 6, 6, 6]])[0])
+    scene.remove([gone])
+    before = scene.update().pairs.tolist(), scene.query_box([-9, -9, -9, 9, 9, 9]).tolist()
+    box = [[0, 0, 0, 1, 1, 1]] * 3
+    cases = [
+        (lambda: scene.move([gone, a, b], box), locd.StaleIdError, 0),
+        (lambda: scene.move([a, b, b], box), locd.DuplicateIdError, 2),
+        (lambda: scene.move([a, b, gone], box), locd.StaleIdError, 2),
+        (lambda: scene.move([a, a, b], [[0, 0, 0, 1, 1, 1], [0, 0, math.nan, 1, 1, 1], [0] * 6]),
+         locd.DuplicateIdError, 1),  # the id before the box at a position
+        (lambda: scene.move([a, b, a], [[0, 0, 0, 1, 1, 1], [1, 0, 0, 0, 1, 1], [0] * 6]), locd.InvalidBoxError, 1),
+        (lambda: scene.remove([a, 12345, b]), locd.StaleIdError, 1),
+        (lambda: scene.remove([b, a, b, a]), locd.DuplicateIdError, 2),
+        (lambda: scene.set_filter([a, b, a], category=2), locd.DuplicateIdError, 2),
+        (lambda: scene.set_user([gone, gone, gone], 7), locd.StaleIdError, 0),
+    ]
+    for call, exc, at in cases:
+        with pytest.raises(exc) as e:
+            call()
+        assert type(e.value) is exc and e.value.index == at, (e.value, at)
+        assert ("index %d" % at if exc is not locd.InvalidBoxError else "box %d" % at) in str(e.value)
+    assert (scene.update().pairs.tolist(), scene.query_box([-9, -9, -9, 9, 9, 9]).tolist()) == before
+    assert scene.user([a, b]).tolist() == [0, 0]
+    empty = locd.Scene()
+    with pytest.raises(locd.StaleIdError) as e:
+        empty.remove([1])
+    assert e.value.index == 0

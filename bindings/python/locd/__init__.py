@@ -48,15 +48,16 @@ import numpy as np
 
 from . import _arrays, _core
 from ._errors import (ERRORS, STATUS, AuthError, BusyError, ClosedError, ConnectionFailedError, Error, InternalError,
-                      InvalidArgumentError, InvalidBoxError, IOFailedError, JobCancelledError, LimitError, NoMemoryError,
-                      ProtocolError, ShapeError, UnsupportedError, WaitTimeoutError, WorkerError)
+                      InvalidArgumentError, InvalidBoxError, InvalidQueryError, IOFailedError, JobCancelledError,
+                      LimitError, NoMemoryError, ProtocolError, ShapeError, UnsupportedError, WaitTimeoutError,
+                      WorkerError)
 
 Future = concurrent.futures.Future
 
 __all__ = ["find_pairs", "brute_force", "Engine", "Job", "Service", "Stats", "STATUS", "LEVELS", "__version__",
-           "Error", "ERRORS", "InvalidArgumentError", "InvalidBoxError", "ShapeError", "ClosedError", "NoMemoryError",
-           "BusyError", "UnsupportedError", "WorkerError", "ConnectionFailedError", "IOFailedError", "ProtocolError",
-           "AuthError", "WaitTimeoutError", "JobCancelledError", "LimitError", "InternalError"]
+           "Error", "ERRORS", "InvalidArgumentError", "InvalidBoxError", "InvalidQueryError", "ShapeError", "ClosedError",
+           "NoMemoryError", "BusyError", "UnsupportedError", "WorkerError", "ConnectionFailedError", "IOFailedError",
+           "ProtocolError", "AuthError", "WaitTimeoutError", "JobCancelledError", "LimitError", "InternalError"]
 
 #: Version of the loaded C library (the Meson project version).
 __version__: str = _core.version()

@@ -48,6 +48,12 @@ class InvalidBoxError(InvalidArgumentError):
     """A box has a NaN/infinite coordinate or min > max; ``index`` names it."""
 
 
+class InvalidQueryError(InvalidBoxError):
+    """A scene query is invalid: a NaN or infinite coordinate (box, point, origin or centre), min > max,
+    a NaN or infinite direction, a negative or NaN ``max_t`` or radius. ``index`` names the query in
+    its batch (0 for a single query); ``status`` is the library's code for it."""
+
+
 class ShapeError(InvalidArgumentError):
     """A shape description is invalid (locd.pipeline)."""
 
@@ -146,9 +152,19 @@ ERRORS: Dict[str, Type[Error]] = {
 _BY_STATUS = {STATUS[name]: cls for name, cls in ERRORS.items() if name in STATUS}
 
 
-def from_status(status: int, text: str, detail: str, index: int) -> Error:
-    """Builds the exception for a failed call (text: locd_status_string)."""
+_QUERY_STATUS = ("ERR_NONFINITE", "ERR_INVERTED_BOX", "ERR_INVALID_ARGUMENT")
+
+
+def from_status(status: int, text: str, detail: str, index: int, query: bool = False) -> Error:
+    """Builds the exception for a failed call (text: locd_status_string). ``query``: the call was a
+    scene query, whose bad input (with the index of the query) raises :class:`InvalidQueryError`."""
     cls = _BY_STATUS.get(status, Error)
+    if query and index >= 0 and status in (STATUS[name] for name in _QUERY_STATUS):
+        # The library's detail is "<status text>: query <k>...": the part after the status text.
+        what = detail[len(text) + 2:] if detail.startswith(text + ": ") else detail
+        if not what.startswith("query %d" % index):
+            what = "query %d: %s" % (index, what or text)
+        return InvalidQueryError(status, what, detail, index)
     if status in (STATUS["ERR_NONFINITE"], STATUS["ERR_INVERTED_BOX"]):
         what = "has a NaN or infinite coordinate" if status == STATUS["ERR_NONFINITE"] else "has min > max on some axis"
         return cls(status, "box %d %s" % (index, what), detail, index)

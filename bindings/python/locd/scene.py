@@ -22,20 +22,25 @@ Errors name the position in the batch: a stale (removed or never issued) id
 raises :class:`StaleIdError` (a ``KeyError``), an id twice in one batch
 :class:`DuplicateIdError` (a ``ValueError``), a NaN/infinite box or min > max
 :class:`locd.InvalidBoxError` (a ``ValueError``); each has ``.index``. A batch
-that fails changes nothing.
+that fails changes nothing. A bad query (a NaN or infinite coordinate or
+direction, min > max, a negative or NaN ``max_t`` or radius) raises
+:class:`InvalidQueryError` (a subclass of ``InvalidBoxError``) whose ``.index``
+names the query in its batch (0 for a single query).
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import operator
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, Iterator, Optional, Tuple
 
 import numpy as np
 
-from . import _core
-from ._errors import DuplicateIdError, StaleIdError
+from . import _core, _errors
+from ._errors import STATUS as _STATUS
+from ._errors import DuplicateIdError, InvalidArgumentError, InvalidBoxError, InvalidQueryError, StaleIdError
 
-__all__ = ["Scene", "SceneUpdate", "StaleIdError", "DuplicateIdError", "ALL"]
+__all__ = ["Scene", "SceneUpdate", "StaleIdError", "DuplicateIdError", "InvalidQueryError", "ALL"]
 
 #: A mask with every category bit set (the default mask).
 ALL: int = (1 << 64) - 1
@@ -113,9 +118,11 @@ class Scene:
     Args:
         threads: threads of the scene's engine (None = one per core).
         dtype: ``np.float32`` or ``np.float64``: the precision of the scene's
-            coordinates. Boxes and query shapes are converted to it (float32
-            input of a float32 scene is read in place; float64 input of a
-            float32 scene is rounded to nearest float32).
+            coordinates. Boxes are converted to it (float32 input of a
+            float32 scene is read in place; float64 input of a float32 scene
+            is rounded to nearest float32, and a finite value beyond
+            float32's range raises InvalidBoxError). Query shapes are read
+            as float64 whatever the dtype.
         capacity: objects to reserve room for (0 = grow as needed).
 
     One thread at a time may change a scene; Python threads sharing one take
@@ -186,8 +193,17 @@ class Scene:
                              % (arr.shape,))
         if n is not None and arr.shape[0] != n:
             raise ValueError("boxes has %d rows for %d ids" % (arr.shape[0], n))
-        with np.errstate(over="ignore"):  # too large for float32: inf, which the library names
-            return np.ascontiguousarray(arr, dtype=self._dtype)
+        with np.errstate(over="ignore"):
+            out = np.ascontiguousarray(arr, dtype=self._dtype)
+        if out.dtype != arr.dtype:  # float64 rounded to float32: a finite value may overflow to inf
+            over = np.flatnonzero((np.isinf(out) & np.isfinite(arr)).any(axis=1))
+            if len(over):
+                k = int(over[0])
+                value = arr[k][np.isinf(out[k]) & np.isfinite(arr[k])][0]
+                raise InvalidBoxError(_STATUS["ERR_NONFINITE"],
+                                      "box %d: %r is beyond the range of float32, the scene's dtype "
+                                      "(use dtype=numpy.float64)" % (k, float(value)), "", k)
+        return out
 
     # -- changes, in batches --------------------------------------------------
     def add(self, boxes: Any, *, static: bool = False, category: Any = 1, mask: Any = ALL, group: Any = 0,
@@ -209,11 +225,15 @@ class Scene:
     def move(self, ids: Any, boxes: Any) -> None:
         """Gives object ids[k] the box boxes[k]."""
         i = _u64_array("ids", ids)
-        self._core.move(i, self._boxes(boxes, len(i)))
+        b = self._boxes(boxes, len(i))
+        with self._first_bad_position(i, b):
+            self._core.move(i, b)
 
     def remove(self, ids: Any) -> None:
         """Removes the objects; their pairs are lost pairs at the next update."""
-        self._core.remove(_u64_array("ids", ids))
+        i = _u64_array("ids", ids)
+        with self._first_bad_position(i):
+            self._core.remove(i)
 
     def set_filter(self, ids: Any, *, category: Any = None, mask: Any = None, group: Any = None) -> None:
         """Sets category, mask and/or group (None keeps it) of the objects: scalars or n values."""
@@ -226,17 +246,58 @@ class Scene:
             s, arr = _attribute(name, v, n)
             return arr if arr is not None else np.full(n, s, dtype=np.uint64)
 
-        self._core.set_filter(i, values("category", category), values("mask", mask), values("group", group))
+        c, m, g = values("category", category), values("mask", mask), values("group", group)
+        with self._first_bad_position(i):
+            self._core.set_filter(i, c, m, g)
 
     def set_user(self, ids: Any, user: Any) -> None:
         """Sets the user values of the objects (a scalar or n values)."""
         i = _u64_array("ids", ids)
         s, arr = _attribute("user", user, len(i))
-        self._core.set_user(i, arr if arr is not None else np.full(len(i), s, dtype=np.uint64))
+        users = arr if arr is not None else np.full(len(i), s, dtype=np.uint64)
+        with self._first_bad_position(i):
+            self._core.set_user(i, users)
 
     def user(self, ids: Any) -> np.ndarray:
         """The user values of the objects, as a uint64 array."""
         return self._core.get_user(_u64_array("ids", ids))
+
+    @contextlib.contextmanager
+    def _first_bad_position(self, ids: np.ndarray, boxes: Optional[np.ndarray] = None) -> Iterator[None]:
+        """The library refuses a batch of more ids than the scene holds objects before it reads the
+        batch (LOCD_ERR_TOO_MANY_OBJECTS, no index): such a batch names a stale id or an id twice.
+        This names its first bad position as for any other bad batch (StaleIdError,
+        DuplicateIdError or, for a move, InvalidBoxError, each with ``.index``), in the library's
+        order for a position: the id stale, the id earlier in the batch, the box bad."""
+        try:
+            yield
+        except InvalidArgumentError as e:
+            if e.name != "ERR_TOO_MANY_OBJECTS":
+                raise
+            n = len(ids)
+            seen = np.ones(n, dtype=bool)
+            seen[np.unique(ids, return_index=True)[1]] = False
+            at_dup = int(np.argmax(seen)) if seen.any() else n
+            try:
+                self._core.get_user(ids)  # names the first stale id (it reads any number of ids)
+                stale = None
+            except StaleIdError as s:
+                stale = s
+            at_stale = stale.index if stale is not None else n
+            at_box, box_status = n, ""
+            if boxes is not None:
+                nonfinite = ~np.isfinite(boxes).all(axis=1)
+                bad = np.flatnonzero(nonfinite | (boxes[:, :3] > boxes[:, 3:]).any(axis=1))
+                if len(bad):
+                    at_box = int(bad[0])
+                    box_status = "ERR_NONFINITE" if nonfinite[at_box] else "ERR_INVERTED_BOX"
+            at = min(at_stale, at_dup, at_box)
+            if at == n:  # (nothing found: another thread changed the scene meanwhile)
+                raise
+            if at == at_stale:
+                raise stale from None
+            status = "ERR_DUPLICATE_ID" if at == at_dup else box_status
+            raise _errors.from_status(_STATUS[status], "", e.detail, at) from None
 
     # -- update ---------------------------------------------------------------
     def update(self) -> SceneUpdate:
@@ -250,8 +311,10 @@ class Scene:
         return self._core.stats()
 
     # -- queries --------------------------------------------------------------
-    # Queries read their shapes as float64 whatever the scene's dtype: exact for every float32 value, and
-    # no finite value overflows. Batches run on the scene's threads, the GIL released.
+    # Query shapes are float64 whatever the scene's dtype: every float32 value is exact in float64, and no
+    # finite value overflows (a float32 scene takes a query box of +-1e300 as it is). The library checks
+    # each shape; bad ones raise InvalidQueryError naming the query. Batches run on the scene's threads,
+    # the GIL released.
     def query_box(self, box: Any, mask: Any = ALL) -> np.ndarray:
         """Ids (ascending, uint64) of the objects whose box overlaps ``box``
         (6 values, closed) and whose category has a bit in ``mask``."""
@@ -265,7 +328,8 @@ class Scene:
         """Ids (ascending) of the objects whose box lies within ``radius`` of ``center``: with d the
         distance from the centre to the box per axis (0 inside), ``(dx*dx + dy*dy) + dz*dz <= r*r``
         in float64."""
-        return self._core.overlap(2, _shape("center", center, 3), _real("radius", radius), _u64_scalar("mask", mask))
+        return self._core.overlap(2, _shape("center", center, 3), _real("radius", radius),
+                                  _u64_scalar("mask", mask))
 
     def raycast(self, origin: Any, direction: Any, max_t: Any, mask: Any = ALL) -> Tuple[np.ndarray, np.ndarray]:
         """Objects whose box meets the segment ``origin + t * direction``, 0 <= t <= max_t.
@@ -274,7 +338,7 @@ class Scene:
         (0 when the origin is inside the box), sorted by t, then id.
         ``direction`` need not be unit length; ``max_t`` may be ``math.inf``."""
         return self._core.cast(0, _shape("origin", origin, 3), _shape("direction", direction, 3),
-                               _real("max_t", max_t), 0, _u64_scalar("mask", mask))
+                               _real("max_t", max_t), _MODES["all"], _u64_scalar("mask", mask))
 
     def sweep_box(self, box: Any, direction: Any, max_t: Any, mask: Any = ALL) -> Tuple[np.ndarray, np.ndarray]:
         """Objects that ``box`` meets as it moves to ``box + t * direction``, 0 <= t <= max_t.
@@ -282,65 +346,82 @@ class Scene:
         Returns ``(ids, t)``: each object's first touch t (0 when they touch at the start), sorted by
         (t, id)."""
         return self._core.cast(1, _shape("box", box, 6), _shape("direction", direction, 3),
-                               _real("max_t", max_t), 0, _u64_scalar("mask", mask))
+                               _real("max_t", max_t), _MODES["all"], _u64_scalar("mask", mask))
 
     def raycast_batch(self, origins: Any, directions: Any, max_t: Any, mask: Any = ALL, *,
                       mode: str = "all") -> Tuple[np.ndarray, ...]:
-        """n rays at once (``origins``, ``directions``: (n, 3); ``max_t``: a scalar or n values).
+        """n rays at once (``origins``, ``directions``: (n, 3); ``max_t``: a number or n numbers).
 
         ``mode="all"``: ``(offsets, ids, t)``, ray k's hits ``ids[offsets[k]:offsets[k+1]]``
         sorted by (t, id); ``offsets`` is (n+1,) int64. ``mode="closest"`` (the smallest (t, id)) or
         ``"any"`` (the first found: a line of sight): ``(ids, t)`` of shape (n,), 0 and inf where a ray
         hit nothing. The hits do not depend on the scene's thread count."""
-        if mode not in _MODES:
+        if not isinstance(mode, str) or mode not in _MODES:
             raise ValueError("mode must be 'all', 'closest' or 'any', got %r" % (mode,))
         o = _shapes("origins", origins, 3)
         d = _shapes("directions", directions, 3, len(o))
-        return self._core.cast_batch(0, o, d, _reals("max_t", max_t, len(o)), _MODES[mode], _u64_scalar("mask", mask))
+        return self._core.cast_batch(0, o, d, _reals("max_t", max_t, len(o)), _MODES[mode],
+                                     _u64_scalar("mask", mask))
 
     def query_box_batch(self, boxes: Any, mask: Any = ALL) -> Tuple[np.ndarray, np.ndarray]:
         """n box queries at once (``boxes``: (n, 6)): ``(offsets, ids)``, query k's ids ascending in
-        ``ids[offsets[k]:offsets[k+1]]``."""
+        ``ids[offsets[k]:offsets[k+1]]``; ``offsets`` is (n+1,) int64."""
         return self._core.overlap_batch(0, _shapes("boxes", boxes, 6), None, _u64_scalar("mask", mask))
 
 
 _MODES = {"all": 0, "closest": 1, "any": 2}
 
+# Integers up to 2**53 are exact in float64; larger ones are refused rather than rounded (as for boxes).
+_EXACT = 2 ** 53
+
 
 def _real(name: str, value: Any) -> float:
-    """A number (not a bool or a string) as a float; its range is the library's to check."""
+    """A number (a Python or numpy int or float, or a 0-d array of one; not a bool or a string) as a
+    float. Its range (NaN, negative) is the library's to check."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise TypeError("%s must be a number, got %r" % (name, value))
+    if isinstance(value, (int, np.integer)) and not -_EXACT <= int(value) <= _EXACT:
+        raise ValueError("%s: integers beyond +-2**53 cannot be converted to float64 exactly" % name)
     return float(value)
 
 
-def _reals(name: str, value: Any, n: int) -> np.ndarray:
-    """A number for all n, or n numbers, as a (n,) float64 array."""
-    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)):
-        return np.full(n, float(value))
+def _numbers(name: str, value: Any) -> np.ndarray:
+    """Any array or sequence of numbers as float64 (not yet shaped): float32 and float64 as they are
+    (float32 widens exactly), integers up to +-2**53, lists of Python numbers. Other dtypes
+    (bool, float16, complex, strings, objects) raise TypeError."""
     arr = value if isinstance(value, np.ndarray) else np.asarray(value)
-    if arr.dtype.kind not in "fiu":
-        raise TypeError("%s must hold numbers, got dtype %s" % (name, arr.dtype))
+    kind = arr.dtype.kind
+    if kind in "iu":
+        if arr.size and (int(arr.max()) > _EXACT or int(arr.min()) < -_EXACT):
+            raise ValueError("%s: integers beyond +-2**53 cannot be converted to float64 exactly" % name)
+    elif kind != "f" or arr.dtype.itemsize not in (4, 8):
+        raise TypeError("%s must hold numbers (float32, float64 or integers), got dtype %s" % (name, arr.dtype))
+    return arr
+
+
+def _reals(name: str, value: Any, n: int) -> np.ndarray:
+    """A number for all n, or n numbers, as a C-contiguous (n,) float64 array."""
+    if not isinstance(value, (np.ndarray, list, tuple)) or (isinstance(value, np.ndarray) and value.ndim == 0):
+        return np.full(n, _real(name, value))
+    arr = _numbers(name, value)
     if arr.shape != (n,):
         raise ValueError("%s must be a number or have shape (%d,), got shape %s" % (name, n, arr.shape))
     return np.ascontiguousarray(arr, dtype=np.float64)
 
 
 def _shape(name: str, value: Any, size: int) -> np.ndarray:
-    """A query's shape: `size` numbers as a (size,) float64 array."""
-    arr = value if isinstance(value, np.ndarray) else np.asarray(value)
-    if arr.dtype.kind not in "fiu":
-        raise TypeError("%s must hold numbers, got dtype %s" % (name, arr.dtype))
+    """A query's shape: `size` numbers as a C-contiguous (size,) float64 array."""
+    arr = _numbers(name, value)
     if arr.shape != (size,):
         raise ValueError("%s must have shape (%d,), got shape %s" % (name, size, arr.shape))
     return np.ascontiguousarray(arr, dtype=np.float64)
 
 
 def _shapes(name: str, value: Any, size: int, n: Optional[int] = None) -> np.ndarray:
-    """n queries' shapes: an (n, size) float64 array."""
-    arr = value if isinstance(value, np.ndarray) else np.asarray(value)
-    if arr.dtype.kind not in "fiu":
-        raise TypeError("%s must hold numbers, got dtype %s" % (name, arr.dtype))
+    """n queries' shapes: a C-contiguous (n, size) float64 array."""
+    arr = _numbers(name, value)
     if arr.ndim == 1 and arr.shape[0] == 0:
         arr = arr.reshape(0, size)
     if arr.ndim != 2 or arr.shape[1] != size:
