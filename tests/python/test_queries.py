@@ -2,7 +2,7 @@
 spheres, rays and swept boxes, the batches in every mode, in every state of the scene (before the
 first update, after it, after moves and their update, between a move and its update, after removals,
 adds and filter changes); the batches equal to the queries one by one for 1, 2 and 3 threads; hand-made
-hard cases; bad input; the GIL; the scene's front doors; two faults of the C library (xfail)."""
+hard cases (overflowing radii and entry times among them); bad input; the GIL; the scene's front doors."""
 import ast
 import math
 import os
@@ -122,8 +122,8 @@ class World:
 #   zero-size boxes, rays along faces and edges, sphere distances equal to the radius are common;
 # float: arbitrary floats (float64 ones that float32 cannot hold);
 # wild: magnitudes from 1e-30 to 1e30 (float64: to 1e160, past the 2**500 beyond which the library's
-#   node test takes the exact path), directions from 1e-140 to 1e140. (No quotient overflows to inf and no
-#   radius squared overflows: both are the C faults of the xfail tests at the end.)
+#   node test takes the exact path), directions from 1e-140 to 1e140. (Quotients that overflow to inf and
+#   radii whose square overflows have their own tests at the end.)
 STYLES = ["grid", "float", "wild"]
 CATEGORIES = np.array([1, 2, 4, 0, 1 << 63], dtype=np.uint64)
 MASKS = [ALL, 1, 2, 3, 4, 6, 0, (1 << 63) | 1]
@@ -847,18 +847,16 @@ def test_stub_matches_the_extensions_scene():
         assert re.findall(r"(?:\(|, )(\w+): ", first)[1:] == params, (name, first)
 
 
-# -- faults of the C library ------------------------------------------------------------------------------------
+# -- overflows ------------------------------------------------------------------------------------------------
 def run_python(code):
     return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], capture_output=True, text=True,
                           timeout=120)
 
 
-@pytest.mark.xfail(strict=True, reason="C library: a sphere whose radius squared overflows to +inf "
-                                       "(radius > ~1.34e154, or inf) crashes the query walk")
 def test_sphere_of_huge_radius_meets_everything():
     # By the documented test every box is within an infinite radius: (dx*dx + dy*dy) + dz*dz <= inf. The
-    # walk takes the query tree's empty lanes (+inf..-inf) as met too (inf*inf <= inf) and follows their
-    # child, LC_QT_NONE. Run apart: the process dies of SIGSEGV.
+    # walk must not take the query tree's empty lanes (+inf..-inf) as met (inf*inf <= inf) and follow their
+    # child, which a version did. Run apart: a crash would kill the suite.
     r = run_python("""
         import math, locd
         for radius in (1e200, math.inf):
@@ -870,12 +868,10 @@ def test_sphere_of_huge_radius_meets_everything():
     assert r.returncode == 0 and r.stdout.strip() == "ok", "exit %d: %s" % (r.returncode, r.stderr[-500:])
 
 
-@pytest.mark.xfail(strict=True, reason="C library: closest and any miss a hit whose entry time overflows "
-                                       "to +inf (mode all reports it)")
 def test_closest_and_any_see_hits_at_infinite_t():
     # A direction of 1e-310 and max_t inf: the box at x = 1 is entered at t = 1/1e-310 = inf in float64, a
-    # hit by the documented test (0 <= t <= max_t); "all" reports it at t = inf, but the walks of closest and
-    # any keep a hit only if (t, id) < (inf, 0), their "no hit yet".
+    # hit by the documented test (0 <= t <= max_t); "all" reports it at t = inf, and closest and any must
+    # too (a version kept a hit only if (t, id) < (inf, 0), its "no hit yet").
     scene = locd.Scene()
     a, b = scene.add([[1, 0, 0, 2, 1, 1], [3, 0, 0, 4, 1, 1]]).tolist()
     ids, t = scene.raycast([0, 0.5, 0.5], [1e-310, 0, 0], math.inf)
