@@ -931,6 +931,23 @@ namespace Locd.Tests
         // Closest must report it too (it is the smallest (t, id)), and Any must report a hit.
         static void EntryTimeOverflow()
         {
+            // Four boxes on a ray's line (entry times near 1e9) and one at x = 1e300 (its entry time
+            // overflows): Any must find one of the five, Closest the first.
+            using (var s = new Scene(1)) {
+                var m = new Model();
+                double[] boxes = {
+                    1, 4, 4, 2, 6, 6,   3, 4, 4, 4, 6, 6,   5, 4, 4, 6, 6, 6,   7, 4, 4, 8, 6, 6,
+                    1e300, 4, 4, 1e300, 6, 6,
+                };
+                ulong[] ids = s.Add(boxes);
+                for (int k = 0; k < ids.Length; k++)
+                    m.Objects.Add(ids[k], new Obj { Box = Row(boxes, k) });
+                double inf = double.PositiveInfinity;
+                var q = Ray(-1, 5, 5, 1e-9, 0, 0, inf);
+                List<Hit> all = m.Brute(q, Scene.AllCategories, false);
+                Assert.True(all.Count == 5 && double.IsInfinity(all[4].T) && !double.IsInfinity(all[3].T), "four finite hits and one at +inf");
+                Expect(s, m, q, all.ToArray(), "four boxes and one whose entry time overflows");
+            }
             using (var s = new Scene(1)) {
                 var m = new Model();
                 double[] boxes = { 1, -1, -1, 2, 1, 1,   -5, -1, -1, -4, 1, 1 };
