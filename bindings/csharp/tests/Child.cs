@@ -5,6 +5,7 @@
 using System;
 using System.Collections.Generic;
 using System.Diagnostics;
+using System.IO;
 using System.Linq;
 using System.Reflection;
 using System.Text.RegularExpressions;
@@ -35,12 +36,26 @@ namespace Locd.Tests
             }
         }
 
-        /// <summary>In the test: runs body NAME in a child process; throws unless it passed.</summary>
+        /// <summary>In the test: runs body NAME in a child process; throws unless it passed.
+        /// The child runs in a scratch directory (mono writes its crash dumps, mono_crash.*.json,
+        /// into the working directory), removed afterwards.</summary>
         public static void Expect(string name, int timeoutMs = 120000)
+        {
+            string dir = Path.Combine(Path.GetTempPath(), "locd-child-" + Guid.NewGuid().ToString("N"));
+            Directory.CreateDirectory(dir);
+            try {
+                Run(name, dir, timeoutMs);
+            } finally {
+                Directory.Delete(dir, true);
+            }
+        }
+
+        static void Run(string name, string dir, int timeoutMs)
         {
             var psi = new ProcessStartInfo {
                 FileName = Process.GetCurrentProcess().MainModule.FileName, // mono
                 Arguments = "--debug \"" + Assembly.GetEntryAssembly().Location + "\" --child " + name,
+                WorkingDirectory = dir,
                 UseShellExecute = false,
                 RedirectStandardOutput = true,
                 RedirectStandardError = true,
