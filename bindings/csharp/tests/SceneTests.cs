@@ -350,8 +350,10 @@ namespace Locd.Tests
                     else if (which == 2) scene.SetFilter(batch, new ulong[batch.Length], null, null);
                     else scene.GetUser(batch);
                 }, "stale id");
-                Assert.Equal(Status.StaleId, e.Status, "status");
-                Assert.Equal((long)at, e.Index, "index of the stale id");
+                // GetUser only reads (an id may repeat there): no count check.
+                ExpectBadId(e, Status.StaleId, which == 3 ? 0 : batch.Length, model.Objects.Count);
+                if (e.Status == Status.StaleId)
+                    Assert.Equal((long)at, e.Index, "index of the stale id");
                 return 1;
             }
             case 10: { // NaN, infinite or inverted box
@@ -384,11 +386,25 @@ namespace Locd.Tests
                     if (r.Below(2) == 0) scene.Remove(batch);
                     else scene.Move(batch, GridBoxes(r, batch.Length, scale));
                 }, "duplicate id");
-                Assert.Equal(Status.DuplicateId, e.Status, "status");
-                Assert.True(e.Index >= 0 && e.Index < batch.Length && batch.Count(id => id == batch[e.Index]) == 2,
+                ExpectBadId(e, Status.DuplicateId, batch.Length, model.Objects.Count);
+                Assert.True(e.Status == Status.TooManyObjects || e.Index >= 0 && e.Index < batch.Length && batch.Count(id => id == batch[e.Index]) == 2,
                             "index " + e.Index + " names the duplicated id");
                 return 1;
             }
+            }
+        }
+
+        // A change (move, remove, filter, user values) naming more ids than the scene has objects
+        // must repeat or name a stale id: the library refuses it before reading the ids, with
+        // TooManyObjects and no index. Any other bad batch gives the status of its first bad
+        // position, and names that position.
+        static void ExpectBadId(LocdException e, Status status, int batch, int live)
+        {
+            if (batch > live) {
+                Assert.Equal(Status.TooManyObjects, e.Status, "status of " + batch + " ids for " + live + " objects");
+                Assert.Equal(-1L, e.Index, "no index for a batch longer than the scene");
+            } else {
+                Assert.Equal(status, e.Status, "status");
             }
         }
 
@@ -447,7 +463,7 @@ namespace Locd.Tests
                         Assert.True(id != 0 && seen.Add(id), "id " + id + " never reused");
                     scene.Remove(ids);
                 }
-                ulong[] live = scene.Add(new float[12]);
+                ulong[] live = scene.Add(new float[18]);
                 var e = Assert.Throws<LocdException>(() => scene.Move(new[] { live[0], live[1], ids[2] }, new float[18]), "removed id");
                 Assert.Equal(Status.StaleId, e.Status, "status");
                 Assert.Equal(2L, e.Index, "index");
@@ -456,7 +472,12 @@ namespace Locd.Tests
                 Assert.Equal(Status.StaleId, e.Status, "id 0 is never issued");
                 e = Assert.Throws<LocdException>(() => scene.Remove(new[] { live[1], live[0], live[1] }), "duplicate");
                 Assert.Equal(Status.DuplicateId, e.Status, "duplicate status");
-                Assert.Equal(2L, scene.Count, "nothing removed");
+                Assert.Equal(2L, e.Index, "index of the repeated id");
+                // More ids than objects: refused before the ids are read, with no index.
+                e = Assert.Throws<LocdException>(() => scene.Remove(new[] { live[0], live[1], live[2], ids[0] }), "4 ids, 3 objects");
+                Assert.Equal(Status.TooManyObjects, e.Status, "a batch longer than the scene");
+                Assert.Equal(-1L, e.Index, "no index");
+                Assert.Equal(3L, scene.Count, "nothing removed");
             }
         }
 

@@ -1,5 +1,6 @@
 // The C# binding's test suite, run under mono in CI (scripts/ci/steps/30-csharp.sh):
 //   mono LocdTests.exe [JUNIT.xml] [--filter TEXT]
+//   mono LocdTests.exe --child NAME     (one test body that may crash, run by Child.Expect)
 // Environment: LOCD_LAYOUT = output of tests/layout.c (struct layout check),
 //              LOCD_CLI    = path of the `locd` tool (cross-check with `locd pairs`).
 using System;
@@ -16,6 +17,9 @@ namespace Locd.Tests
     {
         public static int Main(string[] args)
         {
+            // A test that may crash the process runs its body in a child: LocdTests.exe --child NAME.
+            if (args.Length == 2 && args[0] == "--child")
+                return Child.Run(args[1]);
             string junit = null, filter = null;
             for (int a = 0; a < args.Length; a++) {
                 if (args[a] == "--filter" && a + 1 < args.Length)
@@ -73,6 +77,8 @@ namespace Locd.Tests
             h.Add("jobs.keep_engine_alive_and_release", JobKeepsEngineAlive);
             // Scene (SceneTests.cs)
             SceneTests.Register(h);
+            // Scene queries (SceneQueryTests.cs)
+            SceneQueryTests.Register(h);
             return h.Run(junit, filter);
         }
 

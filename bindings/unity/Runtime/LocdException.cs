@@ -16,15 +16,22 @@ namespace Locd
         /// <summary>Index of the first bad box (NonFinite, InvertedBox), or -1.</summary>
         public long BoxIndex { get; private set; }
 
-        /// <summary>Position in the batch of the first bad item (a box, or a scene id for
-        /// StaleId and DuplicateId), or -1. The same value as BoxIndex.</summary>
+        /// <summary>Position in the batch of the first bad item (a box, a scene id for
+        /// StaleId and DuplicateId, or a query of a scene query batch; 0 for a single scene
+        /// query), or -1. The same value as BoxIndex.</summary>
         public long Index { get { return BoxIndex; } }
 
         /// <summary>For BufferTooSmall: the number of pairs found, else -1.</summary>
         public long RequiredPairs { get; internal set; }
 
         public LocdException(Status status, string detail, long boxIndex)
-            : base(Compose(status, detail, boxIndex))
+            : this(status, detail, boxIndex, null)
+        {
+        }
+
+        // `item` names what Index counts in the message ("query"); null: a box, or an id.
+        internal LocdException(Status status, string detail, long boxIndex, string item)
+            : base(Compose(status, detail, boxIndex, item))
         {
             Status = status;
             Detail = detail ?? "";
@@ -32,12 +39,13 @@ namespace Locd
             RequiredPairs = -1;
         }
 
-        static string Compose(Status status, string detail, long boxIndex)
+        static string Compose(Status status, string detail, long boxIndex, string item)
         {
             string s = string.IsNullOrEmpty(detail) ? StatusString(status) : detail;
+            if (item == null)
+                item = status == Status.StaleId || status == Status.DuplicateId ? "index" : "box";
             if (boxIndex >= 0)
-                s += (status == Status.StaleId || status == Status.DuplicateId ? " (index " : " (box ")
-                     + boxIndex + ")";
+                s += " (" + item + " " + boxIndex + ")";
             return "locd " + status + ": " + s;
         }
 
@@ -51,9 +59,15 @@ namespace Locd
         /// made the call, before any other locd call: the detail is thread-local.</summary>
         internal static LocdException FromLastError(int status)
         {
+            return FromLastError(status, null);
+        }
+
+        /// <summary>The same, the message naming the bad item as `item` ("query 3").</summary>
+        internal static LocdException FromLastError(int status, string item)
+        {
             string detail = Marshal.PtrToStringAnsi(Native.locd_last_error());
             long index = Native.locd_last_error_index();
-            return new LocdException((Status)status, detail, index);
+            return new LocdException((Status)status, detail, index, item);
         }
 
         /// <summary>Throws for any negative status; returns the status otherwise

@@ -616,7 +616,7 @@ namespace Locd
                                                 : Native.locd_scene_query_point_f64(call.Handle, d, mask, ids, cap, &n);
             }
             if (st != Native.LOCD_OK && st != (int)Status.BufferTooSmall)
-                throw LocdException.FromLastError(st);
+                throw LocdException.FromLastError(st, "query");
             return (long)(ulong)n;
         }
 
@@ -651,7 +651,7 @@ namespace Locd
                     : Native.locd_scene_raycast_f64(call.Handle, od, dd, maxT, mask, ids, t, cap, &n);
             }
             if (st != Native.LOCD_OK && st != (int)Status.BufferTooSmall)
-                throw LocdException.FromLastError(st);
+                throw LocdException.FromLastError(st, "query");
             return (long)(ulong)n;
         }
 

@@ -41,14 +41,24 @@ namespace Locd
 
     /// <summary>The hits of a batch: query k's ids are Ids[Offsets[k] .. Offsets[k + 1]) (and their entry
     /// times T, for casts). With HitMode.Closest or Any every query has one entry (Offsets[k] = k): 0 and
-    /// +inf when it hit nothing. Reused by each batch given it; the pointers hold until the next one.</summary>
+    /// +inf when it hit nothing. Reused by each batch given it; the pointers hold until the next one.
+    /// A failed batch leaves it empty (Queries and Count 0). One batch at a time may fill it.</summary>
     public sealed unsafe class QueryHits : IDisposable
     {
         internal readonly HitsSafeHandle handle = HitsSafeHandle.Create();
 
         public void Dispose() { handle.Dispose(); }
 
-        IntPtr Raw { get { return handle.DangerousGetHandle(); } }
+        public bool IsDisposed { get { return handle.IsClosed; } }
+
+        IntPtr Raw
+        {
+            get {
+                if (handle.IsClosed) // the native buffer is freed: reading it would be a use after free
+                    throw new ObjectDisposedException("QueryHits");
+                return handle.DangerousGetHandle();
+            }
+        }
 
         public long Queries { get { return (long)(ulong)Native.locd_hits_queries(Raw); } }
         public long Count { get { return (long)(ulong)Native.locd_hits_count(Raw); } }
@@ -61,24 +71,28 @@ namespace Locd
         public long[] OffsetsArray()
         {
             var a = new long[Queries + 1];
-            for (long k = 0; k < a.Length; k++)
-                a[k] = (long)Offsets[k];
+            ulong* o = Offsets; // NULL before the first batch: then Queries is 0 and a is { 0 }
+            for (long k = 0; o != null && k < a.Length; k++)
+                a[k] = (long)o[k];
             return a;
         }
 
         public ulong[] IdsArray()
         {
             var a = new ulong[Count];
+            ulong* ids = Ids;
             for (long k = 0; k < a.Length; k++)
-                a[k] = Ids[k];
+                a[k] = ids[k];
             return a;
         }
 
+        /// <summary>The entry times (casts); empty after an overlap batch.</summary>
         public double[] TArray()
         {
-            var a = new double[T == null ? 0 : Count];
+            double* t = T;
+            var a = new double[t == null ? 0 : Count];
             for (long k = 0; k < a.Length; k++)
-                a[k] = T[k];
+                a[k] = t[k];
             return a;
         }
     }
@@ -153,7 +167,7 @@ namespace Locd
                     }
                     GC.KeepAlive(reject);
                     if (st != Native.LOCD_OK && st != (int)Status.BufferTooSmall)
-                        throw LocdException.FromLastError(st);
+                        throw LocdException.FromLastError(st, "query");
                     long m = (long)(ulong)n;
                     if (m <= ids.Length) {
                         Array.Resize(ref ids, (int)m);
@@ -234,6 +248,22 @@ namespace Locd
             Batch(2, boxes, null, null, n, HitMode.All, hits, mask, reject);
         }
 
+        /// <summary>n point queries (3 floats each): the objects whose box contains each point (a point on
+        /// a face, edge or corner is inside), ids ascending.</summary>
+        public void QueryPointBatch(float[] points, QueryHits hits, ulong mask = AllCategories,
+                                    Native.locd_query_reject_fn reject = null)
+        {
+            long n = Rows(points, 3, "points");
+            fixed (float* p = points)
+                QueryPointBatch(p, n, hits, mask, reject);
+        }
+
+        public void QueryPointBatch(float* points, long n, QueryHits hits, ulong mask = AllCategories,
+                                    Native.locd_query_reject_fn reject = null)
+        {
+            Batch(4, points, null, null, n, HitMode.All, hits, mask, reject);
+        }
+
         /// <summary>n sphere queries (centers: 3 floats each; radii: n values).</summary>
         public void QuerySphereBatch(float[] centers, double[] radii, QueryHits hits, ulong mask = AllCategories,
                                      Native.locd_query_reject_fn reject = null)
@@ -251,7 +281,7 @@ namespace Locd
             Batch(3, centers, null, radii, n, HitMode.All, hits, mask, reject);
         }
 
-        /// <summary>kind 0 rays, 1 box casts, 2 boxes, 3 spheres.</summary>
+        /// <summary>kind 0 rays, 1 box casts, 2 boxes, 3 spheres, 4 points.</summary>
         void Batch(int kind, float* v, float* d, double* num, long n, HitMode mode, QueryHits hits, ulong mask,
                    Native.locd_query_reject_fn reject)
         {
@@ -270,11 +300,14 @@ namespace Locd
                     st = Native.locd_scene_cast_box_batch_f32(call.Handle, v, d, num, count, (uint)mode, &f, into.Handle);
                 else if (kind == 2)
                     st = Native.locd_scene_overlap_box_batch_f32(call.Handle, v, count, &f, into.Handle);
-                else
+                else if (kind == 3)
                     st = Native.locd_scene_overlap_sphere_batch_f32(call.Handle, v, num, count, &f, into.Handle);
+                else
+                    st = Native.locd_scene_overlap_point_batch_f32(call.Handle, v, count, &f, into.Handle);
             }
             GC.KeepAlive(reject);
-            Throw(st);
+            if (st != Native.LOCD_OK) // Index: the first bad query
+                throw LocdException.FromLastError(st, "query");
         }
 
         static long Rows(Array a, int width, string name)

@@ -35,11 +35,16 @@ $MCS -r:"$OUT/Locd.dll" -out:"$OUT/LocdBench.exe" bindings/csharp/bench/*.cs
 # JSON files parse.
 $MCS -target:library -define:UNITY_IOS -out:"$OUT/Locd.ios.dll" bindings/unity/Runtime/*.cs
 python3 -m json.tool bindings/unity/package.json > /dev/null
-python3 -m json.tool bindings/unity/Runtime/Locd.asmdef > /dev/null
-# The Unity sample compiles against a stub of the UnityEngine API it uses.
+for asmdef in bindings/unity/Runtime/Locd.asmdef bindings/unity/Samples~/*/*.asmdef; do
+  python3 -m json.tool "$asmdef" > /dev/null
+done
+# Each Unity sample compiles against a stub of the UnityEngine and
+# Unity.Collections API it uses.
 $MCS -target:library -out:"$OUT/UnityEngine.dll" bindings/csharp/tests/unity-stub/*.cs
-$MCS -target:library -r:"$OUT/Locd.dll" -r:"$OUT/UnityEngine.dll" -out:"$OUT/LocdSample.dll" \
-  bindings/unity/Samples~/CollisionPairs/*.cs
+for sample in bindings/unity/Samples~/*/; do
+  $MCS -target:library -r:"$OUT/Locd.dll" -r:"$OUT/UnityEngine.dll" -out:"$OUT/LocdSample-$(basename "$sample").dll" \
+    "$sample"*.cs
+done
 
 cc -std=c99 -Wall -Wextra -Werror -I include -o "$OUT/layout" bindings/csharp/tests/layout.c
 "$OUT/layout" > "$OUT/layout.txt"

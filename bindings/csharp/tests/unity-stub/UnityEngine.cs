@@ -1,4 +1,4 @@
-// A compile-only stub of the few UnityEngine types the package sample uses, so
+// A compile-only stub of the few UnityEngine types the package samples use, so
 // CI can check that Samples~ compiles with mcs at C# 7.2 (no Unity installed).
 // Signatures follow the UnityEngine scripting API; bodies do nothing.
 using System;
@@ -51,6 +51,7 @@ namespace UnityEngine
         public static Vector3 operator *(Vector3 a, float d) { return new Vector3(a.x * d, a.y * d, a.z * d); }
         public static Vector3 operator -(Vector3 a, Vector3 b) { return new Vector3(a.x - b.x, a.y - b.y, a.z - b.z); }
         public static Vector3 operator -(Vector3 a) { return new Vector3(-a.x, -a.y, -a.z); }
+        public static Vector3 operator +(Vector3 a, Vector3 b) { return new Vector3(a.x + b.x, a.y + b.y, a.z + b.z); }
     }
     public struct Bounds
     {
@@ -75,7 +76,23 @@ namespace UnityEngine
         public static Vector3 insideUnitSphere { get { return default(Vector3); } }
         public static float Range(float min, float max) { return min; }
     }
-    public static class Debug { public static void LogError(object message) { } }
+    public static class Debug
+    {
+        public static void LogError(object message) { }
+        public static void DrawLine(Vector3 start, Vector3 end, Color color) { }
+    }
+    public static class Time
+    {
+        public static float time { get { return 0f; } }
+        public static float deltaTime { get { return 0f; } }
+    }
+    public struct Mathf
+    {
+        public static float Sqrt(float f) { return (float)Math.Sqrt(f); }
+        public static float Sin(float f) { return (float)Math.Sin(f); }
+        public static float Cos(float f) { return (float)Math.Cos(f); }
+        public static int Min(int a, int b) { return a < b ? a : b; }
+    }
     public class PropertyAttribute : Attribute { }
     public sealed class TooltipAttribute : PropertyAttribute { public TooltipAttribute(string tooltip) { } }
     public sealed class HeaderAttribute : PropertyAttribute { public HeaderAttribute(string header) { } }
