@@ -6,7 +6,8 @@
 # boxes treated as open, ...) are reported but do not fail; a peer that
 # crashes or errors fails (the harness must drive it correctly). CGAL's
 # half-open variant checks the attribution itself: on the lattice it must
-# miss touching pairs, and nothing else, anywhere.
+# miss touching pairs, and nothing else, anywhere. The query peers (rays and
+# boxes) must give locd's hits exactly.
 # One JUnit testcase per (scene, peer). Skipped when the peers are not installed.
 set -euo pipefail
 cd "$ROOT"
@@ -48,9 +49,23 @@ done
 # and FCL kept across 3 frames; locd (both), Bullet (exact pairs of its cache) and FCL must hold the same pairs.
 "$BUILD/bench/frames_peers" "$OUT/uniform.aabb" --moving 0.1 --static 0.5 --frames 3 > "$OUT/frames.json" || rc=1
 
+# Queries (bench/queries.py's program, when Embree is installed): locd one by one
+# and in a batch on 2 threads, Bullet, Embree and FCL answer the same rays and
+# boxes with the same exact test: every system's checksum must be locd's.
+: > "$OUT/queries.jsonl"
+if grep -q '^bench/queries_peers:' <<< "$targets"; then
+  ninja -C "$BUILD" -j "$JOBS" bench/queries_peers
+  for kind in uniform clustered mixed; do
+    for frames in 0 3; do
+      "$BUILD/bench/queries_peers" "$OUT/$kind.aabb" --queries 500 --reps 1 --frames $frames --threads 2 \
+        | sed "s/^{/{\"scene\": \"$kind\", /" >> "$OUT/queries.jsonl" || rc=1
+    done
+  done
+fi
+
 py_rc=0
-python3 - "$OUT/peers.csv" "$JUNIT" "$OUT/frames.json" <<'EOF' || py_rc=$?
-import csv, sys
+python3 - "$OUT/peers.csv" "$JUNIT" "$OUT/frames.json" "$OUT/queries.jsonl" <<'EOF' || py_rc=$?
+import csv, json, sys
 from xml.sax.saxutils import escape, quoteattr
 MUST = {"locd", "locd_1t", "cgal_closed", "brute_force"}
 rows = list(csv.DictReader(open(sys.argv[1], newline="")))
@@ -84,6 +99,20 @@ cases.append('<testcase classname="bench-smoke" name="frames_peers">%s</testcase
     "<failure message=%s>%s</failure>" % (quoteattr(fmsg[:200]), escape(fmsg)) if fbad
     else "<system-out>%s</system-out>" % escape(fmsg)))
 print(("FAIL " if fbad else "ok   ") + "frames_peers: " + fmsg)
+qcells = {}
+for line in open(sys.argv[4]):
+    d = json.loads(line)
+    if "query" in d:
+        qcells.setdefault((d["scene"], d["state"], d["query"]), {})[d["system"]] = (d["hits"], d["checksum"])
+for (scene, state, query), got in sorted(qcells.items()):
+    name = "queries %s %s %s" % (scene, state, query)
+    qmsg = ", ".join("%s %d hits" % (k, v[0]) for k, v in sorted(got.items()))
+    qbad = "locd" not in got or len(got) < 3 or len({v for v in got.values()}) != 1
+    failures += qbad
+    cases.append('<testcase classname="bench-smoke" name=%s>%s</testcase>' % (quoteattr(name), (
+        "<failure message=%s>%s</failure>" % (quoteattr(qmsg[:200]), escape(qmsg)) if qbad
+        else "<system-out>%s</system-out>" % escape(qmsg))))
+    print(("FAIL " if qbad else "ok   ") + name + ": " + qmsg)
 if not rows:
     failures = 1
     cases.append('<testcase classname="bench-smoke" name="peers"><failure message="no results"/></testcase>')
