@@ -305,13 +305,13 @@ static locd_status node_room(const locd_allocator *a, lc_query_tree *t, size_t n
 #define LC_QT_RUNS 16
 
 /* The parts of [b, e) a node holds, bounds in cut: four or fewer objects
- * one each; up to LC_QT_RUNS, runs of four; else two splits at the codes'
- * bits (a half of more than one object split again), up to four parts.
- * Returns how many. */
+ * one each; up to LC_QT_RUNS, runs of four; else splits at the codes' bits,
+ * the part with the most objects split next, until there are four (a split
+ * that leaves one object on a side does not leave a lane empty). Returns how
+ * many. */
 static uint32_t parts_of(const uint64_t *code, size_t b, size_t e, size_t cut[LC_QT_WIDTH + 1])
 {
-    uint32_t n = 0, h;
-    size_t half[3];
+    uint32_t n = 0, k, big;
     if (e - b <= LC_QT_WIDTH) {
         for (; b <= e; b++)
             cut[n++] = b;
@@ -323,14 +323,18 @@ static uint32_t parts_of(const uint64_t *code, size_t b, size_t e, size_t cut[LC
         cut[n++] = e;
         return n - 1;
     }
-    half[0] = b, half[1] = split_at(code, b, e), half[2] = e;
-    cut[n++] = b;
-    for (h = 0; h < 2; h++) {
-        if (half[h + 1] - half[h] > 1)
-            cut[n++] = split_at(code, half[h], half[h + 1]);
-        cut[n++] = half[h + 1];
+    cut[0] = b, cut[1] = e, n = 1;
+    while (n < LC_QT_WIDTH) {
+        for (big = 0, k = 1; k < n; k++)
+            big = cut[k + 1] - cut[k] > cut[big + 1] - cut[big] ? k : big;
+        if (cut[big + 1] - cut[big] < 2)
+            break;
+        for (k = n + 1; k > big + 1; k--)
+            cut[k] = cut[k - 1];
+        cut[big + 1] = split_at(code, cut[big], cut[big + 2]);
+        n++;
     }
-    return n - 1;
+    return n;
 }
 
 /* How many nodes make_node makes for [b, e) (more than one object): the
