@@ -269,12 +269,17 @@ def plot(med, path, meta):
             ax.set_xticklabels([bench_run.fmt_n_plot(n) for n in sizes], fontsize=7)
             ax.minorticks_off()
             ax.set_title("%s\n%s" % (QUERY_LABELS[q], "after the first update" if state == "first" else
-                                     "after 1%%-moving frames"), fontsize=9)
+                                     "after 1%-moving frames"), fontsize=9)
             ax.set_xlabel("boxes in the scene (uniform)", fontsize=8)
             if col == 0:
                 ax.set_ylabel("microseconds per query (median)", fontsize=8)
             ax.grid(True, which="major", alpha=0.3)
-    handles, labels = axes[0][0].get_legend_handles_labels()
+    seen = {}  # every system's line once (FCL has box queries only)
+    for ax in axes.flat:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(lab, h)
+    labels = [LABELS[s] for s in SYSTEMS if LABELS[s] in seen]
+    handles = [seen[lab] for lab in labels]
     fig.legend(handles, labels, loc="lower center", ncol=len(SYSTEMS), fontsize=8, frameon=False,
                bbox_to_anchor=(0.5, 0.02))
     fig.tight_layout(rect=(0, 0.07, 1, 1))
