@@ -599,6 +599,24 @@ static locd_status sync_locked(locd_scene *s, lc_query_tree *t)
     return LOCD_OK;
 }
 
+/* t->size: the largest magnitude of a bound of the root's lanes per axis,
+ * which bounds the float test's rounding errors (query_walk.c). */
+static void note_size(lc_query_tree *t)
+{
+    uint32_t a, k;
+    for (a = 0; a < 3; a++) {
+        double m = 0.0;
+        for (k = 0; t->root != LC_QT_NONE && k < LC_QT_WIDTH; k++) {
+            const lc_qt_node *r = &t->node[t->root];
+            if (r->lo[a][k] <= r->hi[a][k]) {
+                m = fabs((double)r->lo[a][k]) > m ? fabs((double)r->lo[a][k]) : m;
+                m = fabs((double)r->hi[a][k]) > m ? fabs((double)r->hi[a][k]) : m;
+            }
+        }
+        t->size[a] = m;
+    }
+}
+
 locd_status lc_query_tree_sync(const locd_scene *cs)
 {
     locd_scene *s = (locd_scene *)cs; /* the tree is a cache: a query brings it up to date */
@@ -611,7 +629,7 @@ locd_status lc_query_tree_sync(const locd_scene *cs)
         pthread_mutex_lock(&t->lock);
     if (__atomic_load_n(&t->synced, __ATOMIC_RELAXED) != epoch) {
         if ((st = sync_locked(s, t)) == LOCD_OK)
-            __atomic_store_n(&t->synced, epoch, __ATOMIC_RELEASE);
+            note_size(t), __atomic_store_n(&t->synced, epoch, __ATOMIC_RELEASE);
         else
             free_tree(s->alloc, t); /* built again by the next sync */
     }

@@ -50,6 +50,7 @@ typedef struct lc_query_tree {
     int all_pending;        /* too many to list: the sync goes over every lane */
     size_t nbuilt;          /* objects in the tree when it was built */
     double area_built, area; /* the leaves' surface area then, and now */
+    double size[3];         /* per axis, the largest magnitude of a root lane's bounds (set by a sync) */
     uint64_t synced;        /* the slots' epoch the tree is up to date with (atomic); LC_QT_STALE: not */
     pthread_mutex_t lock;   /* the sync's, for queries from several threads */
     int lock_made;

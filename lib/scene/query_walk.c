@@ -124,21 +124,6 @@ static float to_float(double x, int up)
     return f;
 }
 
-/* The largest coordinate of the tree on axis a (its root's lanes). */
-static double tree_size(const lc_walk *w, int a)
-{
-    const lc_query_tree *qt = &w->s->qtree;
-    const lc_qt_node *r = &qt->node[qt->root];
-    double m = 0.0;
-    uint32_t k;
-    for (k = 0; k < LC_QT_WIDTH; k++)
-        if (r->lo[a][k] <= r->hi[a][k]) {
-            m = fabs((double)r->lo[a][k]) > m ? fabs((double)r->lo[a][k]) : m;
-            m = fabs((double)r->hi[a][k]) > m ? fabs((double)r->hi[a][k]) : m;
-        }
-    return m;
-}
-
 /* A cast's axis a in floats; 0 when out of the floats' range. */
 static int prepare_axis(lc_walk *w, int a, double size)
 {
@@ -183,10 +168,8 @@ static void prepare(lc_walk *w)
 {
     const lc_shape *q = w->q;
     lc_fquery *f = &w->f;
-    double size[3];
+    const double *size = w->s->qtree.size;
     int a;
-    for (a = 0; a < 3; a++)
-        size[a] = tree_size(w, a);
     f->fast = 1, f->moving = 0, f->exact_box = 0;
     if (q->kind == LC_SHAPE_SPHERE) {
         f->fast = prepare_sphere(w, size);
@@ -194,6 +177,8 @@ static void prepare(lc_walk *w)
     }
     f->exact_box = q->kind == LC_SHAPE_BOX;
     for (a = 0; a < 3; a++) {
+        if (q->kind == LC_SHAPE_CAST && q->d[a] != 0.0)
+            continue; /* (a cast's moving axes take their bounds from prepare_axis) */
         f->lo[a] = to_float(q->lo[a], 0), f->hi[a] = to_float(q->hi[a], 1);
         f->exact_box &= (double)f->lo[a] == q->lo[a] && (double)f->hi[a] == q->hi[a];
     }
