@@ -196,9 +196,57 @@ static void near_list_serves_a_touching_lattice(void)
     free(before), free(f), free(ids);
 }
 
+/* Small scenes take the list too (100 to 5,000 objects, 1 and 2 threads):
+ * every object steps each frame, by a fraction of its edge (the list
+ * serves) or, every fifth frame, by several edges (built again); each
+ * update checked against the engine's own find. */
+static void near_list_serves_small_scenes(void)
+{
+    static const size_t sizes[] = {100, 1000, 5000};
+    size_t z;
+    uint32_t t;
+    for (z = 0; z < sizeof sizes / sizeof sizes[0]; z++)
+        for (t = 1; t <= 2; t++) {
+            const size_t n = sizes[z];
+            const double edge = 0.6 / cbrt((double)n); /* about 2 pairs a cube */
+            locd_engine *e = su_new_engine(t, NULL), *er = su_new_engine(1, NULL);
+            locd_scene *s;
+            locd_id *ids = malloc(n * sizeof *ids), *before = NULL, *now;
+            float *f = malloc(n * 6 * sizeof *f);
+            size_t nbefore = 0, nnow;
+            int frame, served = 0;
+            ts_rng r;
+            ts_seed(&r, 4242 + n + t);
+            su_cube_boxes(&r, f, n, edge, 0.0);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n, NULL, ids));
+            for (frame = 0; frame < 16; frame++) {
+                locd_scene_stats st;
+                if (frame) {
+                    su_cube_boxes(&r, f, n, edge, frame % 5 ? edge / 64 : 3 * edge);
+                    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s, ids, f, n));
+                }
+                now = su_engine_rows(er, f, ids, n, 0, &nnow);
+                su_check_against(s, now, nnow, before, nbefore);
+                locd_scene_stats_init(&st);
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_get_stats(s, &st));
+                served += frame && !st.rebuilt && st.coasted == n && st.entries == 0;
+                free(before);
+                before = now, nbefore = nnow;
+            }
+            LT_PRINT("%zu objects, %u threads: the near-pair list served %d of 15 frames\n", n, t, served);
+            TEST_ASSERT_TRUE(served >= 5);
+            locd_scene_destroy(s);
+            locd_engine_destroy(e);
+            locd_engine_destroy(er);
+            free(before), free(f), free(ids);
+        }
+}
+
 static const lt_test tests[] = {
     LT_TEST(near_list_follows_whole_scene_moves),
     LT_TEST(near_list_serves_a_touching_lattice),
+    LT_TEST(near_list_serves_small_scenes),
 };
 
 int main(void)

@@ -21,8 +21,8 @@
  * float boxes' closed test, exact: every box is a float exactly here.
  *
  * Used when the slots are the engine's input as they are (every slot live,
- * in id order), every box is a float exactly, there are at least
- * LC_KEPT_MIN objects, and only moves happened since the list was built
+ * in id order), every box is a float exactly, and only moves happened
+ * since the list was built
  * (an add, remove or set_filter makes it unusable: lc_near_usable). */
 #include "scene/scene.h"
 
@@ -415,7 +415,7 @@ static locd_status near_room(locd_scene *s, size_t n, size_t nc)
 
 int lc_near_applies(locd_scene *s)
 {
-    return !(s->config_flags & LOCD_SCENE_NO_NEAR_LIST) && s->slots.nslots >= LC_KEPT_MIN && !s->slots.ninexact && lc_slots_in_id_order(s) > 0 &&
+    return !(s->config_flags & LOCD_SCENE_NO_NEAR_LIST) && !s->slots.ninexact && lc_slots_in_id_order(s) > 0 &&
            s->slots.nslots < LC_INDEX_BITS;
 }
 

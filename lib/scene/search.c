@@ -68,7 +68,7 @@ typedef struct search_ctx {
     const uint32_t *stay; /* the moved objects that take their partner lists */
     size_t nstay;
     int events; /* LC_SEARCH_EVENTS: fat partners and changes, no rows */
-    search_out out[LC_MAX_THREADS];
+    search_out out[]; /* one per thread that runs (each some 5 KB: only those are allocated) */
 } search_ctx;
 
 /* The point p lies in the cell (pm, level). */
@@ -382,7 +382,7 @@ static void task_search(void *arg, uint32_t t, uint32_t k)
     const uint64_t imask = ((uint64_t)1 << c->s->entries.grid.index_bits) - 1;
     size_t b = c->nq * t / k, e = c->nq * (t + 1) / k, i;
     search_out fo;
-    memset(&fo, 0, sizeof fo);
+    memset(&fo, 0, offsetof(search_out, gq)); /* (the queue's entries are written before they are read) */
     memset(fo.anc, 0xff, sizeof fo.anc); /* no key: a key's level bits are at most LC_SBITS */
     for (i = b; i < b + LC_DIR_AHEAD && i < e; i++)
         prefetch_far(c, c->q[i]);
@@ -424,18 +424,16 @@ static locd_status gather_out(const locd_scene *s, const search_ctx *c, uint32_t
 
 locd_status lc_search_moved(const locd_scene *s, const lc_moved *m, int mode, lc_search_out *out)
 {
-    search_ctx *c = lc_alloc(s->alloc, sizeof *c);
-    uint32_t k = s->threads, t;
+    const uint32_t k = s->threads > 1 && m->nq + m->nstay >= LC_SEARCH_SPLIT ? s->threads : 1;
+    const size_t size = offsetof(search_ctx, out) + k * sizeof(search_out);
+    search_ctx *c = lc_alloc(s->alloc, size);
+    uint32_t t;
     locd_status st = LOCD_OK;
     if (!c)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the search state");
-    memset(c, 0, sizeof *c);
+    memset(c, 0, offsetof(search_ctx, out)); /* (each thread writes its output whole) */
     c->s = s, c->dyn = m->dyn, c->sta = m->sta, c->q = m->q, c->nq = m->nq;
     c->stay = m->stay, c->nstay = m->nstay, c->events = mode == LC_SEARCH_EVENTS;
-    if (k < 1)
-        k = 1;
-    if (m->nq + m->nstay < LC_SEARCH_SPLIT)
-        k = 1;
     if (k > 1)
         lc_pool_run(s->pool, k, task_search, c);
     else
@@ -456,7 +454,7 @@ locd_status lc_search_moved(const locd_scene *s, const lc_moved *m, int mode, lc
         for (w = 0; w < FO_N; w++)
             lc_buf_release(s->alloc, &c->out[t].buf[w], fo_unit[w]);
     }
-    lc_free(s->alloc, c, sizeof *c);
+    lc_free(s->alloc, c, size);
     return st;
 }
 
