@@ -356,9 +356,10 @@ def fetch(cache, members):
                 debs = sorted(cache.glob(PACKAGE + "_*.deb"))
                 if rc != 0 or not debs:
                     raise MeshError(
-                        "could not download the meshes: `apt-get download %s` in %s failed (exit %d):\n%s\n"
+                        "could not download the meshes: `apt-get download %s` in %s failed (exit %d)%s\n"
                         "On Debian 12 run `apt-get update` first (scripts/setup.sh does), or put %s's .deb "
-                        "or its data.tar.gz into %s." % (PACKAGE, cache, rc, out.strip()[-1500:], PACKAGE, cache))
+                        "or its data.tar.gz into %s." % (PACKAGE, cache, rc, ":\n" + out.strip()[-1500:] if out.strip()
+                                                         else ".", PACKAGE, cache))
             tmp = cache / "data.tar.gz.part"
             with open(tmp, "wb") as f:
                 r = subprocess.run("dpkg-deb --fsys-tarfile %s | tar -xO %s" % (debs[-1], DATA_IN_DEB), shell=True,
