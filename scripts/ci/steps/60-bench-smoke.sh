@@ -5,9 +5,9 @@
 # return exactly locd's 1-thread pairs; the others' differences (touching
 # boxes treated as open, ...) are reported but do not fail; a peer that
 # crashes or errors fails (the harness must drive it correctly). CGAL's
-# half-open variant checks the attribution itself: on the lattice and the mesh it must
-# miss touching pairs, and nothing else, anywhere. The query peers (rays and
-# boxes) must give locd's hits exactly.
+# half-open variant checks the attribution itself: on the lattice and the
+# mesh it must miss touching pairs, and nothing else, anywhere. The query
+# peers (rays and boxes) must give locd's hits exactly.
 # A real triangle mesh too: CGAL's three_peaks terrain (3,671 triangles, one
 # box each: neighbours touch exactly), made by bench/meshes.py from Debian's
 # libcgal-demo package (downloaded once into bench/results/tmp/meshes/, which
