@@ -52,4 +52,17 @@ if [ ! -f "$UNITY_WHEEL" ]; then
   .venv/bin/pip download -q --disable-pip-version-check --no-deps --require-hashes \
     -r .deps/unity-requirements.txt -d .deps
 fi
+# The benchmark's triangle meshes (bench/meshes.py; CI step 60-bench-smoke uses
+# one): CGAL's demo data from Debian's libcgal-demo package, downloaded (not
+# installed) into the git-ignored cache bench/results/tmp/meshes/. apt-get
+# download needs the package lists: a Docker image without them gets them here.
+if ! .venv/bin/python bench/meshes.py --fetch-only >/dev/null 2>&1; then
+  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get -o DPkg::Lock::Timeout=600 update -qq || true
+  if ! .venv/bin/python bench/meshes.py --fetch-only >/dev/null; then
+    echo "setup: the benchmark's meshes could not be downloaded (bench/meshes.py --fetch-only, above);" \
+      "CI step 60-bench-smoke and bench/run's mesh phase need them" >&2
+    exit 1
+  fi
+fi
 echo "setup: ok"

@@ -5,9 +5,15 @@
 # return exactly locd's 1-thread pairs; the others' differences (touching
 # boxes treated as open, ...) are reported but do not fail; a peer that
 # crashes or errors fails (the harness must drive it correctly). CGAL's
-# half-open variant checks the attribution itself: on the lattice it must
-# miss touching pairs, and nothing else, anywhere. The query peers (rays and
-# boxes) must give locd's hits exactly.
+# half-open variant checks the attribution itself: on the lattice and the
+# mesh it must miss touching pairs, and nothing else, anywhere. The query
+# peers (rays and boxes) must give locd's hits exactly.
+# A real triangle mesh too: CGAL's three_peaks terrain (3,671 triangles, one
+# box each: neighbours touch exactly), made by bench/meshes.py from Debian's
+# libcgal-demo package (downloaded once into bench/results/tmp/meshes/, which
+# scripts/setup.sh fills); the same peers must be exact on it. First, the
+# converter's own test (tests/tools/test_meshes.py: hand-made meshes, no
+# download).
 # One JUnit testcase per (scene, peer). Skipped when the peers are not installed.
 set -euo pipefail
 cd "$ROOT"
@@ -16,6 +22,10 @@ JUNIT="$LOCD_RESULTS/bench-smoke.junit.xml"
 OUT="$ROOT/build-ci/bench-smoke"
 rm -rf "$OUT"
 mkdir -p "$OUT"
+
+rc=0
+python3 -m pytest -q -p no:cacheprovider --junitxml="$LOCD_RESULTS/meshes-converter.junit.xml" \
+  tests/tools/test_meshes.py || rc=1
 
 # 10-c.sh's build already holds bench/peers when the peers are installed.
 BUILD="$ROOT/build-ci/c"
@@ -34,16 +44,26 @@ open(sys.argv[1], "w").write('<?xml version="1.0" encoding="utf-8"?>\n<testsuite
     'tests="1" skipped="1"><testcase classname="bench-smoke" name="peers"><skipped message="peers not installed"/>'
     '</testcase></testsuite></testsuites>\n')
 EOF
-  exit 0
+  exit $rc
 fi
 ninja -C "$BUILD" -j "$JOBS" tools/locd bench/peers bench/frames_peers
 
-rc=0
 for kind in uniform clustered mixed lattice far; do
   "$BUILD/tools/locd" gen "$kind" "$N" --seed 7 -o "$OUT/$kind.aabb" >/dev/null
   "$BUILD/bench/peers" --reps 1 --budget 20 --scene-name "$kind" --csv "$OUT/peers.csv" --check-exact \
     "$OUT/$kind.aabb" || rc=1
 done
+
+# The mesh scene (bench/meshes.py fetches the package when the cache lacks it).
+if python3 bench/meshes.py --out "$OUT" --scenes terrain-small 2> "$OUT/mesh-error.txt"; then
+  rm -f "$OUT/mesh-error.txt"
+  "$BUILD/bench/peers" --reps 1 --budget 20 --scene-name mesh-terrain-small --csv "$OUT/peers.csv" \
+    --check-exact "$OUT/mesh-terrain-small.aabb" || rc=1
+else
+  echo "the mesh scene could not be made (bench/meshes.py --scenes terrain-small):"
+  cat "$OUT/mesh-error.txt"
+  rc=1
+fi
 
 # Frame to frame (bench/frames.py's program): locd's scene, the rebuild, Bullet
 # and FCL kept across 3 frames; locd (both), Bullet (exact pairs of its cache) and FCL must hold the same pairs.
@@ -64,7 +84,7 @@ if grep -q '^bench/queries_peers:' <<< "$targets"; then
 fi
 
 py_rc=0
-python3 - "$OUT/peers.csv" "$JUNIT" "$OUT/frames.json" "$OUT/queries.jsonl" <<'EOF' || py_rc=$?
+python3 - "$OUT/peers.csv" "$JUNIT" "$OUT/frames.json" "$OUT/queries.jsonl" "$OUT/mesh-error.txt" <<'EOF' || py_rc=$?
 import csv, json, sys
 from xml.sax.saxutils import escape, quoteattr
 MUST = {"locd", "locd_1t", "cgal_closed", "brute_force"}
@@ -80,7 +100,7 @@ for r in rows:
         bad = bad or r["locd_wrong"] != "0"
         if r["peer"] == "cgal_half_open":  # checks the attribution: only touching pairs may go missing
             bad = bad or any(r[c] != "0" for c in ("missing_overlap", "extra_disjoint", "duplicates")) or (
-                r["scene"] == "lattice" and r["missing_touching"] == "0")
+                r["scene"] in ("lattice", "mesh-terrain-small") and r["missing_touching"] == "0")
     failures += bad
     body = ("<failure message=%s>%s</failure>" % (quoteattr(msg[:200]), escape(msg)) if bad
             else "<system-out>%s</system-out>" % escape(msg))
@@ -113,6 +133,14 @@ for (scene, state, query), got in sorted(qcells.items()):
         "<failure message=%s>%s</failure>" % (quoteattr(qmsg[:200]), escape(qmsg)) if qbad
         else "<system-out>%s</system-out>" % escape(qmsg))))
     print(("FAIL " if qbad else "ok   ") + name + ": " + qmsg)
+try:
+    merr = open(sys.argv[5]).read().strip()
+    failures += 1
+    cases.append('<testcase classname="bench-smoke" name="mesh-terrain-small"><failure message=%s>%s</failure>'
+                 '</testcase>' % (quoteattr(merr[-200:]), escape(merr)))
+    print("FAIL mesh-terrain-small: " + merr)
+except OSError:
+    pass
 if not rows:
     failures = 1
     cases.append('<testcase classname="bench-smoke" name="peers"><failure message="no results"/></testcase>')
