@@ -219,7 +219,9 @@ btBroadphaseProxy *BulletBroadphase::createProxy(const btVector3 &aabbMin, const
     (void)dispatcher;
     Impl &m = *impl_;
     BulletProxy *p;
-    if (m.free_slots.empty()) {
+    // A dead slot waits behind kQuarantine others before its reuse, so a
+    // late call on the dead proxy still finds it dead.
+    if (m.free_slots.size() <= Impl::kQuarantine) {
         m.pool.emplace_back();
         p = &m.pool.back();
     } else {

@@ -19,7 +19,8 @@ namespace locd {
 // A proxy lives in Impl::pool (stable addresses) until the broadphase is
 // destroyed: a destroyed one is only marked dead, so a second destroyProxy
 // or a setAabb on it reads our own memory and is caught (docs/engines.md,
-// "Bad use"). Dead slots are reused oldest first.
+// "Bad use"). Dead slots are reused oldest first, and only once 64 more
+// have died after them.
 struct BulletProxy : btBroadphaseProxy {
     static constexpr std::uint32_t kMagic = 0x6c6f6364u; // "locd"
     std::uint32_t magic = kMagic;
@@ -64,7 +65,8 @@ struct BulletBroadphase::Impl {
     bool owns_cache = false;
 
     std::deque<BulletProxy> pool;
-    std::deque<BulletProxy *> free_slots;
+    std::deque<BulletProxy *> free_slots; // oldest first
+    static constexpr size_t kQuarantine = 64;
     std::unordered_map<locd_id, BulletProxy *> by_id;
     std::vector<BulletProxy *> dirty;
     std::vector<locd_id> removed; // scene objects of destroyed or held-out proxies, removed at the flush
