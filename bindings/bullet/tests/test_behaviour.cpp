@@ -68,7 +68,7 @@ double pyramid(Broadphase kind, int levels, int steps)
 
 int main(int argc, char **argv)
 {
-    int n = argc > 1 ? std::atoi(argv[1]) : 400;
+    int n = argc > 1 ? std::atoi(argv[1]) : heavy() ? 400 : 150;
     int steps = argc > 2 ? std::atoi(argv[2]) : 600;
     Tap tap;
     for (Broadphase kind : {Broadphase::dbvt, Broadphase::locd}) {

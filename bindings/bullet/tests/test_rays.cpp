@@ -131,8 +131,8 @@ void segment(Rng &r, double w, btVector3 &from, btVector3 &to)
 
 int main(int argc, char **argv)
 {
-    int n = argc > 1 ? std::atoi(argv[1]) : 1500;
-    int rays = argc > 2 ? std::atoi(argv[2]) : 150;
+    int n = argc > 1 ? std::atoi(argv[1]) : heavy() ? 1500 : 500;
+    int rays = argc > 2 ? std::atoi(argv[2]) : heavy() ? 150 : 50;
     double w = 10;
     World world(Broadphase::locd, 2, w);
     world.bowl(w);

@@ -8,6 +8,8 @@
 #include <btBulletDynamicsCommon.h>
 
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
 #include <vector>
@@ -160,6 +162,13 @@ struct World {
 
     void step() { world->stepSimulation(1.0 / 60.0, 0); }
 };
+
+// LOCD_TEST_HEAVY=0 (the sanitizer builds, tests/README.md): smaller scenes.
+inline bool heavy()
+{
+    const char *v = std::getenv("LOCD_TEST_HEAVY");
+    return !(v && v[0] == '0');
+}
 
 // TAP for meson's test protocol: one line per check.
 struct Tap {
