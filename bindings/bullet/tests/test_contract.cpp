@@ -230,16 +230,21 @@ int main()
             }
         } shrink;
         shrink.m_lambda_max = 1;
-        btVector3 from(-5, 25, 25), to(55, 25, 25);
-        bp.rayTest(from, to, shrink);
-        bool ok = !shrink.seen.empty();
-        for (size_t k = 1; k < shrink.seen.size(); k++)
-            ok = ok && entry(shrink.seen[k], from, to, btVector3(0, 0, 0), btVector3(0, 0, 0)) <= 0.3;
+        // A wide swept box, so that many proxies are entered near t = 0.3.
+        btVector3 from(-5, 25, 25), to(55, 25, 25), smin(-5, -5, -5), smax(5, 5, 5);
+        bp.rayTest(from, to, shrink, smin, smax);
+        std::set<const btBroadphaseProxy *> want, seen(shrink.seen.begin(), shrink.seen.end());
         int beyond = 0;
         for (btBroadphaseProxy *p : ps) {
-            double t = entry(p, from, to, btVector3(0, 0, 0), btVector3(0, 0, 0));
-            beyond += t > 0.3;
+            double t = entry(p, from, to, smin, smax);
+            if (t >= 0 && t <= (double)0.3f)
+                want.insert(p);
+            beyond += t > (double)0.3f;
         }
+        if (!shrink.seen.empty())
+            want.insert(shrink.seen[0]); // offered before m_lambda_max shrank
+        bool ok = !shrink.seen.empty() && seen == want && seen.size() == shrink.seen.size();
+        std::printf("# %zu offered, %zu expected, %d entered past 0.3\n", shrink.seen.size(), want.size(), beyond);
         tap.ok(ok && beyond > 0, "rayTest stops once past the callback's shrinking m_lambda_max");
     }
     return tap.done();
