@@ -20,7 +20,10 @@ btTransform at(const btVector3 &p, const btQuaternion &q = btQuaternion::getIden
 // Whether the segment from..to meets the box lo - grow .. hi + grow (closed,
 // in double). Bullet's rayTestSingle can report a hit on a convex hull whose
 // point lies well outside the hull's AABB (seen: 0.67 off); a broad phase
-// rightly never offers that object, so the brute force skips such hits.
+// rightly never offers an object whose AABB the segment misses, so the brute
+// force skips such hits. The AABB is the proxy's (the shape's, grown by
+// Bullet's contact threshold and, for moving bodies, their motion), brought
+// up to date by updateAabbs before the queries.
 bool meets(btVector3 lo, btVector3 hi, const btVector3 &from, const btVector3 &to, double grow)
 {
     double t0 = 0, t1 = 1;
@@ -42,9 +45,8 @@ bool meets(btVector3 lo, btVector3 hi, const btVector3 &from, const btVector3 &t
 
 bool meets(const btCollisionObject *o, const btVector3 &from, const btVector3 &to, double grow)
 {
-    btVector3 lo, hi;
-    o->getCollisionShape()->getAabb(o->getWorldTransform(), lo, hi);
-    return meets(lo, hi, from, to, grow + 1e-4);
+    const btBroadphaseProxy *p = o->getBroadphaseHandle();
+    return meets(p->m_aabbMin, p->m_aabbMax, from, to, grow);
 }
 
 // The closest fraction over every object (2 = none), and each object's own.
@@ -95,10 +97,13 @@ btScalar brute_sweep(btCollisionWorld *w, const btConvexShape *shape, const btTr
         if (!cb.needsCollision(o->getBroadphaseHandle()))
             continue;
         btCollisionWorld::objectQuerySingle(shape, from, to, o, o->getCollisionShape(), o->getWorldTransform(), cb, 0);
-        btVector3 c;
-        btScalar radius;
-        shape->getBoundingSphere(c, radius);
-        if (cb.hasHit() && meets(o, from.getOrigin(), to.getOrigin(), radius + c.length())) {
+        // The cast shape's box about its origin, as convexSweepTest computes
+        // it (one rotation from start to end): the object's AABB grown by it.
+        btVector3 smin, smax;
+        btTransform r(from.getRotation());
+        shape->getAabb(r, smin, smax);
+        const btBroadphaseProxy *p = o->getBroadphaseHandle();
+        if (cb.hasHit() && meets(p->m_aabbMin - smax, p->m_aabbMax - smin, from.getOrigin(), to.getOrigin(), 0)) {
             own[k] = cb.m_closestHitFraction;
             best = std::min(best, cb.m_closestHitFraction);
         }
