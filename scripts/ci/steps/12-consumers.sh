@@ -12,6 +12,8 @@
 #     flags when mpicc is there),
 #   - a CMake project with find_package(locd) (the prefix moved elsewhere
 #     first: locdConfig.cmake must be relocatable),
+#   - when Bullet is installed, a C++17 program on liblocd_bullet with
+#     `pkg-config locd-bullet` and with CMake's locd::bullet,
 #   - a Meson project with locd as a subproject, whose `meson test --list`
 #     must show no locd test and which must install nothing.
 # "A machine where FCL is not installed" is simulated: PKG_CONFIG_LIBDIR is
@@ -191,6 +193,34 @@ cmake_project() {
   [ $st -eq 0 ] || [ $st -eq 77 ]
 }
 run_case cmake cmake_project
+
+bullet_consumer() {
+  # liblocd_bullet (built when Bullet is found): a C++17 program with
+  # `pkg-config locd-bullet`, and a CMake project with
+  # find_package(locd COMPONENTS bullet) against the moved prefix. Bullet's
+  # own .pc file must be visible here (locd-bullet.pc requires it). The
+  # programs run with the prefix on LD_LIBRARY_PATH: they call no liblocd
+  # function themselves, so their RUNPATH does not reach liblocd.so.
+  if [ ! -f "$LIBDIR/pkgconfig/locd-bullet.pc" ]; then
+    echo "liblocd_bullet not built (Bullet not found): nothing to check"
+    return 0
+  fi
+  local sys_pc
+  sys_pc=$(env -u PKG_CONFIG_LIBDIR pkg-config --variable pc_path pkg-config)
+  PKG_CONFIG_LIBDIR="$LIBDIR/pkgconfig:$sys_pc" pkg-config --cflags --libs locd-bullet
+  c++ -std=c++17 -Wall -Wextra -Werror "$SRC/bullet/app.cpp" -o "$OUT/bullet-app" \
+    $(PKG_CONFIG_LIBDIR="$LIBDIR/pkgconfig:$sys_pc" pkg-config --cflags --libs locd-bullet)
+  LD_LIBRARY_PATH="$LIBDIR" "$OUT/bullet-app"
+  local moved_lib
+  moved_lib=$(dirname "$(find "$OUT/moved" -name liblocd_bullet.so | head -1)")
+  PKG_CONFIG_LIBDIR="$sys_pc" cmake -S "$SRC/bullet" -B "$OUT/cmake-bullet" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_PREFIX_PATH="$OUT/moved" | tee "$OUT/cmake-bullet-configure.txt"
+  grep -q "from $OUT/moved/.*(bullet: TRUE)" "$OUT/cmake-bullet-configure.txt"
+  cmake --build "$OUT/cmake-bullet" -j "${JOBS:-2}"
+  LD_LIBRARY_PATH="$moved_lib" ldd "$OUT/cmake-bullet/app" | grep "$OUT/moved/.*liblocd_bullet.so" >/dev/null
+  LD_LIBRARY_PATH="$moved_lib" "$OUT/cmake-bullet/app"
+}
+run_case bullet bullet_consumer
 
 meson_subproject() {
   # The consumer next to its sources; locd's tree in its subprojects/ (a

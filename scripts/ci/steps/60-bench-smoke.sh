@@ -83,6 +83,14 @@ if grep -q '^bench/queries_peers:' <<< "$targets"; then
   done
 fi
 
+# A Bullet world on btDbvtBroadphase, btAxisSweep3 and locd (bench/bullet):
+# a few steps of each scene and broad phase must run to the end.
+if grep -q '^bench/bullet:' <<< "$targets"; then
+  ninja -C "$BUILD" -j "$JOBS" bench/bullet
+  "$BUILD/bench/bullet" --sizes 300 --steps 3 --warmup 1 --rays 20 > "$OUT/bullet.md" || rc=1
+  cat "$OUT/bullet.md"
+fi
+
 py_rc=0
 python3 - "$OUT/peers.csv" "$JUNIT" "$OUT/frames.json" "$OUT/queries.jsonl" "$OUT/mesh-error.txt" <<'EOF' || py_rc=$?
 import csv, json, sys

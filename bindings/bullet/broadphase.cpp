@@ -1,0 +1,403 @@
+// locd::BulletBroadphase: proxies, the batched changes, and the pairs.
+#include "impl.hpp"
+
+#include <BulletCollision/BroadphaseCollision/btDispatcher.h>
+
+#include <cassert>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+
+// Bad use is asserted in debug builds (btAssert only fires with BT_DEBUG,
+// so assert() too) and ignored in release, counted in stats().misuse.
+#define LOCD_BULLET_ASSERT(x) \
+    do {                      \
+        btAssert(x);          \
+        assert(x);            \
+    } while (0)
+
+namespace locd {
+
+namespace {
+
+#if defined(BT_USE_DOUBLE_PRECISION)
+typedef double scalar;
+inline locd_status scene_add(locd_scene *s, const double *b, size_t n, const locd_scene_add_options *o, locd_id *ids)
+{
+    return locd_scene_add_f64(s, b, n, o, ids);
+}
+inline locd_status scene_move(locd_scene *s, const locd_id *ids, const double *b, size_t n)
+{
+    return locd_scene_move_f64(s, ids, b, n);
+}
+#else
+typedef float scalar;
+inline locd_status scene_add(locd_scene *s, const float *b, size_t n, const locd_scene_add_options *o, locd_id *ids)
+{
+    return locd_scene_add_f32(s, b, n, o, ids);
+}
+inline locd_status scene_move(locd_scene *s, const locd_id *ids, const float *b, size_t n)
+{
+    return locd_scene_move_f32(s, ids, b, n);
+}
+#endif
+
+bool valid_box(const btVector3 &lo, const btVector3 &hi)
+{
+    for (int k = 0; k < 3; k++)
+        if (!std::isfinite(lo[k]) || !std::isfinite(hi[k]) || !(lo[k] <= hi[k]))
+            return false;
+    return true;
+}
+
+void push_box(std::vector<scalar> &v, const btBroadphaseProxy *p)
+{
+    for (int k = 0; k < 3; k++)
+        v.push_back(p->m_aabbMin[k]);
+    for (int k = 0; k < 3; k++)
+        v.push_back(p->m_aabbMax[k]);
+}
+
+// Objects added in one call: the scene takes the static flag per batch.
+struct AddBatch {
+    std::vector<BulletProxy *> proxies;
+    std::vector<scalar> boxes;
+    std::vector<std::uint64_t> categories, masks;
+};
+
+void failed(const char *what, locd_status s)
+{
+    std::fprintf(stderr, "locd::BulletBroadphase: %s failed: %s (%s)\n", what, locd_status_string(s),
+                 locd_last_error());
+    LOCD_BULLET_ASSERT(!"a locd scene call failed");
+}
+
+} // namespace
+
+bool BulletBroadphase::Impl::check(const btBroadphaseProxy *proxy) const
+{
+    const BulletProxy *p = static_cast<const BulletProxy *>(proxy);
+    bool ok = p && p->magic == BulletProxy::kMagic && p->alive;
+    LOCD_BULLET_ASSERT(ok && "a destroyed or foreign proxy");
+    if (!ok)
+        const_cast<Impl *>(this)->st.misuse++;
+    return ok;
+}
+
+void BulletBroadphase::Impl::mark(BulletProxy *p)
+{
+    if (!p->dirty) {
+        p->dirty = true;
+        dirty.push_back(p);
+    }
+}
+
+// Brings the scene up to date with the proxies: removes, adds, moves and
+// filters in one batch each (the scene's calls are per batch).
+void BulletBroadphase::Impl::flush()
+{
+    AddBatch adds[2]; // dynamic, static
+    std::vector<locd_id> move_ids, filter_ids;
+    std::vector<scalar> move_boxes;
+    std::vector<std::uint64_t> filter_cats, filter_masks;
+    for (BulletProxy *p : dirty) {
+        p->dirty = false;
+        if (!p->alive)
+            continue; // destroyed: its object is in `removed` already
+        int group = p->m_collisionFilterGroup, mask = p->m_collisionFilterMask;
+        bool want_static = static_filter(group, mask);
+        if (p->id != LOCD_ID_NONE && (!p->box_ok || want_static != p->is_static)) {
+            // Held out (bad box) or re-added (static changed): its old id
+            // names it until this frame's lost pairs are read.
+            removed.push_back(p->id);
+            retired.push_back(p->id);
+            p->id = LOCD_ID_NONE;
+        }
+        if (p->id == LOCD_ID_NONE) {
+            if (p->box_ok) {
+                AddBatch &b = adds[want_static ? 1 : 0];
+                b.proxies.push_back(p);
+                push_box(b.boxes, p);
+                b.categories.push_back(bits(group));
+                b.masks.push_back(bits(mask));
+            }
+            continue;
+        }
+        if (p->moved_frame == frame) {
+            move_ids.push_back(p->id);
+            push_box(move_boxes, p);
+        }
+        if (group != p->scene_group || mask != p->scene_mask) {
+            filter_ids.push_back(p->id);
+            filter_cats.push_back(bits(group));
+            filter_masks.push_back(bits(mask));
+            p->scene_group = group;
+            p->scene_mask = mask;
+        }
+    }
+    dirty.clear();
+    locd_status s;
+    if (!removed.empty() && (s = locd_scene_remove(scene, removed.data(), removed.size())) != LOCD_OK)
+        failed("locd_scene_remove", s);
+    removed.clear();
+    std::vector<locd_id> ids;
+    for (int k = 0; k < 2; k++) {
+        AddBatch &b = adds[k];
+        if (b.proxies.empty())
+            continue;
+        locd_scene_add_options o;
+        locd_scene_add_options_init(&o);
+        o.flags = k ? LOCD_OBJECT_STATIC : 0;
+        o.categories = b.categories.data();
+        o.masks = b.masks.data();
+        ids.resize(b.proxies.size());
+        if ((s = scene_add(scene, b.boxes.data(), b.proxies.size(), &o, ids.data())) != LOCD_OK) {
+            failed("locd_scene_add", s);
+            continue;
+        }
+        for (size_t i = 0; i < ids.size(); i++) {
+            BulletProxy *p = b.proxies[i];
+            p->id = ids[i];
+            p->is_static = k == 1;
+            p->scene_group = (int)b.categories[i];
+            p->scene_mask = (int)b.masks[i];
+            by_id[ids[i]] = p;
+        }
+    }
+    if (!move_ids.empty() && (s = scene_move(scene, move_ids.data(), move_boxes.data(), move_ids.size())) != LOCD_OK)
+        failed("locd_scene_move", s);
+    if (!filter_ids.empty() &&
+        (s = locd_scene_set_filter(scene, filter_ids.data(), filter_ids.size(), filter_cats.data(),
+                                   filter_masks.data(), nullptr)) != LOCD_OK)
+        failed("locd_scene_set_filter", s);
+}
+
+BulletBroadphase::BulletBroadphase(const BulletBroadphaseOptions &options) : BulletBroadphase(nullptr, options) {}
+
+BulletBroadphase::BulletBroadphase(btOverlappingPairCache *pairCache, const BulletBroadphaseOptions &options)
+    : impl_(new Impl)
+{
+    locd_engine_config ec;
+    locd_engine_config_init(&ec);
+    ec.threads = options.threads;
+    locd_status s = locd_engine_create(&ec, &impl_->engine);
+    if (s == LOCD_OK) {
+        locd_scene_config sc;
+        locd_scene_config_init(&sc);
+        sc.flags = options.scene_flags;
+        sc.capacity_hint = options.capacity_hint;
+        s = locd_scene_create(impl_->engine, &sc, &impl_->scene);
+    }
+    if (s != LOCD_OK) {
+        std::string msg = std::string("locd::BulletBroadphase: ") + locd_status_string(s) + ": " + locd_last_error();
+        locd_engine_destroy(impl_->engine);
+        throw std::runtime_error(msg);
+    }
+    if (pairCache) {
+        impl_->cache = pairCache;
+    } else {
+        impl_->cache = new btHashedOverlappingPairCache();
+        impl_->owns_cache = true;
+    }
+}
+
+BulletBroadphase::~BulletBroadphase()
+{
+    locd_scene_destroy(impl_->scene);
+    locd_engine_destroy(impl_->engine);
+    if (impl_->owns_cache)
+        delete impl_->cache;
+}
+
+btBroadphaseProxy *BulletBroadphase::createProxy(const btVector3 &aabbMin, const btVector3 &aabbMax, int shapeType,
+                                                 void *userPtr, int collisionFilterGroup, int collisionFilterMask,
+                                                 btDispatcher *dispatcher)
+{
+    (void)shapeType;
+    (void)dispatcher;
+    Impl &m = *impl_;
+    BulletProxy *p;
+    // A dead slot waits behind kQuarantine others before its reuse, so a
+    // late call on the dead proxy still finds it dead.
+    if (m.free_slots.size() <= Impl::kQuarantine) {
+        m.pool.emplace_back();
+        p = &m.pool.back();
+    } else {
+        p = m.free_slots.front();
+        m.free_slots.pop_front();
+    }
+    p->m_clientObject = userPtr;
+    p->m_collisionFilterGroup = collisionFilterGroup;
+    p->m_collisionFilterMask = collisionFilterMask;
+    p->m_uniqueId = ++m.next_uid;
+    p->m_aabbMin = aabbMin;
+    p->m_aabbMax = aabbMax;
+    p->alive = true;
+    p->id = LOCD_ID_NONE;
+    p->box_ok = valid_box(aabbMin, aabbMax);
+    LOCD_BULLET_ASSERT(p->box_ok && "createProxy: a NaN, infinite or inverted AABB");
+    if (!p->box_ok)
+        m.st.misuse++;
+    p->moved_frame = m.frame;
+    m.mark(p);
+    m.live++;
+    return p;
+}
+
+void BulletBroadphase::destroyProxy(btBroadphaseProxy *proxy, btDispatcher *dispatcher)
+{
+    Impl &m = *impl_;
+    if (!m.check(proxy))
+        return;
+    BulletProxy *p = static_cast<BulletProxy *>(proxy);
+    m.cache->removeOverlappingPairsContainingProxy(p, dispatcher);
+    if (p->id != LOCD_ID_NONE) {
+        m.removed.push_back(p->id);
+        m.by_id.erase(p->id);
+        p->id = LOCD_ID_NONE;
+    }
+    // An old id still naming it (held out or re-added this frame) must not
+    // reach the slot's next owner.
+    for (locd_id r : m.retired) {
+        auto it = m.by_id.find(r);
+        if (it != m.by_id.end() && it->second == p)
+            m.by_id.erase(it);
+    }
+    p->alive = false;
+    p->m_clientObject = nullptr;
+    m.free_slots.push_back(p);
+    m.live--;
+}
+
+void BulletBroadphase::setAabb(btBroadphaseProxy *proxy, const btVector3 &aabbMin, const btVector3 &aabbMax,
+                               btDispatcher *dispatcher)
+{
+    (void)dispatcher;
+    Impl &m = *impl_;
+    if (!m.check(proxy))
+        return;
+    BulletProxy *p = static_cast<BulletProxy *>(proxy);
+    bool same_box = p->m_aabbMin == aabbMin && p->m_aabbMax == aabbMax;
+    bool same_filter = p->m_collisionFilterGroup == p->scene_group && p->m_collisionFilterMask == p->scene_mask;
+    if (same_box && same_filter && p->box_ok)
+        return; // a resting body's step: nothing for the scene
+    if (!same_box) {
+        p->m_aabbMin = aabbMin;
+        p->m_aabbMax = aabbMax;
+        p->box_ok = valid_box(aabbMin, aabbMax);
+        LOCD_BULLET_ASSERT(p->box_ok && "setAabb: a NaN, infinite or inverted AABB");
+        if (!p->box_ok)
+            m.st.misuse++;
+        p->moved_frame = m.frame;
+    }
+    m.mark(p);
+}
+
+void BulletBroadphase::getAabb(btBroadphaseProxy *proxy, btVector3 &aabbMin, btVector3 &aabbMax) const
+{
+    if (!impl_->check(proxy))
+        return;
+    aabbMin = proxy->m_aabbMin;
+    aabbMax = proxy->m_aabbMax;
+}
+
+void BulletBroadphase::calculateOverlappingPairs(btDispatcher *dispatcher)
+{
+    Impl &m = *impl_;
+    auto t0 = std::chrono::steady_clock::now();
+    m.flush();
+    locd_status s = locd_scene_update(m.scene, LOCD_SCENE_UPDATE_EVENTS);
+    if (s != LOCD_OK) {
+        failed("locd_scene_update", s);
+        return;
+    }
+    const locd_id *rows;
+    size_t n;
+    locd_scene_lost(m.scene, &rows, &n);
+    m.st.lost = n;
+    for (size_t k = 0; k < n; k++) {
+        m.rejected.erase(PairKey{rows[2 * k], rows[2 * k + 1]});
+        BulletProxy *a = m.proxy_of(rows[2 * k]), *b = m.proxy_of(rows[2 * k + 1]);
+        if (a && b) // else destroyed: destroyProxy removed its pairs
+            m.cache->removeOverlappingPair(a, b, dispatcher);
+    }
+    for (locd_id r : m.retired)
+        m.by_id.erase(r);
+    m.retired.clear();
+    // Refused pairs still overlapping: the cache's filter is asked again
+    // when one of the two moved.
+    for (auto it = m.rejected.begin(); it != m.rejected.end();) {
+        BulletProxy *a = m.proxy_of(it->a), *b = m.proxy_of(it->b);
+        if (!a || !b) {
+            it = m.rejected.erase(it);
+        } else if ((a->moved_frame == m.frame || b->moved_frame == m.frame) && m.cache->addOverlappingPair(a, b)) {
+            it = m.rejected.erase(it);
+        } else {
+            ++it;
+        }
+    }
+    locd_scene_created(m.scene, &rows, &n);
+    m.st.created = n;
+    for (size_t k = 0; k < n; k++) {
+        BulletProxy *a = m.proxy_of(rows[2 * k]), *b = m.proxy_of(rows[2 * k + 1]);
+        if (a && b && !m.cache->addOverlappingPair(a, b))
+            m.rejected.insert(PairKey{rows[2 * k], rows[2 * k + 1]});
+    }
+    m.frame++;
+    m.st.update_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+btOverlappingPairCache *BulletBroadphase::getOverlappingPairCache() { return impl_->cache; }
+
+const btOverlappingPairCache *BulletBroadphase::getOverlappingPairCache() const { return impl_->cache; }
+
+void BulletBroadphase::getBroadphaseAabb(btVector3 &aabbMin, btVector3 &aabbMax) const
+{
+    bool any = false;
+    for (const BulletProxy &p : impl_->pool) {
+        if (!p.alive || !p.box_ok)
+            continue;
+        if (!any) {
+            aabbMin = p.m_aabbMin;
+            aabbMax = p.m_aabbMax;
+            any = true;
+        } else {
+            aabbMin.setMin(p.m_aabbMin);
+            aabbMax.setMax(p.m_aabbMax);
+        }
+    }
+    if (!any)
+        aabbMin = aabbMax = btVector3(0, 0, 0);
+}
+
+void BulletBroadphase::resetPool(btDispatcher *dispatcher)
+{
+    (void)dispatcher;
+    if (impl_->live == 0)
+        impl_->next_uid = 0;
+}
+
+BulletBroadphaseStats BulletBroadphase::stats() const
+{
+    BulletBroadphaseStats s = impl_->st;
+    s.proxies = impl_->live;
+    s.in_scene = locd_scene_count(impl_->scene);
+    s.rejected = impl_->rejected.size();
+    return s;
+}
+
+const locd_scene *BulletBroadphase::scene() const { return impl_->scene; }
+
+void BulletBroadphase::printStats()
+{
+    BulletBroadphaseStats s = stats();
+    std::printf("locd::BulletBroadphase: %llu proxies (%llu in the scene), last update %.3f ms: +%llu -%llu pairs, "
+                "%llu refused by the pair cache, %llu bad calls ignored\n",
+                (unsigned long long)s.proxies, (unsigned long long)s.in_scene, s.update_ms,
+                (unsigned long long)s.created, (unsigned long long)s.lost, (unsigned long long)s.rejected,
+                (unsigned long long)s.misuse);
+}
+
+} // namespace locd

@@ -1,0 +1,100 @@
+// The state behind locd::BulletBroadphase (broadphase.cpp: proxies and
+// pairs; queries.cpp: rayTest and aabbTest).
+#ifndef LOCD_BULLET_IMPL_HPP
+#define LOCD_BULLET_IMPL_HPP
+
+#include "locd/bullet/broadphase.hpp"
+
+#include <locd/locd.h>
+#include <locd/scene.h>
+
+#include <cstdint>
+#include <deque>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+namespace locd {
+
+// A proxy lives in Impl::pool (stable addresses) until the broadphase is
+// destroyed: a destroyed one is only marked dead, so a second destroyProxy
+// or a setAabb on it reads our own memory and is caught (docs/engines.md,
+// "Bad use"). Dead slots are reused oldest first, and only once 64 more
+// have died after them.
+struct BulletProxy : btBroadphaseProxy {
+    static constexpr std::uint32_t kMagic = 0x6c6f6364u; // "locd"
+    std::uint32_t magic = kMagic;
+    bool alive = false;
+    bool dirty = false;       // in Impl::dirty: its box or filter reaches the scene at the next flush
+    bool box_ok = false;      // finite and min <= max: only then is it in the scene
+    bool is_static = false;   // as added to the scene
+    locd_id id = LOCD_ID_NONE; // its scene object, or NONE (not added yet, or held out)
+    int scene_group = 0;      // the filter the scene has for it
+    int scene_mask = 0;
+    std::uint64_t moved_frame = 0; // the frame of its last changed box
+};
+
+// Bullet's rule (group0 & mask1) && (group1 & mask0) on int is the scene's
+// (category_a & mask_b) && (category_b & mask_a) on the same 32 bits.
+inline std::uint64_t bits(int v) { return (std::uint64_t)(std::uint32_t)v; }
+
+// Static in the scene (never paired with another static object) only where
+// Bullet's own rule already keeps two such proxies apart: group exactly
+// StaticFilter and a mask without it (btCollisionWorld's static objects).
+inline bool static_filter(int group, int mask)
+{
+    return group == btBroadphaseProxy::StaticFilter && !(mask & btBroadphaseProxy::StaticFilter);
+}
+
+struct PairKey {
+    locd_id a, b;
+    bool operator==(const PairKey &o) const { return a == o.a && b == o.b; }
+};
+struct PairKeyHash {
+    std::size_t operator()(const PairKey &k) const
+    {
+        std::uint64_t h = k.a * 0x9e3779b97f4a7c15ull ^ (k.b + 0x632be59bd9b4e019ull + (k.a << 6));
+        return (std::size_t)(h ^ (h >> 29));
+    }
+};
+
+struct BulletBroadphase::Impl {
+    locd_engine *engine = nullptr;
+    locd_scene *scene = nullptr;
+    btOverlappingPairCache *cache = nullptr;
+    bool owns_cache = false;
+
+    std::deque<BulletProxy> pool;
+    std::deque<BulletProxy *> free_slots; // oldest first
+    static constexpr size_t kQuarantine = 64;
+    std::unordered_map<locd_id, BulletProxy *> by_id;
+    std::vector<BulletProxy *> dirty;
+    std::vector<locd_id> removed; // scene objects of destroyed or held-out proxies, removed at the flush
+    std::vector<locd_id> retired; // removed ids of live proxies: by_id keeps them until their lost pairs are read
+    // Overlapping pairs the cache refused (its filter callback): offered
+    // again when one of the two moves, as btDbvtBroadphase offers a pair
+    // again when a proxy leaves its fattened box.
+    std::unordered_set<PairKey, PairKeyHash> rejected;
+    int next_uid = 0;
+    std::uint64_t live = 0;
+    std::uint64_t frame = 1;
+    BulletBroadphaseStats st;
+
+    // Query buffers, grown on LOCD_ERR_BUFFER_TOO_SMALL.
+    std::vector<locd_id> hit_ids;
+    std::vector<double> hit_t;
+    bool in_query = false; // a callback that queries again gets buffers of its own
+
+    bool check(const btBroadphaseProxy *p) const;
+    void mark(BulletProxy *p);
+    void flush();
+    BulletProxy *proxy_of(locd_id id) const
+    {
+        auto it = by_id.find(id);
+        return it == by_id.end() ? nullptr : it->second;
+    }
+};
+
+} // namespace locd
+
+#endif

@@ -1,0 +1,251 @@
+// locd::BulletBroadphase called directly: closed intervals, the filter
+// mapping (int groups, static proxies), a user filter asked again on a move,
+// batching (getAabb, queries before an update), the queries against brute
+// force over the proxies, and bad use ignored (release builds; debug builds
+// assert, so that part is skipped there).
+#include "world.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <set>
+
+#include <locd/scene.h>
+
+using namespace locd_test;
+
+namespace {
+
+typedef std::set<std::pair<int, int>> Pairs;
+
+Pairs cached(btBroadphaseInterface &bp)
+{
+    Pairs out;
+    btOverlappingPairCache *c = bp.getOverlappingPairCache();
+    for (int k = 0; k < c->getNumOverlappingPairs(); k++) {
+        const btBroadphasePair &p = c->getOverlappingPairArray()[k];
+        out.insert(std::minmax(p.m_pProxy0->m_uniqueId, p.m_pProxy1->m_uniqueId));
+    }
+    return out;
+}
+
+std::pair<int, int> pair_of(btBroadphaseProxy *a, btBroadphaseProxy *b) { return std::minmax(a->m_uniqueId, b->m_uniqueId); }
+
+btBroadphaseProxy *box(btBroadphaseInterface &bp, btDispatcher *d, btVector3 lo, btVector3 hi, int group = 1, int mask = -1)
+{
+    return bp.createProxy(lo, hi, BOX_SHAPE_PROXYTYPE, nullptr, group, mask, d);
+}
+
+struct Toggle : btOverlapFilterCallback {
+    bool accept = false;
+    bool needBroadphaseCollision(btBroadphaseProxy *, btBroadphaseProxy *) const override { return accept; }
+};
+
+struct Collect : btBroadphaseRayCallback {
+    std::vector<const btBroadphaseProxy *> seen;
+    bool process(const btBroadphaseProxy *p) override
+    {
+        seen.push_back(p);
+        return true;
+    }
+};
+
+bool overlap(const btBroadphaseProxy *p, const btVector3 &lo, const btVector3 &hi)
+{
+    for (int k = 0; k < 3; k++)
+        if (p->m_aabbMax[k] < lo[k] || hi[k] < p->m_aabbMin[k])
+            return false;
+    return true;
+}
+
+// Entry t of the segment from + t (to - from), 0 <= t <= 1, into the box
+// grown by -smax..-smin (a swept box smin..smax), in double; -1 when missed.
+double entry(const btBroadphaseProxy *p, const btVector3 &from, const btVector3 &to, const btVector3 &smin,
+             const btVector3 &smax)
+{
+    double t0 = 0, t1 = 1;
+    for (int k = 0; k < 3; k++) {
+        double l = (double)p->m_aabbMin[k] - smax[k], h = (double)p->m_aabbMax[k] - smin[k];
+        double f = from[k], d = (double)to[k] - f;
+        if (d == 0) {
+            if (f < l || f > h)
+                return -1;
+            continue;
+        }
+        double a = (l - f) / d, b = (h - f) / d;
+        if (a > b)
+            std::swap(a, b);
+        t0 = std::max(t0, a);
+        t1 = std::min(t1, b);
+    }
+    return t0 <= t1 ? t0 : -1;
+}
+
+} // namespace
+
+int main()
+{
+    Tap tap;
+    btDefaultCollisionConfiguration config;
+    btCollisionDispatcher disp(&config);
+    {
+        locd::BulletBroadphase bp;
+        // Touching faces, edges and corners pair (closed intervals); a gap does not.
+        btBroadphaseProxy *a = box(bp, &disp, btVector3(0, 0, 0), btVector3(1, 1, 1));
+        btBroadphaseProxy *b = box(bp, &disp, btVector3(1, 0, 0), btVector3(2, 1, 1));
+        btBroadphaseProxy *c = box(bp, &disp, btVector3(2, 1, 1), btVector3(3, 2, 2));
+        btBroadphaseProxy *d = box(bp, &disp, btVector3(std::nextafter(3.0f, 4.0f), 0, 0), btVector3(4, 1, 1));
+        btVector3 lo, hi;
+        bp.getAabb(c, lo, hi);
+        tap.ok(lo == btVector3(2, 1, 1) && hi == btVector3(3, 2, 2), "getAabb before any update: the AABB given");
+        tap.ok(bp.getOverlappingPairCache()->getNumOverlappingPairs() == 0, "no pair before calculateOverlappingPairs");
+        bp.calculateOverlappingPairs(&disp);
+        tap.ok(cached(bp) == Pairs{pair_of(a, b), pair_of(b, c)}, "face and corner contacts pair, a gap of one ulp does not");
+        // Moves are batched: the cache changes at the next update.
+        bp.setAabb(d, btVector3(3, 0, 0), btVector3(4, 1, 1), &disp);
+        tap.ok(cached(bp).size() == 2, "setAabb changes no pair until the update");
+        bp.calculateOverlappingPairs(&disp);
+        tap.ok(cached(bp) == Pairs{pair_of(a, b), pair_of(b, c), pair_of(c, d)}, "moved into contact: the pair is created");
+        bp.destroyProxy(b, &disp);
+        tap.ok(cached(bp) == Pairs{pair_of(c, d)}, "destroyProxy removes its pairs at once");
+        bp.calculateOverlappingPairs(&disp);
+        tap.ok(cached(bp) == Pairs{pair_of(c, d)}, "and the update after it agrees");
+
+        // Queries see unflushed changes.
+        btBroadphaseProxy *e = box(bp, &disp, btVector3(10, 10, 10), btVector3(11, 11, 11));
+        Collect all;
+        bp.aabbTest(btVector3(10.5, 10.5, 10.5), btVector3(12, 12, 12), all);
+        tap.ok(all.seen.size() == 1 && all.seen[0] == e, "aabbTest sees a proxy created since the update");
+
+        // Bad use: ignored in release, counted.
+#ifdef NDEBUG
+        std::uint64_t before = bp.stats().misuse;
+        bp.destroyProxy(b, &disp); // twice
+        bp.setAabb(b, btVector3(0, 0, 0), btVector3(1, 1, 1), &disp);
+        float nan = std::numeric_limits<float>::quiet_NaN();
+        bp.setAabb(c, btVector3(nan, 1, 1), btVector3(3, 2, 2), &disp);
+        btBroadphaseProxy *f = box(bp, &disp, btVector3(1, 1, 1), btVector3(0, 2, 2)); // inverted
+        bp.calculateOverlappingPairs(&disp);
+        tap.ok(bp.stats().misuse == before + 4, "destroyProxy twice, setAabb on a dead proxy, a NaN and an inverted AABB: counted");
+        tap.ok(cached(bp).empty() && bp.stats().in_scene == 3, "a proxy with a bad AABB is held out (no pair)");
+        bp.setAabb(c, btVector3(2, 1, 1), btVector3(3, 2, 2), &disp);
+        bp.setAabb(f, btVector3(0, 1, 1), btVector3(1, 2, 2), &disp);
+        bp.calculateOverlappingPairs(&disp);
+        tap.ok(cached(bp) == Pairs{pair_of(c, d), pair_of(a, f)}, "given a valid AABB again, it pairs again");
+#else
+        std::printf("# bad use asserts in debug builds: not exercised here\n");
+#endif
+    }
+    {
+        // Filters: Bullet's int groups, static proxies, a user callback.
+        Toggle toggle;
+        btHashedOverlappingPairCache cache;
+        locd::BulletBroadphase bp(&cache);
+        const int S = btBroadphaseProxy::StaticFilter, A = btBroadphaseProxy::AllFilter;
+        btBroadphaseProxy *s1 = box(bp, &disp, btVector3(0, 0, 0), btVector3(2, 2, 2), S, A ^ S);
+        btBroadphaseProxy *s2 = box(bp, &disp, btVector3(1, 1, 1), btVector3(3, 3, 3), S, A ^ S);
+        // Masks with StaticFilter: these two pair (Bullet's rule), so neither is static in the scene.
+        btBroadphaseProxy *s3 = box(bp, &disp, btVector3(1, 1, 1), btVector3(3, 3, 3), S, A);
+        btBroadphaseProxy *s4 = box(bp, &disp, btVector3(1, 1, 1), btVector3(3, 3, 3), S, A);
+        btBroadphaseProxy *hi_bit = box(bp, &disp, btVector3(0, 0, 0), btVector3(1, 1, 1), (int)0x80000000, (int)0x80000000);
+        btBroadphaseProxy *dyn = box(bp, &disp, btVector3(0.5, 0.5, 0.5), btVector3(1.5, 1.5, 1.5));
+        bp.calculateOverlappingPairs(&disp);
+        Pairs want{pair_of(s1, dyn), pair_of(s2, dyn), pair_of(s3, dyn), pair_of(s4, dyn), pair_of(s3, s4)};
+        locd_scene_stats ss;
+        locd_scene_stats_init(&ss);
+        locd_scene_get_stats(bp.scene(), &ss);
+        tap.ok(ss.static_objects == 2, "StaticFilter proxies whose mask lacks StaticFilter are static in the scene");
+        tap.ok(cached(bp) == want, "static proxies: no static-static pair unless a mask asks for it; group bit 31 kept apart from bit 0");
+        // A user callback refuses a new pair; asked again when one of the two moves.
+        cache.setOverlapFilterCallback(&toggle);
+        btBroadphaseProxy *g = box(bp, &disp, btVector3(0, 0, 0), btVector3(1, 1, 1), (int)0x80000000, -1);
+        bp.calculateOverlappingPairs(&disp);
+        tap.ok(cached(bp) == want && bp.stats().rejected == 6, "a refused pair is not added (but held)");
+        toggle.accept = true;
+        bp.calculateOverlappingPairs(&disp);
+        tap.ok(cached(bp) == want, "not asked again while neither moves");
+        bp.setAabb(g, btVector3(0, 0, 0), btVector3(1.1, 1, 1), &disp);
+        bp.calculateOverlappingPairs(&disp);
+        want.insert({pair_of(hi_bit, g), pair_of(g, dyn), pair_of(s1, g), pair_of(s2, g), pair_of(s3, g), pair_of(s4, g)});
+        tap.ok(cached(bp) == want && bp.stats().rejected == 0, "asked again on a move, and added");
+        cache.setOverlapFilterCallback(nullptr);
+    }
+    {
+        // Queries against brute force over the proxies: rays, sweeps, boxes.
+        locd::BulletBroadphase bp;
+        Rng r(3);
+        std::vector<btBroadphaseProxy *> ps;
+        for (int k = 0; k < 3000; k++) {
+            btVector3 lo(r.uniform(0, 50), r.uniform(0, 50), r.uniform(0, 50));
+            ps.push_back(box(bp, &disp, lo, lo + btVector3(r.uniform(0, 2), r.uniform(0, 2), r.uniform(0, 2))));
+        }
+        bp.calculateOverlappingPairs(&disp);
+        int bad_ray = 0, bad_box = 0, offered = 0;
+        for (int q = 0; q < 300; q++) {
+            btVector3 from(r.uniform(-5, 55), r.uniform(-5, 55), r.uniform(-5, 55));
+            btVector3 to(r.uniform(-5, 55), r.uniform(-5, 55), r.uniform(-5, 55));
+            btVector3 smin(0, 0, 0), smax(0, 0, 0);
+            if (q % 2) {
+                smin = btVector3(-r.uniform(0, 1), -r.uniform(0, 1), -r.uniform(0, 1));
+                smax = btVector3(r.uniform(0, 1), r.uniform(0, 1), r.uniform(0, 1));
+            }
+            Collect got;
+            got.m_lambda_max = 1;
+            bp.rayTest(from, to, got, smin, smax);
+            std::vector<std::pair<double, const btBroadphaseProxy *>> want;
+            for (btBroadphaseProxy *p : ps) {
+                double t = entry(p, from, to, smin, smax);
+                if (t >= 0)
+                    want.push_back({t, p});
+            }
+            std::sort(want.begin(), want.end());
+            bool ok = want.size() == got.seen.size();
+            for (size_t k = 0; ok && k < want.size(); k++)
+                ok = want[k].second == got.seen[k] || want[k].first == want[k - (k > 0)].first;
+            bad_ray += !ok;
+            offered += (int)got.seen.size();
+            Collect boxes;
+            btVector3 lo(r.uniform(0, 50), r.uniform(0, 50), r.uniform(0, 50));
+            btVector3 hi = lo + btVector3(r.uniform(0, 5), r.uniform(0, 5), r.uniform(0, 5));
+            bp.aabbTest(lo, hi, boxes);
+            size_t n = 0;
+            for (btBroadphaseProxy *p : ps)
+                n += overlap(p, lo, hi);
+            std::set<const btBroadphaseProxy *> seen(boxes.seen.begin(), boxes.seen.end());
+            bool box_ok = seen.size() == n && boxes.seen.size() == n;
+            for (const btBroadphaseProxy *p : seen)
+                box_ok = box_ok && overlap(p, lo, hi);
+            bad_box += !box_ok;
+        }
+        tap.ok(bad_ray == 0 && offered > 0, "rayTest (rays and swept boxes) offers exactly the proxies met, by entry t");
+        tap.ok(bad_box == 0, "aabbTest offers exactly the proxies overlapped");
+        // A shrinking m_lambda_max: nothing entered past it is offered.
+        struct Shrink : Collect {
+            bool process(const btBroadphaseProxy *p) override
+            {
+                seen.push_back(p);
+                m_lambda_max = 0.3f;
+                return true;
+            }
+        } shrink;
+        shrink.m_lambda_max = 1;
+        // A wide swept box, so that many proxies are entered near t = 0.3.
+        btVector3 from(-5, 25, 25), to(55, 25, 25), smin(-5, -5, -5), smax(5, 5, 5);
+        bp.rayTest(from, to, shrink, smin, smax);
+        std::set<const btBroadphaseProxy *> want, seen(shrink.seen.begin(), shrink.seen.end());
+        int beyond = 0;
+        for (btBroadphaseProxy *p : ps) {
+            double t = entry(p, from, to, smin, smax);
+            if (t >= 0 && t <= (double)0.3f)
+                want.insert(p);
+            beyond += t > (double)0.3f;
+        }
+        if (!shrink.seen.empty())
+            want.insert(shrink.seen[0]); // offered before m_lambda_max shrank
+        bool ok = !shrink.seen.empty() && seen == want && seen.size() == shrink.seen.size();
+        std::printf("# %zu offered, %zu expected, %d entered past 0.3\n", shrink.seen.size(), want.size(), beyond);
+        tap.ok(ok && beyond > 0, "rayTest stops once past the callback's shrinking m_lambda_max");
+    }
+    return tap.done();
+}
