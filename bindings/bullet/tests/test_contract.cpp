@@ -64,22 +64,10 @@ bool overlap(const btBroadphaseProxy *p, const btVector3 &lo, const btVector3 &h
 double entry(const btBroadphaseProxy *p, const btVector3 &from, const btVector3 &to, const btVector3 &smin,
              const btVector3 &smax)
 {
-    double t0 = 0, t1 = 1;
-    for (int k = 0; k < 3; k++) {
-        double l = (double)p->m_aabbMin[k] - smax[k], h = (double)p->m_aabbMax[k] - smin[k];
-        double f = from[k], d = (double)to[k] - f;
-        if (d == 0) {
-            if (f < l || f > h)
-                return -1;
-            continue;
-        }
-        double a = (l - f) / d, b = (h - f) / d;
-        if (a > b)
-            std::swap(a, b);
-        t0 = std::max(t0, a);
-        t1 = std::min(t1, b);
-    }
-    return t0 <= t1 ? t0 : -1;
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; k++)
+        lo[k] = (double)p->m_aabbMin[k] - smax[k], hi[k] = (double)p->m_aabbMax[k] - smin[k];
+    return locd_test::segment_entry(lo, hi, from, to);
 }
 
 } // namespace

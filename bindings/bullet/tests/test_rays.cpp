@@ -26,21 +26,10 @@ btTransform at(const btVector3 &p, const btQuaternion &q = btQuaternion::getIden
 // up to date by updateAabbs before the queries.
 bool meets(btVector3 lo, btVector3 hi, const btVector3 &from, const btVector3 &to, double grow)
 {
-    double t0 = 0, t1 = 1;
-    for (int k = 0; k < 3; k++) {
-        double l = lo[k] - grow, h = hi[k] + grow, f = from[k], d = (double)to[k] - f;
-        if (d == 0) {
-            if (f < l || f > h)
-                return false;
-            continue;
-        }
-        double a = (l - f) / d, b = (h - f) / d;
-        if (a > b)
-            std::swap(a, b);
-        t0 = std::max(t0, a);
-        t1 = std::min(t1, b);
-    }
-    return t0 <= t1;
+    double l[3], h[3];
+    for (int k = 0; k < 3; k++)
+        l[k] = lo[k] - grow, h[k] = hi[k] + grow;
+    return locd_test::segment_entry(l, h, from, to) >= 0;
 }
 
 bool meets(const btCollisionObject *o, const btVector3 &from, const btVector3 &to, double grow)

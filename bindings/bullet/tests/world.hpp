@@ -7,6 +7,7 @@
 
 #include <btBulletDynamicsCommon.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -164,6 +165,27 @@ struct World {
 };
 
 // LOCD_TEST_HEAVY=0 (the sanitizer builds, tests/README.md): smaller scenes.
+// Entry t of the segment from + t (to - from), 0 <= t <= 1, into the closed
+// box [lo, hi] (doubles), by the slab test in double; -1 when it misses.
+inline double segment_entry(const double lo[3], const double hi[3], const btVector3 &from, const btVector3 &to)
+{
+    double t0 = 0, t1 = 1;
+    for (int k = 0; k < 3; k++) {
+        double f = from[k], d = (double)to[k] - f;
+        if (d == 0) {
+            if (f < lo[k] || f > hi[k])
+                return -1;
+            continue;
+        }
+        double a = (lo[k] - f) / d, b = (hi[k] - f) / d;
+        if (a > b)
+            std::swap(a, b);
+        t0 = std::max(t0, a);
+        t1 = std::min(t1, b);
+    }
+    return t0 <= t1 ? t0 : -1;
+}
+
 inline bool heavy()
 {
     const char *v = std::getenv("LOCD_TEST_HEAVY");
