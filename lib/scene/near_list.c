@@ -76,9 +76,11 @@ static void task_fat(void *arg, uint32_t t, uint32_t k)
     c->bad[t] = !ok;
 }
 
+/* The pool's threads from LC_PARALLEL_MIN objects; below, one (a small
+ * scene's pass takes microseconds, less than waking the pool). */
 LC_INLINE uint32_t pool_parts(const locd_scene *s)
 {
-    return s->threads > 1 ? s->threads : 1;
+    return s->threads > 1 && s->slots.nslots >= LC_PARALLEL_MIN ? s->threads : 1;
 }
 
 static void run(locd_scene *s, uint32_t k, void (*fn)(void *, uint32_t, uint32_t), void *c)
