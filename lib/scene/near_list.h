@@ -23,9 +23,8 @@ typedef struct lc_near {
 } lc_near;
 
 /* 1 when a list can be built for the scene as it is: the slots are the
- * engine's input as they are, every box a float exactly (at every size: it
- * beats a from-scratch update from 100 objects up), and the scene was not
- * made with LOCD_SCENE_NO_NEAR_LIST. */
+ * engine's input as they are, every box a float exactly (at any size), and
+ * the scene was not made with LOCD_SCENE_NO_NEAR_LIST. */
 int lc_near_applies(locd_scene *s);
 /* 1 when the list is valid and nothing but moves happened since it was built. */
 int lc_near_usable(const locd_scene *s);
