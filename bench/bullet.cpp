@@ -4,7 +4,7 @@
 // casts per step (docs/benchmarks.md, "Bullet: a world on locd").
 //
 //   build/bench/bullet [--sizes 1000,10000] [--steps 40] [--warmup 10] [--rays 1000] [--threads 2]
-//                      [--scenes tower,stacks,heap] [--reps 3]
+//                      [--scenes tower,stacks,heap] [--broadphases dbvt,sap,locd] [--reps 3]
 //
 // Per step: the whole stepSimulation, the broad phase's own time (every call
 // into it, timed by a forwarding wrapper: setAabb, create/destroy,
@@ -20,6 +20,7 @@
 #include <cstring>
 #include <sstream>
 #include <string>
+#include <vector>
 
 using namespace locd_test;
 
@@ -31,47 +32,93 @@ double now_ms()
 }
 
 // Forwards every call and adds up the time spent inside the broad phase.
+// setAabb calls are held and forwarded in one timed batch before the next
+// other call (in a step: calculateOverlappingPairs), in the order Bullet
+// made them: a clock read costs about 30 ns here, so timing each of 10^4
+// calls would add more than some broad phases' whole time.
 struct Timed : btBroadphaseInterface {
     btBroadphaseInterface *in;
     double ms = 0;
+    struct Move {
+        btBroadphaseProxy *p;
+        btVector3 a, b;
+        btDispatcher *d;
+    };
+    std::vector<Move> held;
     explicit Timed(btBroadphaseInterface *inner) : in(inner) {}
     struct Clock {
         double &acc;
         double t0 = now_ms();
         ~Clock() { acc += now_ms() - t0; }
     };
+    void forward_held()
+    {
+        if (held.empty())
+            return;
+        Clock c{ms};
+        for (const Move &m : held)
+            in->setAabb(m.p, m.a, m.b, m.d);
+        held.clear();
+    }
     btBroadphaseProxy *createProxy(const btVector3 &a, const btVector3 &b, int s, void *u, int g, int m,
                                    btDispatcher *d) override
     {
+        forward_held();
         Clock c{ms};
         return in->createProxy(a, b, s, u, g, m, d);
     }
     void destroyProxy(btBroadphaseProxy *p, btDispatcher *d) override
     {
+        forward_held();
         Clock c{ms};
         in->destroyProxy(p, d);
     }
     void setAabb(btBroadphaseProxy *p, const btVector3 &a, const btVector3 &b, btDispatcher *d) override
     {
-        Clock c{ms};
-        in->setAabb(p, a, b, d);
+        held.push_back(Move{p, a, b, d});
     }
-    void getAabb(btBroadphaseProxy *p, btVector3 &a, btVector3 &b) const override { in->getAabb(p, a, b); }
+    void getAabb(btBroadphaseProxy *p, btVector3 &a, btVector3 &b) const override
+    {
+        const_cast<Timed *>(this)->forward_held();
+        in->getAabb(p, a, b);
+    }
     void rayTest(const btVector3 &f, const btVector3 &t, btBroadphaseRayCallback &cb, const btVector3 &a,
                  const btVector3 &b) override
     {
+        forward_held();
         in->rayTest(f, t, cb, a, b);
     }
-    void aabbTest(const btVector3 &a, const btVector3 &b, btBroadphaseAabbCallback &cb) override { in->aabbTest(a, b, cb); }
+    void aabbTest(const btVector3 &a, const btVector3 &b, btBroadphaseAabbCallback &cb) override
+    {
+        forward_held();
+        in->aabbTest(a, b, cb);
+    }
     void calculateOverlappingPairs(btDispatcher *d) override
     {
+        forward_held();
         Clock c{ms};
         in->calculateOverlappingPairs(d);
     }
-    btOverlappingPairCache *getOverlappingPairCache() override { return in->getOverlappingPairCache(); }
-    const btOverlappingPairCache *getOverlappingPairCache() const override { return in->getOverlappingPairCache(); }
-    void getBroadphaseAabb(btVector3 &a, btVector3 &b) const override { in->getBroadphaseAabb(a, b); }
-    void resetPool(btDispatcher *d) override { in->resetPool(d); }
+    btOverlappingPairCache *getOverlappingPairCache() override
+    {
+        forward_held();
+        return in->getOverlappingPairCache();
+    }
+    const btOverlappingPairCache *getOverlappingPairCache() const override
+    {
+        const_cast<Timed *>(this)->forward_held();
+        return in->getOverlappingPairCache();
+    }
+    void getBroadphaseAabb(btVector3 &a, btVector3 &b) const override
+    {
+        const_cast<Timed *>(this)->forward_held();
+        in->getBroadphaseAabb(a, b);
+    }
+    void resetPool(btDispatcher *d) override
+    {
+        forward_held();
+        in->resetPool(d);
+    }
     void printStats() override { in->printStats(); }
 };
 
@@ -234,6 +281,7 @@ int main(int argc, char **argv)
     std::vector<std::string> sizes{"1000", "10000"}, scenes{"tower", "stacks", "heap"};
     int steps = 40, warmup = 10, rays = 1000, reps = 1;
     unsigned threads = 2;
+    std::vector<Broadphase> kinds{Broadphase::dbvt, Broadphase::sap, Broadphase::locd};
     for (int k = 1; k + 1 < argc; k += 2) {
         std::string a = argv[k];
         if (a == "--sizes") sizes = split(argv[k + 1]);
@@ -243,6 +291,16 @@ int main(int argc, char **argv)
         else if (a == "--rays") rays = std::atoi(argv[k + 1]);
         else if (a == "--threads") threads = (unsigned)std::atoi(argv[k + 1]);
         else if (a == "--reps") reps = std::atoi(argv[k + 1]);
+        else if (a == "--broadphases") {
+            kinds.clear();
+            for (const std::string &b : split(argv[k + 1]))
+                if (b == "dbvt" || b == "sap" || b == "locd")
+                    kinds.push_back(b == "dbvt" ? Broadphase::dbvt : b == "sap" ? Broadphase::sap : Broadphase::locd);
+                else {
+                    std::fprintf(stderr, "unknown broad phase %s (dbvt, sap, locd)\n", b.c_str());
+                    return 2;
+                }
+        }
         else {
             std::fprintf(stderr, "unknown option %s (see the comment at the top of bench/bullet.cpp)\n", argv[k]);
             return 2;
@@ -253,10 +311,13 @@ int main(int argc, char **argv)
     for (const std::string &scene : scenes)
         for (const std::string &size : sizes) {
             int n = std::atoi(size.c_str());
-            for (Broadphase kind : {Broadphase::dbvt, Broadphase::sap, Broadphase::locd}) {
-                std::vector<Result> rs;
-                for (int rep = 0; rep < reps; rep++)
-                    rs.push_back(run(kind, scene, n, warmup, steps, rays, threads));
+            std::vector<std::vector<Result>> runs(kinds.size()); // interleaved: each rep runs them in turn
+            for (int rep = 0; rep < reps; rep++)
+                for (size_t k = 0; k < kinds.size(); k++)
+                    runs[k].push_back(run(kinds[k], scene, n, warmup, steps, rays, threads));
+            for (size_t k = 0; k < kinds.size(); k++) {
+                Broadphase kind = kinds[k];
+                const std::vector<Result> &rs = runs[k];
                 auto pick = [&](double Result::*f) {
                     std::vector<double> v;
                     for (auto &x : rs)

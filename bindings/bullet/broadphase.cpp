@@ -52,12 +52,18 @@ bool valid_box(const btVector3 &lo, const btVector3 &hi)
     return true;
 }
 
+void put_box(scalar *v, const btBroadphaseProxy *p)
+{
+    for (int k = 0; k < 3; k++) {
+        v[k] = p->m_aabbMin[k];
+        v[3 + k] = p->m_aabbMax[k];
+    }
+}
+
 void push_box(std::vector<scalar> &v, const btBroadphaseProxy *p)
 {
-    for (int k = 0; k < 3; k++)
-        v.push_back(p->m_aabbMin[k]);
-    for (int k = 0; k < 3; k++)
-        v.push_back(p->m_aabbMax[k]);
+    v.resize(v.size() + 6);
+    put_box(v.data() + v.size() - 6, p);
 }
 
 // Objects added in one call: the scene takes the static flag per batch.
@@ -76,7 +82,7 @@ void failed(const char *what, locd_status s)
 
 } // namespace
 
-bool BulletBroadphase::Impl::check(const btBroadphaseProxy *proxy) const
+inline bool BulletBroadphase::Impl::check(const btBroadphaseProxy *proxy) const
 {
     const BulletProxy *p = static_cast<const BulletProxy *>(proxy);
     bool ok = p && p->magic == BulletProxy::kMagic && p->alive;
@@ -86,12 +92,48 @@ bool BulletBroadphase::Impl::check(const btBroadphaseProxy *proxy) const
     return ok;
 }
 
-void BulletBroadphase::Impl::mark(BulletProxy *p)
+inline void BulletBroadphase::Impl::mark(BulletProxy *p)
 {
+    if (p->move_batch == batch)
+        moves.stale = true; // its queued move is dropped: the dirty path sends its box
     if (!p->dirty) {
         p->dirty = true;
         dirty.push_back(p);
     }
+}
+
+// A new box for a proxy in the scene with its filter unchanged: queued as
+// is (a second change in the same batch overwrites the first).
+inline void BulletBroadphase::Impl::queue_move(BulletProxy *p)
+{
+    if (p->move_batch != batch) {
+        p->move_batch = batch;
+        p->move_slot = (std::uint32_t)moves.ids.size();
+        moves.ids.push_back(p->id);
+        moves.proxies.push_back(p);
+        moves.boxes.resize(moves.boxes.size() + 6);
+    }
+    put_box(moves.boxes.data() + 6 * (size_t)p->move_slot, p);
+}
+
+// Keeps the queued moves whose proxies are still alive, in the scene under
+// the same id, and not on the dirty path.
+void BulletBroadphase::Impl::drop_stale_moves()
+{
+    size_t kept = 0;
+    for (size_t k = 0; k < moves.ids.size(); k++) {
+        const BulletProxy *p = moves.proxies[k];
+        if (!p->alive || p->dirty || p->id != moves.ids[k])
+            continue;
+        moves.ids[kept] = moves.ids[k];
+        moves.proxies[kept] = moves.proxies[k];
+        std::copy(&moves.boxes[6 * k], &moves.boxes[6 * k] + 6, &moves.boxes[6 * kept]);
+        kept++;
+    }
+    moves.ids.resize(kept);
+    moves.proxies.resize(kept);
+    moves.boxes.resize(6 * kept);
+    moves.stale = false;
 }
 
 // Brings the scene up to date with the proxies: removes, adds, moves and
@@ -99,9 +141,11 @@ void BulletBroadphase::Impl::mark(BulletProxy *p)
 void BulletBroadphase::Impl::flush()
 {
     AddBatch adds[2]; // dynamic, static
-    std::vector<locd_id> move_ids, filter_ids;
-    std::vector<scalar> move_boxes;
+    std::vector<locd_id> filter_ids;
     std::vector<std::uint64_t> filter_cats, filter_masks;
+    if (moves.stale)
+        drop_stale_moves();
+    batch++; // the queued moves are sent below: new ones start a new queue
     for (BulletProxy *p : dirty) {
         p->dirty = false;
         if (!p->alive)
@@ -126,8 +170,8 @@ void BulletBroadphase::Impl::flush()
             continue;
         }
         if (p->moved_frame == frame) {
-            move_ids.push_back(p->id);
-            push_box(move_boxes, p);
+            moves.ids.push_back(p->id);
+            push_box(moves.boxes, p);
         }
         if (group != p->scene_group || mask != p->scene_mask) {
             filter_ids.push_back(p->id);
@@ -166,8 +210,11 @@ void BulletBroadphase::Impl::flush()
             by_id[ids[i]] = p;
         }
     }
-    if (!move_ids.empty() && (s = scene_move(scene, move_ids.data(), move_boxes.data(), move_ids.size())) != LOCD_OK)
+    if (!moves.ids.empty() && (s = scene_move(scene, moves.ids.data(), moves.boxes.data(), moves.ids.size())) != LOCD_OK)
         failed("locd_scene_move", s);
+    moves.ids.clear();
+    moves.boxes.clear();
+    moves.proxies.clear();
     if (!filter_ids.empty() &&
         (s = locd_scene_set_filter(scene, filter_ids.data(), filter_ids.size(), filter_cats.data(),
                                    filter_masks.data(), nullptr)) != LOCD_OK)
@@ -236,6 +283,7 @@ btBroadphaseProxy *BulletBroadphase::createProxy(const btVector3 &aabbMin, const
     p->m_aabbMax = aabbMax;
     p->alive = true;
     p->id = LOCD_ID_NONE;
+    p->move_batch = 0;
     p->box_ok = valid_box(aabbMin, aabbMax);
     LOCD_BULLET_ASSERT(p->box_ok && "createProxy: a NaN, infinite or inverted AABB");
     if (!p->box_ok)
@@ -253,6 +301,8 @@ void BulletBroadphase::destroyProxy(btBroadphaseProxy *proxy, btDispatcher *disp
         return;
     BulletProxy *p = static_cast<BulletProxy *>(proxy);
     m.cache->removeOverlappingPairsContainingProxy(p, dispatcher);
+    if (p->move_batch == m.batch)
+        m.moves.stale = true;
     if (p->id != LOCD_ID_NONE) {
         m.removed.push_back(p->id);
         m.by_id.erase(p->id);
@@ -292,7 +342,10 @@ void BulletBroadphase::setAabb(btBroadphaseProxy *proxy, const btVector3 &aabbMi
             m.st.misuse++;
         p->moved_frame = m.frame;
     }
-    m.mark(p);
+    if (same_filter && p->box_ok && p->id != LOCD_ID_NONE && !p->dirty)
+        m.queue_move(p); // the common step: nothing but the box changed
+    else
+        m.mark(p);
 }
 
 void BulletBroadphase::getAabb(btBroadphaseProxy *proxy, btVector3 &aabbMin, btVector3 &aabbMax) const
