@@ -61,19 +61,36 @@ static int cmp_row(const void *pa, const void *pb)
     return (a[1] > b[1]) - (a[1] < b[1]);
 }
 
+static int cmp_min_x(const void *pa, const void *pb)
+{
+    const su_obj *a = *(const su_obj *const *)pa, *b = *(const su_obj *const *)pb;
+    return a->box[0] < b->box[0] ? -1 : a->box[0] > b->box[0];
+}
+
+/* Every pair of the model, sorted: the objects in order of min x, each
+ * tested against those that start at or before its max x (a later one
+ * starts past it on x and so cannot meet it; the closed test then decides).
+ * All pairs' worth of tests made the sanitizer runs of the 16,000-object
+ * scenes take minutes. */
 static locd_id *m_pairs(const su_model *m, size_t *count)
 {
     size_t i, j, w = 0, cap = 64;
     locd_id *r = malloc(cap * 2 * sizeof *r);
+    const su_obj **by_x = malloc((m->n + 1) * sizeof *by_x);
     for (i = 0; i < m->n; i++)
-        for (j = i + 1; j < m->n; j++)
-            if (may_pair(&m->o[i], &m->o[j])) {
+        by_x[i] = &m->o[i];
+    qsort(by_x, m->n, sizeof *by_x, cmp_min_x);
+    for (i = 0; i < m->n; i++)
+        for (j = i + 1; j < m->n && by_x[j]->box[0] <= by_x[i]->box[3]; j++)
+            if (may_pair(by_x[i], by_x[j])) {
+                const locd_id a = by_x[i]->id, b = by_x[j]->id;
                 if (w == cap)
                     cap *= 2, r = realloc(r, cap * 2 * sizeof *r);
-                r[2 * w] = m->o[i].id < m->o[j].id ? m->o[i].id : m->o[j].id;
-                r[2 * w + 1] = m->o[i].id < m->o[j].id ? m->o[j].id : m->o[i].id;
+                r[2 * w] = a < b ? a : b;
+                r[2 * w + 1] = a < b ? b : a;
                 w++;
             }
+    free(by_x);
     qsort(r, w, 2 * sizeof *r, cmp_row);
     *count = w;
     return r;

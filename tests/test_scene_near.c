@@ -243,10 +243,62 @@ static void near_list_serves_small_scenes(void)
         }
 }
 
+/* Objects that step up to 3% of their edge per axis every frame (as
+ * `locd frames` moves them) leave a sixteenth's margin after 2 updates: the
+ * lists that serve so little make the next ones' margins wider (path.c),
+ * so that a list then serves about 4 updates, and a build comes about every
+ * fifth update instead of every third. Each update checked against the
+ * engine's own find. */
+static void near_margin_widens_when_lists_serve_little(void)
+{
+    const size_t n = 2000;
+    const double edge = 0.6 / cbrt((double)n);
+    uint32_t t;
+    for (t = 1; t <= 2; t++) {
+        locd_engine *e = su_new_engine(t, NULL), *er = su_new_engine(1, NULL);
+        locd_scene *s;
+        locd_id *ids = malloc(n * sizeof *ids), *before = NULL, *now;
+        float *f = malloc(n * 6 * sizeof *f);
+        size_t nbefore = 0, nnow;
+        int frame, builds = 0, served = 0;
+        ts_rng r;
+        ts_seed(&r, 77 + t);
+        su_cube_boxes(&r, f, n, edge, 0.0);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n, NULL, ids));
+        for (frame = 0; frame < 60; frame++) {
+            locd_scene_stats st;
+            if (frame) {
+                su_cube_boxes(&r, f, n, edge, 0.06 * edge);
+                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s, ids, f, n));
+            }
+            now = su_engine_rows(er, f, ids, n, 0, &nnow);
+            su_check_against(s, now, nnow, before, nbefore);
+            locd_scene_stats_init(&st);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_get_stats(s, &st));
+            if (frame >= 30) { /* past the first lists, at the narrow margin */
+                builds += st.rebuilt != 0;
+                served += !st.rebuilt && st.coasted == n;
+            }
+            free(before);
+            before = now, nbefore = nnow;
+        }
+        LT_PRINT("%u threads, frames 30-59: %d builds, %d frames served by the list\n", t, builds, served);
+        /* a sixteenth's margin would build 10 times in these 30 frames */
+        TEST_ASSERT_TRUE(builds >= 3 && builds <= 7);
+        TEST_ASSERT_EQUAL_INT(30, builds + served);
+        locd_scene_destroy(s);
+        locd_engine_destroy(e);
+        locd_engine_destroy(er);
+        free(before), free(f), free(ids);
+    }
+}
+
 static const lt_test tests[] = {
     LT_TEST(near_list_follows_whole_scene_moves),
     LT_TEST(near_list_serves_a_touching_lattice),
     LT_TEST(near_list_serves_small_scenes),
+    LT_TEST(near_margin_widens_when_lists_serve_little),
 };
 
 int main(void)

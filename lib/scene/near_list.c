@@ -6,8 +6,9 @@
  * where they were, and so do their pairs. The near list holds, per object
  * i, every j > i whose *fat box* meets i's and that may pair with it (the
  * filter), each with a PAIRED bit (the pair is in the current set). A fat
- * box is the box grown on each side by a sixteenth of its largest edge
- * when the list is built (the sweep of the fat boxes, then the pair
+ * box is the box grown on each side by a sixteenth of its largest edge (up
+ * to a quarter, after lists that served few updates: path.c) when the list
+ * is built (the sweep of the fat boxes, then the pair
  * order). While every box stays inside its fat box, any two boxes that
  * meet have fat boxes that meet, so they are in the list: an update then
  * only tests the list's pairs on the boxes now, in order, and a changed
@@ -26,9 +27,6 @@
  * (an add, remove or set_filter makes it unusable: lc_near_usable). */
 #include "scene/scene.h"
 
-/* A fat box's margin on each side: the box's largest edge >> LC_FAT_SHIFT
- * (1/16), as the entry lists' fat boxes (cells.c). */
-#define LC_NEAR_MARGIN (1.0f / (float)(1u << LC_FAT_SHIFT))
 /* How far ahead the pass loads a partner's box: a cache miss each (the
  * slots are in id order, not in space). */
 #define LC_NEAR_AHEAD 16
@@ -48,6 +46,7 @@ void lc_near_release(locd_scene *s)
 /* ---- the fat boxes ---- */
 
 typedef struct fat_ctx {
+    float margin; /* of the largest edge, on each side */
     const float *box;
     float *fat;
     size_t n;
@@ -65,7 +64,7 @@ static void task_fat(void *arg, uint32_t t, uint32_t k)
         int a;
         m = b[4] - b[1] > m ? b[4] - b[1] : m;
         m = b[5] - b[2] > m ? b[5] - b[2] : m;
-        m *= LC_NEAR_MARGIN;
+        m *= c->margin;
         /* m >= 0: a rounded b - m is at most b, b + m at least b */
         for (a = 0; a < 3; a++) {
             f[a] = b[a] - m;
@@ -486,6 +485,8 @@ locd_status lc_near_build(locd_scene *s, lc_pair_list *next, uint64_t *candidate
         return st;
     memset(&fc, 0, sizeof fc);
     fc.box = s->slots.fbox, fc.fat = nr->fat, fc.n = n;
+    /* the entry lists' sixteenth (cells.c), widened after lists that served few updates (path.c) */
+    fc.margin = 1.0f / (float)(1u << (LC_FAT_SHIFT - s->backoff.near_widen));
     run(s, k, task_fat, &fc);
     for (t = 0; t < k; t++)
         if (fc.bad[t]) /* a fat box past the float range: the caller goes from scratch */

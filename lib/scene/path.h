@@ -32,7 +32,12 @@ typedef struct lc_backoff {
     uint32_t band_wait;    /* how many of those before a relist (0: LC_BAND_WAIT) */
     uint32_t near_wait;    /* the near-pair list's wait after a list that served no update */
     uint32_t near_skip;    /* from-scratch updates left that do not build the list */
+    uint32_t near_widen;   /* the near-pair list's margin is the largest edge >> (LC_FAT_SHIFT - near_widen):
+                              0 to LC_NEAR_WIDEN_MAX, set by how long the lists served */
 } lc_backoff;
+
+/* The widest near-pair list margin: a quarter of the largest edge. */
+#define LC_NEAR_WIDEN_MAX 2
 
 /* What the choice reads. */
 typedef struct lc_path_facts {
@@ -50,7 +55,7 @@ lc_path lc_path_choose(const lc_path_facts *f);
 
 /* The waits after a choice (band_updates, near_skip), and after what the
  * paths found: a near-pair list that a box left (served: the updates it
- * served), partner lists dropped, and the survey of an incremental update
+ * served; also sets the next list's margin), partner lists dropped, and the survey of an incremental update
  * (calm: its moved objects that stayed in their fat boxes, of total; 1
  * when the partner lists are to be built at its end). */
 void lc_backoff_chose(lc_backoff *b, const lc_path_facts *f, lc_path p);
