@@ -243,55 +243,82 @@ static void near_list_serves_small_scenes(void)
         }
 }
 
-/* Objects that step up to 3% of their edge per axis every frame (as
- * `locd frames` moves them) leave a sixteenth's margin after 2 updates: the
- * lists that serve so little make the next ones' margins wider (path.c),
- * so that a list then serves about 4 updates, and a build comes about every
- * fifth update instead of every third. Each update checked against the
- * engine's own find. */
-static void near_margin_widens_when_lists_serve_little(void)
+/* n cubes stepping by up to `step` of their edge per axis every frame,
+ * each update checked against the engine's own find; per frame, whether it
+ * built the list (rebuilt) and the candidates a list frame tested. */
+static void margin_run(uint32_t threads, double step, int frames, int *built, uint64_t *cand)
 {
     const size_t n = 2000;
     const double edge = 0.6 / cbrt((double)n);
+    locd_engine *e = su_new_engine(threads, NULL), *er = su_new_engine(1, NULL);
+    locd_scene *s;
+    locd_id *ids = malloc(n * sizeof *ids), *before = NULL, *now;
+    float *f = malloc(n * 6 * sizeof *f);
+    size_t nbefore = 0, nnow;
+    int frame;
+    ts_rng r;
+    ts_seed(&r, 77 + threads);
+    su_cube_boxes(&r, f, n, edge, 0.0);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n, NULL, ids));
+    for (frame = 0; frame < frames; frame++) {
+        locd_scene_stats st;
+        if (frame) {
+            su_cube_boxes(&r, f, n, edge, 2 * step * edge);
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s, ids, f, n));
+        }
+        now = su_engine_rows(er, f, ids, n, 0, &nnow);
+        su_check_against(s, now, nnow, before, nbefore);
+        locd_scene_stats_init(&st);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_get_stats(s, &st));
+        built[frame] = st.rebuilt != 0;
+        cand[frame] = !st.rebuilt && st.coasted == n ? st.candidates : 0;
+        free(before);
+        before = now, nbefore = nnow;
+    }
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    locd_engine_destroy(er);
+    free(before), free(f), free(ids);
+}
+
+/* Steps of up to 6% of the edge leave the first margin (an eighth) after
+ * 2 updates: the lists that serve so little make the next ones' margins
+ * twice as wide (path.c), which then serve about 4 updates, and a build
+ * comes about every fifth update instead of every third. */
+static void near_margin_widens_when_lists_serve_little(void)
+{
     uint32_t t;
     for (t = 1; t <= 2; t++) {
-        locd_engine *e = su_new_engine(t, NULL), *er = su_new_engine(1, NULL);
-        locd_scene *s;
-        locd_id *ids = malloc(n * sizeof *ids), *before = NULL, *now;
-        float *f = malloc(n * 6 * sizeof *f);
-        size_t nbefore = 0, nnow;
-        int frame, builds = 0, served = 0;
-        ts_rng r;
-        ts_seed(&r, 77 + t);
-        su_cube_boxes(&r, f, n, edge, 0.0);
-        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
-        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f32(s, f, n, NULL, ids));
-        for (frame = 0; frame < 60; frame++) {
-            locd_scene_stats st;
-            if (frame) {
-                su_cube_boxes(&r, f, n, edge, 0.06 * edge);
-                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f32(s, ids, f, n));
-            }
-            now = su_engine_rows(er, f, ids, n, 0, &nnow);
-            su_check_against(s, now, nnow, before, nbefore);
-            locd_scene_stats_init(&st);
-            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_get_stats(s, &st));
-            if (frame >= 30) { /* past the first lists, at the narrow margin */
-                builds += st.rebuilt != 0;
-                served += !st.rebuilt && st.coasted == n;
-            }
-            free(before);
-            before = now, nbefore = nnow;
-        }
+        int built[60], frame, builds = 0, served = 0;
+        uint64_t cand[60];
+        margin_run(t, 0.06, 60, built, cand);
+        for (frame = 30; frame < 60; frame++) /* past the first lists */
+            builds += built[frame], served += cand[frame] > 0;
         LT_PRINT("%u threads, frames 30-59: %d builds, %d frames served by the list\n", t, builds, served);
-        /* a sixteenth's margin would build 10 times in these 30 frames */
+        /* an eighth's margin would build 10 times in these 30 frames */
         TEST_ASSERT_TRUE(builds >= 3 && builds <= 7);
         TEST_ASSERT_EQUAL_INT(30, builds + served);
-        locd_scene_destroy(s);
-        locd_engine_destroy(e);
-        locd_engine_destroy(er);
-        free(before), free(f), free(ids);
     }
+}
+
+/* Steps of up to 1% of the edge: the first list (an eighth) serves some
+ * 20 updates, so the next one's margin is half as wide: fewer candidates
+ * a pass. */
+static void near_margin_narrows_when_lists_serve_long(void)
+{
+    int built[60], frame, first = -1;
+    uint64_t cand[60];
+    margin_run(2, 0.01, 60, built, cand);
+    for (frame = 2; frame < 60 && first < 0; frame++) /* (frame 1 builds the first list) */
+        if (built[frame])
+            first = frame;
+    LT_PRINT("the first list was built again at frame %d\n", first);
+    TEST_ASSERT_TRUE(first > 16 + 1 && first + 2 < 60);
+    LT_PRINT("the first list served until frame %d with %llu candidates; the next tested %llu\n", first,
+             (unsigned long long)cand[first - 1], (unsigned long long)cand[first + 1]);
+    TEST_ASSERT_TRUE(cand[first - 1] > 0 && cand[first + 1] > 0);
+    TEST_ASSERT_TRUE(cand[first + 1] * 10 < cand[first - 1] * 9);
 }
 
 static const lt_test tests[] = {
@@ -299,6 +326,7 @@ static const lt_test tests[] = {
     LT_TEST(near_list_serves_a_touching_lattice),
     LT_TEST(near_list_serves_small_scenes),
     LT_TEST(near_margin_widens_when_lists_serve_little),
+    LT_TEST(near_margin_narrows_when_lists_serve_long),
 };
 
 int main(void)

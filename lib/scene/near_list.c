@@ -6,9 +6,9 @@
  * where they were, and so do their pairs. The near list holds, per object
  * i, every j > i whose *fat box* meets i's and that may pair with it (the
  * filter), each with a PAIRED bit (the pair is in the current set). A fat
- * box is the box grown on each side by a sixteenth of its largest edge (up
- * to a quarter, after lists that served few updates: path.c) when the list
- * is built (the sweep of the fat boxes, then the pair
+ * box is the box grown on each side by an eighth of its largest edge (a
+ * quarter to a sixteenth, after lists that served few or many updates:
+ * path.c) when the list is built (the sweep of the fat boxes, then the pair
  * order). While every box stays inside its fat box, any two boxes that
  * meet have fat boxes that meet, so they are in the list: an update then
  * only tests the list's pairs on the boxes now, in order, and a changed
@@ -485,8 +485,7 @@ locd_status lc_near_build(locd_scene *s, lc_pair_list *next, uint64_t *candidate
         return st;
     memset(&fc, 0, sizeof fc);
     fc.box = s->slots.fbox, fc.fat = nr->fat, fc.n = n;
-    /* the entry lists' sixteenth (cells.c), widened after lists that served few updates (path.c) */
-    fc.margin = 1.0f / (float)(1u << (LC_FAT_SHIFT - s->backoff.near_widen));
+    fc.margin = 1.0f / (float)(1u << (LC_NEAR_SHIFT + s->backoff.near_narrow)); /* (path.c) */
     run(s, k, task_fat, &fc);
     for (t = 0; t < k; t++)
         if (fc.bad[t]) /* a fat box past the float range: the caller goes from scratch */

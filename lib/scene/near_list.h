@@ -7,7 +7,7 @@
 #include "scene/pair_set.h"
 
 /* Per object i (slots all live, in id order), the objects j > i whose fat
- * boxes (the box grown by its largest edge >> (LC_FAT_SHIFT - near_widen) on each side,
+ * boxes (the box grown by its largest edge >> (LC_NEAR_SHIFT + near_narrow) on each side,
  * when the list was built) meet its own and that may pair with it,
  * nb[off[i], off[i + 1]), each with LC_PAIRED when the two are a pair of
  * the current set. Valid while only moves happened since it was built and

@@ -29,14 +29,15 @@
  * build none, twice as many after each such list, up to LC_BACKOFF_MAX. */
 #define LC_NEAR_WAIT 2
 /* A near-pair list amortizes its build (about two from-scratch updates)
- * over the updates it serves: one that served fewer than LC_NEAR_SERVE_MIN
- * makes the next list's margin twice as wide (up to a quarter of the
- * edge), one that served more than LC_NEAR_SERVE_MAX halves it again (down
- * to LC_FAT_SHIFT's sixteenth), as a wider margin costs more candidates a
- * pass. Objects that move a random step of up to 3% of their edge a frame
- * (`locd frames`) leave a sixteenth's margin after 2 updates and an
- * eighth's after about 4: at 100% moving the mean update then drops below
- * a rebuild from 10^3 objects (`bench/ab_frames.sh`, docs/scene.md). */
+ * over the updates it serves. Its margin is an eighth of the largest edge
+ * at first; a list that served fewer than LC_NEAR_SERVE_MIN updates makes
+ * the next one's twice as wide (up to a quarter), one that served more
+ * than LC_NEAR_SERVE_MAX halves it (down to a sixteenth, as the entry
+ * lists' fat boxes), as a wider margin costs more candidates a pass and a
+ * dearer build. Objects that move a random step of up to 3% of their edge
+ * a frame (`locd frames`) leave a sixteenth's margin after 2 updates and
+ * an eighth's after about 4: at 100% moving the mean update is then below
+ * a rebuild from 10^3 objects (docs/scene.md). */
 #define LC_NEAR_SERVE_MIN 4
 #define LC_NEAR_SERVE_MAX 16
 #define LC_BACKOFF_MAX 64
@@ -131,10 +132,10 @@ void lc_backoff_chose(lc_backoff *b, const lc_path_facts *f, lc_path p)
 
 void lc_backoff_near_left(lc_backoff *b, uint32_t served)
 {
-    if (served < LC_NEAR_SERVE_MIN && b->near_widen < LC_NEAR_WIDEN_MAX)
-        b->near_widen++;
-    else if (served > LC_NEAR_SERVE_MAX && b->near_widen > 0)
-        b->near_widen--;
+    if (served < LC_NEAR_SERVE_MIN && b->near_narrow > LC_NEAR_NARROW_MIN)
+        b->near_narrow--;
+    else if (served > LC_NEAR_SERVE_MAX && b->near_narrow < LC_NEAR_NARROW_MAX)
+        b->near_narrow++;
     if (served) {
         b->near_wait = 0;
         return;

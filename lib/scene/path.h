@@ -32,12 +32,14 @@ typedef struct lc_backoff {
     uint32_t band_wait;    /* how many of those before a relist (0: LC_BAND_WAIT) */
     uint32_t near_wait;    /* the near-pair list's wait after a list that served no update */
     uint32_t near_skip;    /* from-scratch updates left that do not build the list */
-    uint32_t near_widen;   /* the near-pair list's margin is the largest edge >> (LC_FAT_SHIFT - near_widen):
-                              0 to LC_NEAR_WIDEN_MAX, set by how long the lists served */
+    int32_t near_narrow;   /* the near-pair list's margin is the largest edge >> (LC_NEAR_SHIFT + near_narrow):
+                              0 (an eighth) at first, -1 (a quarter) to 1 (a sixteenth) after lists that
+                              served few or many updates (path.c) */
 } lc_backoff;
 
-/* The widest near-pair list margin: a quarter of the largest edge. */
-#define LC_NEAR_WIDEN_MAX 2
+#define LC_NEAR_SHIFT 3
+#define LC_NEAR_NARROW_MIN (-1)
+#define LC_NEAR_NARROW_MAX 1
 
 /* What the choice reads. */
 typedef struct lc_path_facts {
