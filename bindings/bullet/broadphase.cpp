@@ -169,7 +169,7 @@ void BulletBroadphase::Impl::flush()
             }
             continue;
         }
-        if (p->moved_frame == frame) {
+        if (p->moved_frame == frame) { // (after the stale check: moves.proxies is not needed past it)
             moves.ids.push_back(p->id);
             push_box(moves.boxes, p);
         }
