@@ -210,7 +210,8 @@ void BulletBroadphase::Impl::flush()
             by_id[ids[i]] = p;
         }
     }
-    if (!moves.ids.empty() && (s = scene_move(scene, moves.ids.data(), moves.boxes.data(), moves.ids.size())) != LOCD_OK)
+    if (!moves.ids.empty() &&
+        (s = scene_move(scene, moves.ids.data(), moves.boxes.data(), moves.ids.size())) != LOCD_OK)
         failed("locd_scene_move", s);
     moves.ids.clear();
     moves.boxes.clear();

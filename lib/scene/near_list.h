@@ -7,8 +7,8 @@
 #include "scene/pair_set.h"
 
 /* Per object i (slots all live, in id order), the objects j > i whose fat
- * boxes (the box grown by its largest edge >> (LC_NEAR_SHIFT + near_narrow) on each side,
- * when the list was built) meet its own and that may pair with it,
+ * boxes (the box grown on each side by its largest edge >> (LC_NEAR_SHIFT
+ * + backoff.near_narrow) when the list was built) meet its own and that may pair with it,
  * nb[off[i], off[i + 1]), each with LC_PAIRED when the two are a pair of
  * the current set. Valid while only moves happened since it was built and
  * every box stayed inside its fat box. */

@@ -37,7 +37,7 @@
  * dearer build. Objects that move a random step of up to 3% of their edge
  * a frame (`locd frames`) leave a sixteenth's margin after 2 updates and
  * an eighth's after about 4: at 100% moving the mean update is then below
- * a rebuild from 10^3 objects (docs/scene.md). */
+ * a rebuild from 10^3 objects (`bench/frames.py`, docs/benchmarks.md). */
 #define LC_NEAR_SERVE_MIN 4
 #define LC_NEAR_SERVE_MAX 16
 #define LC_BACKOFF_MAX 64

@@ -57,9 +57,10 @@ lc_path lc_path_choose(const lc_path_facts *f);
 
 /* The waits after a choice (band_updates, near_skip), and after what the
  * paths found: a near-pair list that a box left (served: the updates it
- * served; also sets the next list's margin), partner lists dropped, and the survey of an incremental update
- * (calm: its moved objects that stayed in their fat boxes, of total; 1
- * when the partner lists are to be built at its end). */
+ * served; also sets the next list's margin), partner lists dropped, and
+ * the survey of an incremental update (calm: its moved objects that stayed
+ * in their fat boxes, of total; 1 when the partner lists are to be built
+ * at its end). */
 void lc_backoff_chose(lc_backoff *b, const lc_path_facts *f, lc_path p);
 void lc_backoff_near_left(lc_backoff *b, uint32_t served);
 void lc_backoff_partners_dropped(lc_backoff *b);
