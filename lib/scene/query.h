@@ -56,6 +56,7 @@ typedef struct lc_walk {
     lc_hit *hit;          /* every hit (LOCD_HIT_ALL, overlaps): hit_in, or the heap's */
     size_t nhit, hit_cap;
     lc_hit best;          /* the closest or the first (t +inf, id LOCD_ID_NONE: none) */
+    float best_tf;        /* best.t as a float no smaller (+inf: none), for the node tests */
     int failed;           /* no memory for the hits */
     uint32_t *stack;      /* the walk's nodes to see, and their entry times (casts) */
     float *stack_t;

@@ -71,16 +71,18 @@ LC_INLINE int cast_meets(const lc_shape *q, const double *lo, const double *hi, 
     int a;
     for (a = 0; a < 3; a++) {
         const double in = lo[a] - q->hi[a], out = hi[a] - q->lo[a];
-        double u, v;
+        double u, v, enter, leave;
         if (q->d[a] == 0.0) {
             if (in > 0.0 || out < 0.0)
                 return 0;
             continue;
         }
-        u = (q->d[a] > 0.0 ? in : out) / q->d[a];
-        v = (q->d[a] > 0.0 ? out : in) / q->d[a];
-        t0 = u > t0 ? u : t0;
-        t1 = v < t1 ? v : t1;
+        /* (in <= out: the smaller quotient is the entry, whatever d's
+         * sign; a min and a max instead of a branch on the sign) */
+        u = in / q->d[a], v = out / q->d[a];
+        enter = u < v ? u : v, leave = u < v ? v : u;
+        t0 = enter > t0 ? enter : t0;
+        t1 = leave < t1 ? leave : t1;
         if (t0 > t1)
             return 0;
     }
@@ -130,18 +132,22 @@ static int prepare_axis(lc_walk *w, int a, double size)
     const lc_shape *q = w->q;
     lc_fquery *f = &w->f;
     const double d = q->d[a], r = 1.0 / d, reach = size + fabs(q->lo[a]) + fabs(q->hi[a]);
-    const uint32_t lo_at = (uint32_t)offsetof(lc_qt_node, lo[a]), hi_at = (uint32_t)offsetof(lc_qt_node, hi[a]);
+    const uint32_t at[2] = {(uint32_t)offsetof(lc_qt_node, lo[a]), (uint32_t)offsetof(lc_qt_node, hi[a])};
+    const double ends[2] = {q->lo[a], q->hi[a]};
+    const int pos = d > 0.0;
     if (d == 0.0)
         return 1;
     if (!(fabs(r) >= 1.0 / LC_F_TIME && fabs(r) <= LC_F_TIME && reach <= LC_F_TIME && reach * fabs(r) <= LC_F_TIME))
         return 0;
     f->moving |= 1u << a;
     f->inv[a] = (float)r;
-    f->slack[a] = to_float(LC_F_SLACK * reach * fabs(r) + LC_F_TINY * (1.0 + fabs(r)), 1);
-    f->enter_q[a] = (float)(d > 0.0 ? q->hi[a] : q->lo[a]);
-    f->leave_q[a] = (float)(d > 0.0 ? q->lo[a] : q->hi[a]);
-    f->enter_at[a] = d > 0.0 ? lo_at : hi_at;
-    f->leave_at[a] = d > 0.0 ? hi_at : lo_at;
+    /* (raised by 2^-22, then rounded to nearest: no smaller than the
+     * double, the slack being a normal float; to_float's branch on the
+     * rounding's side mispredicted) */
+    f->slack[a] = (float)((LC_F_SLACK * reach * fabs(r) + LC_F_TINY * (1.0 + fabs(r))) * (1.0 + 0x1p-22));
+    /* (the ends picked by index: a direction's signs are random, a branch on them mispredicted) */
+    f->enter_q[a] = (float)ends[pos], f->leave_q[a] = (float)ends[!pos];
+    f->enter_at[a] = at[!pos], f->leave_at[a] = at[pos];
     return 1;
 }
 
@@ -319,21 +325,30 @@ LC_INLINE uint32_t lanes_met(const lc_walk *w, const lc_qt_node *nd, float t[4],
 
 /* ---- hits ---- */
 
+/* Room for `more` hits. 0 on no memory (the walk failed). */
+static int hit_room(lc_walk *w, size_t more)
+{
+    size_t cap;
+    lc_hit *h;
+    if (w->nhit + more <= w->hit_cap)
+        return 1;
+    cap = lc_grow_cap(w->hit_cap, w->nhit + more);
+    if (!(h = lc_alloc(w->s->alloc, cap * sizeof *h))) {
+        w->failed = 1;
+        return 0;
+    }
+    if (w->nhit)
+        memcpy(h, w->hit, w->nhit * sizeof *h);
+    if (w->hit != w->hit_in)
+        lc_free(w->s->alloc, w->hit, w->hit_cap * sizeof *w->hit);
+    w->hit = h, w->hit_cap = cap;
+    return 1;
+}
+
 static void put_hit(lc_walk *w, double t, locd_id id)
 {
-    if (w->nhit == w->hit_cap) {
-        const size_t cap = lc_grow_cap(w->hit_cap, w->nhit + 1);
-        lc_hit *h = lc_alloc(w->s->alloc, cap * sizeof *h);
-        if (!h) {
-            w->failed = 1;
-            return;
-        }
-        if (w->nhit)
-            memcpy(h, w->hit, w->nhit * sizeof *h);
-        if (w->hit != w->hit_in)
-            lc_free(w->s->alloc, w->hit, w->hit_cap * sizeof *w->hit);
-        w->hit = h, w->hit_cap = cap;
-    }
+    if (!hit_room(w, 1))
+        return;
     w->hit[w->nhit].t = t;
     w->hit[w->nhit++].id = id;
 }
@@ -354,8 +369,10 @@ static int take(lc_walk *w, uint32_t slot, double t)
         return w->failed;
     }
     /* (the first hit is taken even at t = +inf: a time can overflow) */
-    if (w->best.id == LOCD_ID_NONE || t < w->best.t || (t == w->best.t && id < w->best.id))
+    if (w->best.id == LOCD_ID_NONE || t < w->best.t || (t == w->best.t && id < w->best.id)) {
         w->best.t = t, w->best.id = id;
+        w->best_tf = t >= FLT_MAX ? INFINITY : to_float(t, 1);
+    }
     return w->mode == LOCD_HIT_ANY;
 }
 
@@ -411,53 +428,99 @@ static int stack_room(lc_walk *w, size_t used, size_t more)
     return 1;
 }
 
-/* Node i pushed, its two lines asked for while the other lanes are seen to. */
-LC_INLINE void push(lc_walk *w, size_t *top, uint32_t i, float t)
+/* Node i's two lines asked for while the other lanes are seen to. */
+LC_INLINE void prefetch_node(const lc_walk *w, uint32_t i)
 {
     const char *c = (const char *)&w->s->qtree.node[i];
     __builtin_prefetch(c);
     __builtin_prefetch(c + 64);
+}
+
+/* Node i pushed (and asked for). */
+LC_INLINE void push(lc_walk *w, size_t *top, uint32_t i, float t)
+{
+    prefetch_node(w, i);
     w->stack[*top] = i, w->stack_t[*top] = t;
     ++*top;
 }
 
 /* Two keys in order (branch free). */
-LC_INLINE void order2(uint64_t *a, uint64_t *b)
+LC_INLINE void order2(uint32_t *a, uint32_t *b)
 {
-    const uint64_t lo = *a < *b ? *a : *b, hi = *a < *b ? *b : *a;
+    const uint32_t lo = *a < *b ? *a : *b, hi = *a < *b ? *b : *a;
     *a = lo, *b = hi;
 }
 
+/* The lanes whose entry time t[k] is at most `bound`. */
+LC_INLINE uint32_t lanes_before(const float *t, float bound)
+{
+    v4f v;
+    memcpy(&v, t, sizeof v);
+    return bits_of((v4i)(v <= splat(bound)));
+}
+
 /* A cast's node: its objects met tested (those entered before the best
- * hit so far), its nodes met pushed farthest first (entered before the
- * best hit). Returns 1 to stop the walk. A lane's sort key is its time's
- * bits (times are >= 0: their bits order as they do) above its index; a
- * lane not pushed sorts last. */
+ * hit so far), its nodes met pushed farthest first (those entered before
+ * the best hit). Returns 1 to stop the walk. A node's sort key is its
+ * lane's time's bits (times are >= 0, or -0: their bits order as they do)
+ * with the lane in the two lowest; the time pushed is the key's, lowered
+ * by at most 3 units in the last place (still a lower bound); a lane not
+ * pushed sorts last. The push is branch free: which lanes a ray meets is
+ * as good as random, and branches on it were a third of a short ray's
+ * mispredictions. Its four entries are written whatever their count (the
+ * stack has room: walk_tree). */
 static int visit(lc_walk *w, const lc_qt_node *nd, uint32_t met, const float *t, size_t *top)
 {
-    uint32_t objs = met & nd->objects, kids = met & ~(uint32_t)nd->objects, k, bits;
-    uint64_t key[4];
+    const uint32_t near = met & lanes_before(t, w->best_tf), kids = near & ~(uint32_t)nd->objects;
+    uint32_t objs = near & nd->objects, k, n, key[4];
     for (; objs; objs &= objs - 1) {
         k = (uint32_t)__builtin_ctz(objs);
-        if (t[k] <= w->best.t && try_lane(w, nd, k))
+        if (t[k] <= w->best_tf && try_lane(w, nd, k))
             return 1;
     }
-    if (!(kids & (kids - 1))) { /* one node or none */
-        if (kids && t[k = (uint32_t)__builtin_ctz(kids)] <= w->best.t)
+    if (!(kids & (kids - 1))) { /* one node or none (a leaf) */
+        if (kids) {
+            k = (uint32_t)__builtin_ctz(kids);
             push(w, top, nd->child[k], t[k]);
+        }
         return 0;
     }
     for (k = 0; k < LC_QT_WIDTH; k++) {
-        memcpy(&bits, &t[k], sizeof bits);
-        key[k] = (kids & (1u << k)) && t[k] <= w->best.t ? (uint64_t)bits << 2 | k : UINT64_MAX;
+        memcpy(&key[k], &t[k], sizeof key[k]);
+        key[k] = (key[k] & ~3u) | k | (0u - (~kids >> k & 1u));
     }
     order2(&key[0], &key[1]), order2(&key[2], &key[3]);
     order2(&key[0], &key[2]), order2(&key[1], &key[3]);
     order2(&key[1], &key[2]);
-    for (k = LC_QT_WIDTH; k-- > 0;)
-        if (key[k] != UINT64_MAX)
-            push(w, top, nd->child[key[k] & 3u], t[key[k] & 3u]);
+    n = (uint32_t)__builtin_popcount(kids);
+    for (k = 0; k < LC_QT_WIDTH; k++) { /* the nearest on top */
+        const uint32_t kk = key[(n - 1 - k) & 3u], lane = kk & 3u, bits = kk & ~3u;
+        w->stack[*top + k] = nd->child[lane];
+        memcpy(&w->stack_t[*top + k], &bits, sizeof bits);
+    }
+    for (k = 0; k < LC_QT_WIDTH; k++) /* (past n the first again: no branch on n) */
+        prefetch_node(w, w->stack[*top + (k & (0u - (k < n)))]);
+    *top += n;
     return 0;
+}
+
+/* The objects of nd's lanes `objs`, each a hit (a box query whose node
+ * test is the objects' own, with no filter to ask). Written four and
+ * counted, with no branch on which lanes met: the loops over them were
+ * half of a box query's mispredictions. Returns 0 on no memory. */
+LC_INLINE int take_lanes(lc_walk *w, const lc_qt_node *nd, uint32_t objs)
+{
+    const locd_id *id = w->s->slots.id;
+    const uint32_t first = nd->child[__builtin_ctz(objs)];
+    uint32_t k;
+    if (!hit_room(w, LC_QT_WIDTH))
+        return 0;
+    for (k = 0; k < LC_QT_WIDTH; k++) {
+        const uint32_t on = 0u - (objs >> k & 1u), slot = (nd->child[k] & on) | (first & ~on);
+        w->hit[w->nhit].t = 0.0, w->hit[w->nhit].id = id[slot];
+        w->nhit += on & 1u;
+    }
+    return 1;
 }
 
 /* The walk of an overlap, or of a cast after all its hits or any one: the
@@ -465,16 +528,21 @@ static int visit(lc_walk *w, const lc_qt_node *nd, uint32_t met, const float *t,
 LC_INLINE void walk_overlap(lc_walk *w, int how)
 {
     const lc_qt_node *node = w->s->qtree.node;
+    const int plain = how == LANES_BOX && w->f.exact_box && !w->check_cat && !w->reject;
     size_t top = 1;
     while (top) {
         const lc_qt_node *nd = &node[w->stack[--top]];
         float t[4];
         const uint32_t met = lanes_met(w, nd, t, how);
-        uint32_t objs = met & nd->objects, kids = met & ~(uint32_t)nd->objects;
-        for (; objs; objs &= objs - 1)
-            if (try_lane(w, nd, (uint32_t)__builtin_ctz(objs)))
+        uint32_t objs = met & nd->objects, kids;
+        if (objs && plain && !(objs & nd->inexact)) {
+            if (!take_lanes(w, nd, objs))
                 return;
-        for (; kids; kids &= kids - 1)
+        } else
+            for (; objs; objs &= objs - 1)
+                if (try_lane(w, nd, (uint32_t)__builtin_ctz(objs)))
+                    return;
+        for (kids = met & ~(uint32_t)nd->objects; kids; kids &= kids - 1)
             push(w, &top, nd->child[__builtin_ctz(kids)], 0.0f);
     }
 }
@@ -490,7 +558,7 @@ LC_INLINE void walk_cast(lc_walk *w, int how)
         float t[4];
         uint32_t met;
         --top;
-        if (w->stack_t[top] > w->best.t)
+        if (w->stack_t[top] > w->best_tf)
             continue;
         nd = &node[w->stack[top]];
         met = lanes_met(w, nd, t, how);
@@ -512,6 +580,8 @@ static int walk_tree(lc_walk *w)
     const lc_query_tree *qt = &w->s->qtree;
     if (qt->root == LC_QT_NONE)
         return 1;
+    /* (a walk holds at most 3 nodes a level and the root; visit writes 4
+     * entries past the top) */
     if (!stack_room(w, 0, 4 * (size_t)qt->levels + 8))
         return 0;
     prepare(w);
@@ -532,7 +602,7 @@ int lc_walk_run(lc_walk *w)
 {
     const lc_query_tree *qt = &w->s->qtree;
     size_t k;
-    w->best.t = INFINITY, w->best.id = LOCD_ID_NONE;
+    w->best.t = INFINITY, w->best.id = LOCD_ID_NONE, w->best_tf = INFINITY;
     w->nhit = 0, w->failed = 0;
     if (!qt->valid) { /* (no memory for the tree): every object */
         for (k = 0; k < w->s->slots.nslots; k++)
@@ -602,7 +672,7 @@ locd_status lc_walk_init(lc_walk *w, const locd_scene *s, const lc_shape *q, uin
     w->s = s, w->q = q, w->mode = mode, w->mask = mask;
     w->reject = NULL, w->user = NULL;
     w->nhit = 0, w->failed = 0;
-    w->best.t = INFINITY, w->best.id = LOCD_ID_NONE;
+    w->best.t = INFINITY, w->best.id = LOCD_ID_NONE, w->best_tf = INFINITY;
     w->hit = w->hit_in, w->hit_cap = LC_WALK_HITS;
     w->stack = w->stack_in, w->stack_t = w->stack_tin, w->stack_cap = LC_WALK_STACK;
     w->check_cat = mask != ~(uint64_t)0 || s->slots.ncat0;
