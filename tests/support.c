@@ -146,3 +146,18 @@ int ts_same_as_brute_f64(const double *boxes, size_t n, const locd_pairs *result
     locd_pairs_destroy(ref);
     return ok;
 }
+
+int ts_under_tsan(void)
+{
+#if defined(__SANITIZE_THREAD__)
+    return 1;
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+    return 1;
+#else
+    return 0;
+#endif
+#else
+    return 0;
+#endif
+}

@@ -29,6 +29,12 @@ uint32_t *ts_sorted_copy(const locd_pairs *p, size_t *m);
 int ts_same_as_brute_f32(const float *boxes, size_t n, const locd_pairs *result);
 int ts_same_as_brute_f64(const double *boxes, size_t n, const locd_pairs *result);
 
+/* 1 in a ThreadSanitizer build. Its runs are some 20 times slower; a test
+ * that makes a job long on purpose, or repeats a check over thread counts
+ * for its result's sake (which the other builds check in full), does less
+ * there: races need the threads, not the repetitions. */
+int ts_under_tsan(void);
+
 /* The LOCD_KERNEL names of this architecture's kernels, scalar first (the
  * reference the others must match byte for byte); TS_KERNEL_COUNT of them. */
 #if defined(__aarch64__)

@@ -349,7 +349,8 @@ static float *busy_boxes(size_t n)
     return b;
 }
 
-#define BUSY_N ((size_t)(lu_heavy() ? 100000 : 40000))
+/* (under TSan a tenth still runs for seconds) */
+#define BUSY_N ((size_t)(lu_heavy() ? 100000 : ts_under_tsan() ? 10000 : 40000))
 
 /* ---- item 1: a segment shrunk under the service ---- */
 
@@ -611,7 +612,7 @@ static void client_limits_and_job_time(void)
     svc v;
     locd_engine *e = NULL;
     locd_job *j[3];
-    size_t nb = lu_heavy() ? 100000 : 60000; /* runs for longer than 200 ms everywhere */
+    size_t nb = lu_heavy() ? 100000 : ts_under_tsan() ? 15000 : 60000; /* runs for longer than 200 ms everywhere */
     float *busy = busy_boxes(nb), *b = ts_scene(0, 2000, 8);
     char boxes[32];
     int i;
