@@ -270,8 +270,7 @@ btBroadphaseProxy *BulletBroadphase::createProxy(const btVector3 &aabbMin, const
     // A dead slot waits behind kQuarantine others before its reuse, so a
     // late call on the dead proxy still finds it dead.
     if (m.free_slots.size() <= Impl::kQuarantine) {
-        m.pool.emplace_back();
-        p = &m.pool.back();
+        p = m.pool.add();
     } else {
         p = m.free_slots.front();
         m.free_slots.pop_front();
@@ -410,9 +409,9 @@ const btOverlappingPairCache *BulletBroadphase::getOverlappingPairCache() const 
 void BulletBroadphase::getBroadphaseAabb(btVector3 &aabbMin, btVector3 &aabbMax) const
 {
     bool any = false;
-    for (const BulletProxy &p : impl_->pool) {
+    impl_->pool.each([&](const BulletProxy &p) {
         if (!p.alive || !p.box_ok)
-            continue;
+            return;
         if (!any) {
             aabbMin = p.m_aabbMin;
             aabbMax = p.m_aabbMax;
@@ -421,7 +420,7 @@ void BulletBroadphase::getBroadphaseAabb(btVector3 &aabbMin, btVector3 &aabbMax)
             aabbMin.setMin(p.m_aabbMin);
             aabbMax.setMax(p.m_aabbMax);
         }
-    }
+    });
     if (!any)
         aabbMin = aabbMax = btVector3(0, 0, 0);
 }

@@ -10,13 +10,14 @@
 
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <unordered_map>
 #include <unordered_set>
 #include <vector>
 
 namespace locd {
 
-// A proxy lives in Impl::pool (stable addresses) until the broadphase is
+// A proxy lives in Impl::pool (ProxyPool: stable addresses) until the broadphase is
 // destroyed: a destroyed one is only marked dead, so a second destroyProxy
 // or a setAabb on it reads our own memory and is caught (docs/engines.md,
 // "Bad use"). Dead slots are reused oldest first, and only once 64 more
@@ -48,6 +49,31 @@ inline bool static_filter(int group, int mask)
     return group == btBroadphaseProxy::StaticFilter && !(mask & btBroadphaseProxy::StaticFilter);
 }
 
+// The proxies, in blocks made contiguous: Bullet's updateAabbs calls
+// setAabb in the order the proxies were made, and a constant stride lets
+// the processor fetch the next ones ahead (std::deque's chunks of 4 did not:
+// a cache miss on each proxy was two thirds of setAabb's time). Addresses
+// are stable until the pool goes.
+class ProxyPool {
+public:
+    BulletProxy *add()
+    {
+        if (n_ % kBlock == 0)
+            blocks_.emplace_back(new BulletProxy[kBlock]);
+        return &blocks_.back()[n_++ % kBlock];
+    }
+    template <class F> void each(F f) const
+    {
+        for (size_t k = 0; k < n_; k++)
+            f(blocks_[k / kBlock][k % kBlock]);
+    }
+
+private:
+    static constexpr size_t kBlock = 1024;
+    std::vector<std::unique_ptr<BulletProxy[]>> blocks_;
+    size_t n_ = 0;
+};
+
 struct PairKey {
     locd_id a, b;
     bool operator==(const PairKey &o) const { return a == o.a && b == o.b; }
@@ -66,7 +92,7 @@ struct BulletBroadphase::Impl {
     btOverlappingPairCache *cache = nullptr;
     bool owns_cache = false;
 
-    std::deque<BulletProxy> pool;
+    ProxyPool pool;
     std::deque<BulletProxy *> free_slots; // oldest first
     static constexpr size_t kQuarantine = 64;
     std::unordered_map<locd_id, BulletProxy *> by_id;
