@@ -465,10 +465,11 @@ LC_INLINE uint32_t lanes_before(const float *t, float bound)
  * lane's time's bits (times are >= 0, or -0: their bits order as they do)
  * with the lane in the two lowest; the time pushed is the key's, lowered
  * by at most 3 units in the last place (still a lower bound); a lane not
- * pushed sorts last. The push is branch free: which lanes a ray meets is
- * as good as random, and branches on it were a third of a short ray's
- * mispredictions. Its four entries are written whatever their count (the
- * stack has room: walk_tree). */
+ * pushed sorts last. A push of two or more nodes is branch free: which
+ * lanes a ray meets is as good as random, and branches on it were a third
+ * of a short ray's mispredictions; its four entries are written whatever
+ * their count (the stack has room: walk_tree). One node is pushed by
+ * itself (cheaper than the sort, though its branch mispredicts). */
 static int visit(lc_walk *w, const lc_qt_node *nd, uint32_t met, const float *t, size_t *top)
 {
     const uint32_t near = met & lanes_before(t, w->best_tf), kids = near & ~(uint32_t)nd->objects;
