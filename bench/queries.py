@@ -7,9 +7,9 @@
 
 Each cell is one run of bench/queries_peers on `locd gen KIND N --seed 1`: 2,000 rays (origin uniform in
 the scene's bounds, random direction, length 0.05 or 1.5 of the scene's extent) in all-hits and
-closest-hit mode, and 2,000 boxes (cubes of three mean box edges), the same queries for every system, the
-systems taking turns (the order rotating) over --reps runs; the figure is microseconds per query, the
-median. States: "first", right after the first update; "frames", after 10 frames of 1% of the boxes
+closest-hit mode, and 2,000 boxes (cubes of three mean box edges), the same queries for every system,
+each system in a process of its own (the order rotating from cell to cell), --reps runs; the figure is
+microseconds per query, the median. States: "first", right after the first update; "frames", after 10 frames of 1% of the boxes
 moving (every system told of the moves; Embree has no update here and is left out). The grid
 runs --rounds times, cells interleaved, and each figure is the median of the rounds' medians. Jolt
 (BroadPhaseQuadTree) takes part when JOLT_SRC names a Jolt source tree (bench/queries_jolt.sh builds
@@ -74,20 +74,25 @@ def run_grid(args, exe, jolt, locd, results):
     tmp.mkdir(parents=True, exist_ok=True)
     sizes = [int(float(x)) for x in args.sizes.split(",")]
     out = []
+    # One process per system, the order rotating from cell to cell: systems
+    # taking turns in one process evict each other's trees from the caches
+    # between runs (locd's queries took 1.3-2.2x as long at 10^5 that way).
+    runs = [[exe, "--systems", s] for s in ("locd", "bullet_dbvt", "embree", "fcl_dynamic_aabb_tree")]
+    runs += [[jolt]] if jolt else []
+    turn = 0
     for rnd in range(args.rounds):
         for kind in args.kinds.split(","):
             for n in sizes:
                 scene = scene_path(tmp, locd, kind, n)
                 for frames in (0, FRAMES):
-                    cmd = [exe, scene, "--queries", args.queries, "--reps", args.reps, "--frames", frames,
-                           "--systems", "locd,bullet_dbvt,embree,fcl_dynamic_aabb_tree"]
-                    got = lines_of(cmd)
-                    if jolt:
-                        got += lines_of([jolt, scene, "--queries", args.queries, "--reps", args.reps, "--frames",
-                                         frames])
-                    for ln in got:
-                        ln.update(kind=kind, round=rnd)
-                    out += got
+                    turn += 1
+                    for k in range(len(runs)):
+                        run = runs[(turn + k) % len(runs)]
+                        got = lines_of(run[:1] + [scene, "--queries", args.queries, "--reps", args.reps,
+                                                  "--frames", frames] + run[1:])
+                        for ln in got:
+                            ln.update(kind=kind, round=rnd)
+                        out += got
         # The batch on 1 and 2 threads (alternating within the round).
         scene = scene_path(tmp, locd, "uniform", args.batch_n)
         for threads in (1, 2):
@@ -191,8 +196,11 @@ def report(args, results, img_dir, meta):
              "only: it has no ray query). Scenes `locd gen KIND N --seed 1`; %s queries of each kind: rays "
              "from a point uniform in the scene's bounds in a random direction, 0.05 (short) or 1.5 (long) of the "
              "scene's extent long; boxes, cubes of three mean box edges around such points. Microseconds per "
-             "query, medians of %s runs in turn (the order rotating) and of %d rounds, cells interleaved. Every "
-             "system but Jolt answers with locd's exact closed test (the harness gives Bullet, Embree and FCL "
+             "query, medians of %s runs and of %d rounds, cells interleaved; each system runs in a process of its "
+             "own, the order rotating from cell to cell (in one process the systems' trees evict each other's "
+             "from the caches between turns: at 10^5, `queries_peers --systems locd` beside the same run with "
+             "`bullet_dbvt,embree,fcl_dynamic_aabb_tree` added, locd's queries took 1.3-2.2x as long with the "
+             "three others, medians of 5 rounds). Every system but Jolt answers with locd's exact closed test (the harness gives Bullet, Embree and FCL "
              "the same per-box test) and its hits' checksum must equal locd's: %s. Jolt answers with its own "
              "float test; its hit counts equal locd's in every cell of this run but the closest-hit ties "
              "(several boxes entered at the same t) it breaks its own way." % (
@@ -244,8 +252,8 @@ def report(args, results, img_dir, meta):
     L.append(bench_run.caption(meta))
     L.append("")
     L.append("One cell by hand: `locd gen uniform 100000 --seed 1 -o u.aabb && "
-             "build-bench/bench/queries_peers u.aabb --frames 0` (`--systems locd,embree`, `--threads 2` for "
-             "the batch's `locd_batch`); Jolt: `JOLT_SRC=... sh bench/queries_jolt.sh` then "
+             "build-bench/bench/queries_peers u.aabb --frames 0 --systems locd` (or `embree`, `bullet_dbvt`, "
+             "`fcl_dynamic_aabb_tree`; `locd_batch` with `--threads 2` for the batch); Jolt: `JOLT_SRC=... sh bench/queries_jolt.sh` then "
              "`build-bench/bench/queries_jolt u.aabb`.")
     L.append("")
     (results / "queries.md").write_text("\n".join(L))
