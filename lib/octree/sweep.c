@@ -10,6 +10,7 @@
  * the test of one entry against its candidates runs 8 at a time (AVX2). */
 #include "octree/octree.h"
 
+#include <math.h>
 #include <stdlib.h>
 
 #if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
@@ -577,10 +578,70 @@ LC_AVX2 LC_INLINE size_t store_pairs_avx2(uint32_t *pairs, size_t np, __m256i J,
     return np + (size_t)__builtin_popcount(m1);
 }
 
+/* The exact closed test of object me's box against others', a few
+ * instructions a candidate: with a = me's box and b the other's, the six
+ * conditions b_lo <= a_hi and -b_hi <= -a_lo as one vector compare (negation
+ * is exact, and -0 compares equal to 0 as 0 does to -0). ref holds
+ * (a_hi, -a_lo) and +inf in the spare lanes, where b reads 0. A real
+ * mesh's neighbours share vertices, so their boxes touch and most of their
+ * pairs need this test: a scalar test behind a branch per comparison, and
+ * a branch on the precision, took a sixth of the sweep on a terrain mesh. */
+typedef struct lc_exact_ref {
+    __m256 f;          /* float boxes */
+    __m256d d[2];      /* double boxes: lanes 0-3, 4-7 */
+} lc_exact_ref;
+
+LC_AVX2 LC_INLINE void exact_ref_avx2(lc_exact_ref *ref, const void *boxes, int f64, uint32_t me)
+{
+    if (f64) {
+        const double *a = (const double *)boxes + 6 * (size_t)me;
+        ref->d[0] = _mm256_setr_pd(a[3], a[4], a[5], -a[0]);
+        ref->d[1] = _mm256_setr_pd(-a[1], -a[2], HUGE_VAL, HUGE_VAL);
+    } else {
+        const float *a = (const float *)boxes + 6 * (size_t)me;
+        ref->f = _mm256_setr_ps(a[3], a[4], a[5], -a[0], -a[1], -a[2], HUGE_VALF, HUGE_VALF);
+    }
+}
+
+/* Whether object j's box meets the box of ref (exact_ref_avx2). */
+LC_AVX2 LC_INLINE int exact_meets_avx2(const lc_exact_ref *ref, const void *boxes, int f64, uint32_t j)
+{
+    if (f64) {
+        const double *b = (const double *)boxes + 6 * (size_t)j;
+        const __m256d neg3 = _mm256_castsi256_pd(_mm256_setr_epi64x(0, 0, 0, INT64_MIN));
+        const __m256d neg01 = _mm256_castsi256_pd(_mm256_setr_epi64x(INT64_MIN, INT64_MIN, 0, 0));
+        /* b[4], b[5] only: the box may be the array's last */
+        const __m256d lo = _mm256_xor_pd(_mm256_loadu_pd(b), neg3),
+                      hi = _mm256_xor_pd(_mm256_maskload_pd(b + 4, _mm256_setr_epi64x(-1, -1, 0, 0)), neg01);
+        return _mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(lo, ref->d[0], _CMP_LE_OQ),
+                                                _mm256_cmp_pd(hi, ref->d[1], _CMP_LE_OQ))) == 0xf;
+    } else {
+        const float *b = (const float *)boxes + 6 * (size_t)j;
+        const __m256 neg = _mm256_castsi256_ps(_mm256_setr_epi32(0, 0, 0, INT32_MIN, INT32_MIN, INT32_MIN, 0, 0));
+        const __m256 v = _mm256_xor_ps(_mm256_maskload_ps(b, _mm256_setr_epi32(-1, -1, -1, -1, -1, -1, 0, 0)), neg);
+        return _mm256_movemask_ps(_mm256_cmp_ps(v, ref->f, _CMP_LE_OQ)) == 0xff;
+    }
+}
+
+/* Clears the lanes of `weak` in m whose objects' boxes miss me's (the
+ * exact test of quantized ends that are equal); counts the tests. */
+LC_AVX2 LC_INLINE unsigned exact_lanes_avx2(const lc_scan *sc, int f64, const uint32_t *J, unsigned m, unsigned weak,
+                                            uint64_t *exact)
+{
+    lc_exact_ref ref;
+    exact_ref_avx2(&ref, sc->boxes, f64, sc->idx);
+    *exact += (uint64_t)__builtin_popcount(weak);
+    for (; weak; weak &= weak - 1) {
+        const unsigned lane = (unsigned)__builtin_ctz(weak);
+        m &= ~((unsigned)!exact_meets_avx2(&ref, sc->boxes, f64, J[lane]) << lane);
+    }
+    return m;
+}
+
 /* Inlined into the AVX2 main loop (sweep_range_*_avx2), whose runs of
- * candidates are short; pick_scan takes its address for nothing else. */
-LC_AVX2 LC_INLINE size_t scan_avx2(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np,
-                                   uint64_t *exact)
+ * candidates are short, with the input precision f64 a constant there. */
+LC_AVX2 LC_INLINE size_t scan_avx2_of(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np,
+                                      uint64_t *exact, int f64)
 {
     /* The columns in locals: read through sc in the loop, they would be
        reloaded from memory on every step. */
@@ -632,28 +693,29 @@ LC_AVX2 LC_INLINE size_t scan_avx2(const lc_scan *sc, size_t first, size_t end, 
             m &= (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(canon));
             weak = m & ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(strict));
         }
-        if (!(weak | split)) { /* every lane left is a pair: written in lane order, no loop */
+        if (weak)
+            m = exact_lanes_avx2(sc, f64, J + r, m, weak, exact);
+        if (!split) { /* every lane left is a pair: written in lane order, no loop */
             np = store_pairs_avx2(pairs, np, _mm256_loadu_si256((const __m256i *)(J + r)), mev, m);
             continue;
         }
-        /* In lane order, as the scalar path: the two-set filter, then the
-           exact test for equal ends. */
-        for (; m; m &= m - 1) {
-            const unsigned lane = (unsigned)__builtin_ctz(m);
-            const uint32_t j = J[r + lane];
-            if (split && (j < split) == (me < split))
+        for (; m; m &= m - 1) { /* in lane order, as the scalar path */
+            const uint32_t j = J[r + (unsigned)__builtin_ctz(m)];
+            if ((j < split) == (me < split))
                 continue; /* two sets: both objects in the same one */
-            if (weak & (1u << lane)) {
-                ++*exact;
-                if (!exact_overlap(sc->boxes, sc->f64, me, j))
-                    continue;
-            }
             pairs[2 * np] = j < me ? j : me;
             pairs[2 * np + 1] = j < me ? me : j;
             np++;
         }
     }
     return np;
+}
+
+/* scan_avx2_of as an lc_scan_fn (the precision from sc). */
+LC_AVX2 static size_t scan_avx2(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np,
+                                uint64_t *exact)
+{
+    return scan_avx2_of(sc, first, end, pairs, np, exact, sc->f64);
 }
 #endif
 
@@ -821,7 +883,8 @@ LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
 
 #ifdef LC_HAVE_AVX2_KERNEL
 #define LC_TARGET LC_AVX2
-#define LC_SCAN(cx, sc, first, end, pairs, np, exact) scan_avx2(sc, first, end, pairs, np, exact)
+#define LC_SCAN(cx, sc, first, end, pairs, np, exact) \
+    scan_avx2_of(sc, first, end, pairs, np, exact, sizeof(LC_T) == sizeof(double))
 #define LC_T float
 #define LC_SUFFIX f32_avx2
 #include "sweep_impl.h"
@@ -853,7 +916,8 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
  * 10% to 20% faster than the 16-lane scan, which was removed
  * (bench/results/kernels_notes.md); not measured on an Intel CPU. */
 #define LC_TARGET LC_AVX512
-#define LC_SCAN(cx, sc, first, end, pairs, np, exact) scan_avx2(sc, first, end, pairs, np, exact)
+#define LC_SCAN(cx, sc, first, end, pairs, np, exact) \
+    scan_avx2_of(sc, first, end, pairs, np, exact, sizeof(LC_T) == sizeof(double))
 #define LC_T float
 #define LC_SUFFIX f32_avx512
 #define LC_QUANTIZE6(g, b, q) quantize6(g, _mm512_cvtps_pd(_mm256_maskz_loadu_ps(0x3f, b)), q)
