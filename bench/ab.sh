@@ -11,6 +11,8 @@
 #   SCENE.aabb      scenes to run (default: uniform and mixed, 10^6 boxes,
 #                   made with B's `locd gen` in a temporary directory)
 #   ROUNDS=7  KERNELS="avx512 avx2"  THREADS="1 2"  REPEAT=3
+#   PAUSE=0   milliseconds slept before each run (locd pairs --pause: the
+#             threads idle between runs, as between a game's frames)
 set -euo pipefail
 A=$1 B=$2
 shift 2
@@ -18,6 +20,9 @@ ROUNDS=${ROUNDS:-7}
 KERNELS=${KERNELS:-avx512 avx2}
 THREADS=${THREADS:-1 2}
 REPEAT=${REPEAT:-3}
+PAUSE=${PAUSE:-0}
+PAUSE_ARG=()
+if [ "$PAUSE" != 0 ]; then PAUSE_ARG=(--pause "$PAUSE"); fi # (older builds lack the option)
 DIR=$(mktemp -d /tmp/locd-ab-XXXXXX)
 trap 'rm -rf "$DIR"' EXIT
 SCENES=("$@")
@@ -35,8 +40,10 @@ for round in $(seq 1 "$ROUNDS"); do
       for t in $THREADS; do
         for side in A B; do
           bin=${!side}
-          ms=$(LOCD_KERNEL=$k "$bin" pairs "$scene" --threads "$t" --repeat "$REPEAT" |
-               python3 -c "import sys, json; print(json.load(sys.stdin)['total_ms'])")
+          # The JSON is read after the run: a parser started beside it (a
+          # pipe) took a core from the 2-thread runs on a 2-core machine.
+          out=$(LOCD_KERNEL=$k "$bin" pairs "$scene" --threads "$t" --repeat "$REPEAT" ${PAUSE_ARG[@]+"${PAUSE_ARG[@]}"})
+          ms=$(python3 -c "import sys, json; print(json.loads(sys.argv[1])['total_ms'])" "$out")
           echo "$(basename "$scene" .aabb) $k $t $side $ms"
         done
       done
@@ -52,5 +59,5 @@ for line in open(sys.argv[1]):
 print(f"{'scene':10s} {'kernel':7s} {'threads':>7s} {'A ms':>8s} {'B ms':>8s} {'B/A':>6s}")
 for (scene, kernel, threads), d in sorted(rows.items()):
     a, b = statistics.median(d["A"]), statistics.median(d["B"])
-    print(f"{scene:10s} {kernel:7s} {threads:7d} {a:8.1f} {b:8.1f} {b / a:6.3f}")
+    print(f"{scene:10s} {kernel:7s} {threads:7d} {a:8.4g} {b:8.4g} {b / a:6.3f}")
 PY

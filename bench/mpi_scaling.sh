@@ -34,8 +34,10 @@ PY
   for strategy in distributed master; do
     for np in 1 2 3 4; do
       echo "n=$n $strategy np=$np" >&2
-      timeout 900 mpirun --oversubscribe --allow-run-as-root -np "$np" "$BUILD/tools/locd-mpi" "$scene" \
-        --strategy "$strategy" | python3 -c '
+      # read after the run: no parser beside the ranks
+      res=$(timeout 900 mpirun --oversubscribe --allow-run-as-root -np "$np" "$BUILD/tools/locd-mpi" "$scene" \
+        --strategy "$strategy")
+      printf '%s\n' "$res" | python3 -c '
 import json, sys
 for line in sys.stdin:
     line = line.strip()

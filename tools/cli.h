@@ -56,6 +56,7 @@ double cli_median(double *v, size_t n);
  * frames costs when some cost more than most. */
 double cli_mean(const double *v, size_t n);
 double cli_now_ms(void);
+void cli_sleep_ms(double ms); /* the calling thread sleeps ms milliseconds */
 void cli_die(const char *fmt, ...);
 int cli_parse_size(const char *s, size_t *out); /* accepts 1e6, 1000000, 1M, 10k */
 /* A size option's value s (as cli_parse_size reads it) when it lies in

@@ -21,6 +21,8 @@ static void pairs_usage(void)
            "  --out PAIRS.bin    write the pairs, sorted by (i, j), as little-endian uint32 i j rows;\n"
            "                     - writes them to stdout (the JSON line then goes to stderr)\n"
            "  --repeat R         run R times; total_ms is the median (default 2)\n"
+           "  --pause MS         sleep MS milliseconds before each run, as a game's frames are apart (the\n"
+           "                     engine's threads go idle in between; default 0)\n"
            "  --f64              convert a float32 scene to float64 and use the f64 entry point\n"
            "  --sorted           ask the engine for (i, j) order inside the timed call\n"
            "  --depth D          octree depth limit (default automatic)\n"
@@ -53,6 +55,7 @@ typedef struct pairs_opts {
     char *secret_arg, *secret;
     locd_engine_config cfg;
     size_t repeat;
+    double pause_ms; /* slept before each run */
     uint32_t flags; /* LOCD_FIND_* */
     int want_f64, check, force;
 } pairs_opts;
@@ -91,6 +94,8 @@ static int parse_value_option(const char *o, const char *v, pairs_opts *p)
         p->out_path = v;
     } else if (!strcmp(o, "--repeat")) {
         p->repeat = cli_size_option(v, 1, PAIRS_REPEAT_MAX, "pairs: bad --repeat (1..%d)", PAIRS_REPEAT_MAX);
+    } else if (!strcmp(o, "--pause")) {
+        p->pause_ms = (double)cli_size_option(v, 0, 60000, "pairs: bad --pause (0..60000 ms)");
     } else if (!strcmp(o, "--depth")) {
         p->cfg.max_depth =
             (uint32_t)cli_size_option(v, 0, LOCD_MAX_DEPTH, "pairs: bad --depth (0..LOCD_MAX_DEPTH, 21)");
@@ -214,6 +219,8 @@ static int run_repeats(const pairs_opts *p, locd_engine *eng, const cli_scene *s
         locd_status s;
         if (p->repeat > 1)
             cli_progress("pairs: run", r, p->repeat);
+        if (p->pause_ms > 0)
+            cli_sleep_ms(p->pause_ms);
         if (b)
             s = sc->f64 ? locd_engine_find_pairs_between_f64(eng, sc->d, sc->n, b->d, b->n, p->flags, pairs)
                         : locd_engine_find_pairs_between_f32(eng, sc->f, sc->n, b->f, b->n, p->flags, pairs);

@@ -10,7 +10,17 @@
  * that spun with `pause` kept the CPU from the thread it waited for
  * whenever the two shared one (docs/benchmarks.md: one-shot finds of 10^4
  * boxes then took 1.07-1.36 ms in most runs, against 0.70-0.95). The wait is bounded: a pool
- * idle between frames sleeps. */
+ * idle between frames sleeps.
+ *
+ * On a virtual machine a pool that slept (a game's frame apart) wakes up on
+ * one CPU: the guest's scheduler takes the other virtual CPUs, halted, for
+ * busy, and puts a woken worker on the caller's own CPU, where it runs only
+ * when the caller waits. Two threads then took longer than one (10^4
+ * boxes, calls 16 ms apart: 1.33-1.39 ms against 1.19-1.29). A worker that
+ * finds itself on the caller's CPU moves off it (move_off). */
+#if defined(__linux__) && !defined(_GNU_SOURCE)
+#define _GNU_SOURCE 1 /* sched_getcpu, sched_setaffinity */
+#endif
 #include "core/core.h"
 
 #include <pthread.h>
@@ -21,8 +31,13 @@
 #include <unistd.h>
 #endif
 
-/* How long a thread waits by yielding before it sleeps. */
+/* How long a worker waits for the next run by yielding before it sleeps,
+ * and how long the caller waits so for the workers to finish theirs: the
+ * caller has nothing else to do in the meantime, and a caller that slept
+ * was woken by a worker onto that worker's CPU (see move_off), one thread
+ * chasing the other from CPU to CPU. */
 #define LC_POOL_WAIT_US 50.0
+#define LC_POOL_JOIN_US 20000.0
 
 struct lc_pool {
     locd_allocator alloc;
@@ -35,6 +50,7 @@ struct lc_pool {
     int stop;            /* under mu */
     lc_task_fn fn;
     void *ctx;
+    int caller_cpu; /* the CPU the caller ran on when it started the run, or -1 */
 };
 
 typedef struct lc_worker_arg {
@@ -43,16 +59,16 @@ typedef struct lc_worker_arg {
 } lc_worker_arg;
 
 /* A bounded wait: wait_on() yields the CPU once and says whether the wait
- * may go on (LC_POOL_WAIT_US from its first call). */
+ * may go on (us microseconds from its first call). */
 typedef struct lc_wait {
-    double end;
+    double end, us;
 } lc_wait;
 
 static int wait_on(lc_wait *w)
 {
     const double t = lc_now_ms();
     if (!w->end)
-        w->end = t + LC_POOL_WAIT_US / 1000.0;
+        w->end = t + w->us / 1000.0;
     else if (t >= w->end)
         return 0;
 #ifdef _WIN32
@@ -63,6 +79,35 @@ static int wait_on(lc_wait *w)
     return 1;
 }
 
+/* If this worker runs on the caller's CPU, it moves to another CPU it may
+ * run on: allowed there no more, the kernel migrates it at once (waking
+ * that CPU), and the old set back leaves it where it went. */
+static void move_off(int caller_cpu)
+{
+#if defined(__linux__)
+    cpu_set_t allowed, others;
+    if (caller_cpu < 0 || caller_cpu >= CPU_SETSIZE || sched_getcpu() != caller_cpu ||
+        sched_getaffinity(0, sizeof allowed, &allowed) != 0 || CPU_COUNT(&allowed) < 2)
+        return;
+    others = allowed;
+    CPU_CLR(caller_cpu, &others);
+    if (sched_setaffinity(0, sizeof others, &others) == 0)
+        (void)sched_setaffinity(0, sizeof allowed, &allowed);
+#else
+    (void)caller_cpu;
+#endif
+}
+
+/* The CPU the calling thread runs on, or -1. */
+static int current_cpu(void)
+{
+#if defined(__linux__)
+    return sched_getcpu();
+#else
+    return -1;
+#endif
+}
+
 static void *worker_main(void *arg)
 {
     lc_worker_arg *wa = arg;
@@ -70,7 +115,7 @@ static void *worker_main(void *arg)
     uint32_t tid = wa->tid;
     uint64_t seen = 0;
     for (;;) {
-        lc_wait w = {0};
+        lc_wait w = {0.0, LC_POOL_WAIT_US};
         while (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && wait_on(&w))
             ;
         if (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen) {
@@ -86,8 +131,10 @@ static void *worker_main(void *arg)
         /* fn, ctx and k were written before the generation (release), and
            stay until this worker's part is counted done */
         seen = __atomic_load_n(&p->generation, __ATOMIC_ACQUIRE);
-        if (tid < p->k)
+        if (tid < p->k) {
+            move_off(p->caller_cpu);
             p->fn(p->ctx, tid, p->k);
+        }
         if (__atomic_sub_fetch(&p->pending, 1, __ATOMIC_ACQ_REL) == 0) {
             /* the caller may be asleep: it checks pending under mu */
             pthread_mutex_lock(&p->mu);
@@ -189,6 +236,7 @@ void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
     p->fn = fn;
     p->ctx = ctx;
     p->k = k;
+    p->caller_cpu = current_cpu();
     __atomic_store_n(&p->pending, p->size - 1, __ATOMIC_RELAXED);
     g = __atomic_load_n(&p->generation, __ATOMIC_RELAXED) + 1;
     __atomic_store_n(&p->generation, g, __ATOMIC_RELEASE);
@@ -196,7 +244,7 @@ void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
     pthread_mutex_unlock(&p->mu);
     fn(ctx, 0, k);
     {
-        lc_wait w = {0};
+        lc_wait w = {0.0, LC_POOL_JOIN_US};
         while (__atomic_load_n(&p->pending, __ATOMIC_ACQUIRE) && wait_on(&w))
             ;
     }

@@ -9,6 +9,7 @@
 renderer, and progress on stderr only when stderr is a terminal. Prints TAP. Needs no numpy: the
 .npy files are written byte by byte.
 """
+import json
 import os
 import pty
 import shutil
@@ -16,6 +17,7 @@ import struct
 import subprocess
 import sys
 import tempfile
+import time
 
 LOCD, ROOT = os.path.abspath(sys.argv[1]), sys.argv[2]
 RESULTS = []
@@ -239,6 +241,22 @@ def refused(r, *words):
     assert r.returncode > 0, (r.returncode, r.stderr)
     for w in words:
         assert w.encode() in r.stderr, (w, r.stderr)
+
+
+@test
+def pause_sleeps_before_each_run_outside_the_timed_call():
+    """--pause MS: each run follows MS ms of sleep (the wall time grows by about repeat x MS), the
+    in-call time does not include it, and a bad value is refused."""
+    with Tmp() as t:
+        scene = t.gen(2000, 3)
+        start = time.monotonic()
+        r = pairs([scene, "--repeat", "5", "--pause", "40"])
+        wall = time.monotonic() - start
+        assert r.returncode == 0, r.stderr
+        assert wall >= 5 * 0.040, wall
+        assert json.loads(r.stdout)["total_ms"] < 40, r.stdout
+        refused(pairs([scene, "--pause", "-1"]), "--pause")
+        refused(pairs([scene, "--pause", "1e9"]), "--pause")
 
 
 @test
