@@ -128,8 +128,8 @@ static void *worker_main(void *arg)
             if (stop)
                 break;
         }
-        /* fn, ctx and k were written before the generation (release), and
-           stay until this worker's part is counted done */
+        /* fn, ctx, k and caller_cpu were written before the generation
+           (release), and stay until this worker's part is counted done */
         seen = __atomic_load_n(&p->generation, __ATOMIC_ACQUIRE);
         if (tid < p->k) {
             move_off(p->caller_cpu);
