@@ -35,9 +35,11 @@
  * and how long the caller waits so for the workers to finish theirs: the
  * caller has nothing else to do in the meantime, and a caller that slept
  * was woken by a worker onto that worker's CPU (see move_off), one thread
- * chasing the other from CPU to CPU. */
+ * chasing the other from CPU to CPU. A pool of more threads than CPUs
+ * keeps the short wait (its threads share CPUs anyway, and a caller that
+ * yields takes turns from the workers). */
 #define LC_POOL_WAIT_US 50.0
-#define LC_POOL_JOIN_US 20000.0
+#define LC_POOL_JOIN_US 2000.0
 
 struct lc_pool {
     locd_allocator alloc;
@@ -51,6 +53,7 @@ struct lc_pool {
     lc_task_fn fn;
     void *ctx;
     int caller_cpu; /* the CPU the caller ran on when it started the run, or -1 */
+    int spread;     /* no more threads than CPUs: each may have one of its own */
 };
 
 typedef struct lc_worker_arg {
@@ -132,7 +135,8 @@ static void *worker_main(void *arg)
            (release), and stay until this worker's part is counted done */
         seen = __atomic_load_n(&p->generation, __ATOMIC_ACQUIRE);
         if (tid < p->k) {
-            move_off(p->caller_cpu);
+            if (p->spread)
+                move_off(p->caller_cpu);
             p->fn(p->ctx, tid, p->k);
         }
         if (__atomic_sub_fetch(&p->pending, 1, __ATOMIC_ACQ_REL) == 0) {
@@ -182,6 +186,7 @@ locd_status lc_pool_create(const locd_allocator *a, uint32_t threads, lc_pool **
     memset(p, 0, sizeof *p);
     p->alloc = *a;
     p->size = threads;
+    p->spread = threads <= lc_cpu_count();
     bytes = (sizeof(pthread_t) + sizeof(lc_worker_arg)) * threads;
     p->threads = lc_alloc(a, bytes);
     if (!p->threads) {
@@ -244,7 +249,7 @@ void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
     pthread_mutex_unlock(&p->mu);
     fn(ctx, 0, k);
     {
-        lc_wait w = {0.0, LC_POOL_JOIN_US};
+        lc_wait w = {0.0, p->spread ? LC_POOL_JOIN_US : LC_POOL_WAIT_US};
         while (__atomic_load_n(&p->pending, __ATOMIC_ACQUIRE) && wait_on(&w))
             ;
     }

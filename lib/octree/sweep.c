@@ -490,9 +490,11 @@ LC_INLINE int lc_descends(uint64_t next, uint64_t pm, uint32_t level, uint32_t d
            ((next >> LC_LEVEL_BITS) >> shift) == (pm >> shift);
 }
 
-/* The closed box test on the original coordinates. Inlined into every
- * kernel's scan, so it is compiled for the caller's target: called from an
- * AVX2 or AVX-512 loop as a separate SSE-encoded function, it ran with the
+/* The closed box test on the original coordinates, for the scalar and
+ * NEON scans (emit_if_canonical; the AVX2 loops use exact_meets_avx2, one
+ * vector compare). Inlined, so it is compiled for the caller's target:
+ * called from an AVX2 or AVX-512 loop as a separate SSE-encoded function
+ * (before those loops had a test of their own), it ran with the
  * vector registers' upper halves dirty (no vzeroupper there), and the
  * kernels spent more time in it than in their scans. On a lattice of
  * touching cubes, where nearly every pair needs it, LOCD_KERNEL=avx2 took
