@@ -9,11 +9,11 @@ Each cell is one run of bench/queries_peers on `locd gen KIND N --seed 1`: 2,000
 the scene's bounds, random direction, length 0.05 or 1.5 of the scene's extent) in all-hits and
 closest-hit mode, and 2,000 boxes (cubes of three mean box edges), the same queries for every system,
 each system in a process of its own (the order rotating from cell to cell), --reps runs; the figure is
-microseconds per query, the median. States: "first", right after the first update; "frames", after 10 frames of 1% of the boxes
-moving (every system told of the moves; Embree has no update here and is left out). The grid
-runs --rounds times, cells interleaved, and each figure is the median of the rounds' medians. Jolt
-(BroadPhaseQuadTree) takes part when JOLT_SRC names a Jolt source tree (bench/queries_jolt.sh builds
-it); it is in no package registry, so it is optional.
+microseconds per query, the median. States: "first", right after the first update; "frames", after 10
+frames of 1% of the boxes moving (every system told of the moves; Embree has no update here and is left
+out). The grid runs --rounds times, cells interleaved, and each figure is the median of the rounds'
+medians. Jolt (BroadPhaseQuadTree) takes part when JOLT_SRC names a Jolt source tree
+(bench/queries_jolt.sh builds it); it is in no package registry, so it is optional.
 
 The batch: --batch-queries rays (short, all hits) in one `locd_scene_cast_ray_batch_f32` on 1 and on 2
 threads, at n = --batch-n, interleaved; the speedup is the ratio of the medians.
@@ -188,22 +188,22 @@ def report(args, results, img_dir, meta):
     med, setup, batch, frames = load(results)
     L = ["## Queries: rays and boxes", ""]
     L.append("What a ray or a box meets, one query at a time on one thread: locd's scene "
-             "(`locd_scene_cast_ray_f32`, `locd_scene_overlap_box_f32`; its query tree, "
-             "[queries.md](queries.md)) beside Jolt's `BroadPhaseQuadTree` (`CastRay`, `CollideAABox`; Jolt "
-             "5 built from source with AVX2, when JOLT_SRC is given), Embree 3 (a user-geometry BVH over the same "
-             "boxes: `rtcIntersect1`, an intersect callback that keeps every hit for all hits), Bullet's "
-             "`btDbvtBroadphase` (`rayTest`, `aabbTest`) and FCL's `DynamicAABBTreeCollisionManager` (boxes "
-             "only: it has no ray query). Scenes `locd gen KIND N --seed 1`; %s queries of each kind: rays "
-             "from a point uniform in the scene's bounds in a random direction, 0.05 (short) or 1.5 (long) of the "
-             "scene's extent long; boxes, cubes of three mean box edges around such points. Microseconds per "
-             "query, medians of %s runs and of %d rounds, cells interleaved; each system runs in a process of its "
-             "own, the order rotating from cell to cell (in one process the systems' trees evict each other's "
-             "from the caches between turns: at 10^5, `queries_peers --systems locd` beside the same run with "
-             "`bullet_dbvt,embree,fcl_dynamic_aabb_tree` added, locd's queries took 1.3-2.2x as long with the "
-             "three others, medians of 5 rounds). Every system but Jolt answers with locd's exact closed test (the harness gives Bullet, Embree and FCL "
-             "the same per-box test) and its hits' checksum must equal locd's: %s. Jolt answers with its own "
-             "float test; its hit counts equal locd's in every cell of this run but the closest-hit ties "
-             "(several boxes entered at the same t) it breaks its own way." % (
+             "(`locd_scene_cast_ray_f32`, `locd_scene_overlap_box_f32`; its query tree, [queries.md](queries.md)) "
+             "beside Jolt's `BroadPhaseQuadTree` (`CastRay`, `CollideAABox`; Jolt 5 built from source with AVX2, "
+             "when JOLT_SRC is given), Embree 3 (a user-geometry BVH over the same boxes: `rtcIntersect1`, an "
+             "intersect callback that keeps every hit for all hits), Bullet's `btDbvtBroadphase` (`rayTest`, "
+             "`aabbTest`) and FCL's `DynamicAABBTreeCollisionManager` (boxes only: it has no ray query). Scenes "
+             "`locd gen KIND N --seed 1`; %s queries of each kind: rays from a point uniform in the scene's bounds"
+             " in a random direction, 0.05 (short) or 1.5 (long) of the scene's extent long; boxes, cubes of three"
+             " mean box edges around such points. Microseconds per query, medians of %s runs and of %d rounds, "
+             "cells interleaved; each system runs in a process of its own, the order rotating from cell to cell "
+             "(in one process the systems' trees evict each other's from the caches between turns: at 10^5, "
+             "`queries_peers --systems locd` beside the same run with `bullet_dbvt,embree,fcl_dynamic_aabb_tree` "
+             "added, locd's queries took 1.3-2.2x as long with the three others, medians of 5 rounds). Every "
+             "system but Jolt answers with locd's exact closed test (the harness gives Bullet, Embree and FCL the "
+             "same per-box test) and its hits' checksum must equal locd's: %s. Jolt answers with its own float "
+             "test; its hit counts equal locd's in every cell of this run but the closest-hit ties (several boxes "
+             "entered at the same t) it breaks its own way." % (
                  meta["queries"], meta["reps"], meta["rounds"],
                  "they did in every cell" if all(agree(c) for c in med.values()) else
                  "**they did not in some cells** (see queries.jsonl)"))
@@ -253,7 +253,8 @@ def report(args, results, img_dir, meta):
     L.append("")
     L.append("One cell by hand: `locd gen uniform 100000 --seed 1 -o u.aabb && "
              "build-bench/bench/queries_peers u.aabb --frames 0 --systems locd` (or `embree`, `bullet_dbvt`, "
-             "`fcl_dynamic_aabb_tree`; `locd_batch` with `--threads 2` for the batch); Jolt: `JOLT_SRC=... sh bench/queries_jolt.sh` then "
+             "`fcl_dynamic_aabb_tree`; `locd_batch` with `--threads 2` for the batch); Jolt: "
+             "`JOLT_SRC=... sh bench/queries_jolt.sh` then "
              "`build-bench/bench/queries_jolt u.aabb`.")
     L.append("")
     (results / "queries.md").write_text("\n".join(L))

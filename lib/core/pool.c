@@ -16,7 +16,7 @@
  * one CPU: the guest's scheduler takes the other virtual CPUs, halted, for
  * busy, and puts a woken worker on the caller's own CPU, where it runs only
  * when the caller waits. Two threads then took longer than one (10^4
- * boxes, calls 16 ms apart: 1.33-1.39 ms against 1.19-1.29). A worker that
+ * boxes, calls 16 ms apart: bench/results/pool_notes.md). A worker that
  * finds itself on the caller's CPU moves off it (move_off). */
 #if defined(__linux__) && !defined(_GNU_SOURCE)
 #define _GNU_SOURCE 1 /* sched_getcpu, sched_setaffinity */
@@ -241,7 +241,7 @@ void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
     p->fn = fn;
     p->ctx = ctx;
     p->k = k;
-    p->caller_cpu = current_cpu();
+    p->caller_cpu = p->spread ? current_cpu() : -1; /* (move_off's only reader) */
     __atomic_store_n(&p->pending, p->size - 1, __ATOMIC_RELAXED);
     g = __atomic_load_n(&p->generation, __ATOMIC_RELAXED) + 1;
     __atomic_store_n(&p->generation, g, __ATOMIC_RELEASE);

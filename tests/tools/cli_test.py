@@ -317,7 +317,6 @@ def a_directory_as_scene_says_so():  # issue 18: "size 9223372036854775807 is no
 
 @test
 def names_and_paths_are_escaped_in_the_json_output():  # issue 18: names were not escaped
-    import json
     with Tmp() as t:
         out = t.path('a"b\\c\td.aabb')
         r = run(["gen", "uniform", "10", "-o", out])
