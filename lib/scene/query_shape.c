@@ -3,16 +3,6 @@
 #include "scene/scene.h"
 #include "scene/query.h"
 
-const double *lc_widen(const void *v, int f32, double *out, int n)
-{
-    int a;
-    if (!v || !f32)
-        return v;
-    for (a = 0; a < n; a++)
-        out[a] = ((const float *)v)[a];
-    return out;
-}
-
 locd_status lc_check_mode(uint32_t mode)
 {
     if (mode > LOCD_HIT_ANY)

@@ -137,7 +137,8 @@ static int prepare_axis(lc_walk *w, int a, double size)
     const int pos = d > 0.0;
     if (d == 0.0)
         return 1;
-    if (!(fabs(r) >= 1.0 / LC_F_TIME && fabs(r) <= LC_F_TIME && reach <= LC_F_TIME && reach * fabs(r) <= LC_F_TIME))
+    /* (one branch, not four: & evaluates every test; NaN fails them) */
+    if (!((fabs(r) >= 1.0 / LC_F_TIME) & (fabs(r) <= LC_F_TIME) & (reach <= LC_F_TIME) & (reach * fabs(r) <= LC_F_TIME)))
         return 0;
     f->moving |= 1u << a;
     f->inv[a] = (float)r;
@@ -263,15 +264,18 @@ static uint32_t sphere_lanes(const lc_fquery *f, const lc_qt_node *nd)
     return bits_of((v4i)(sum <= splat(f->r2)));
 }
 
-/* The cast's lanes, and a lower bound of each lane's entry time in t. */
-static uint32_t cast_lanes(const lc_fquery *f, const lc_qt_node *nd, float t[4])
+/* The cast's lanes, and a lower bound of each lane's entry time in t.
+ * `all`, a constant where it is inlined: the direction moves on every
+ * axis (most rays; no test of which axes move, a third of the node test's
+ * branches). */
+LC_INLINE uint32_t cast_lanes(const lc_fquery *f, const lc_qt_node *nd, float t[4], int all)
 {
     v4f t0 = splat(0.0f), t1 = splat(f->max_t);
     v4i ok = {-1, -1, -1, -1};
     int a;
     for (a = 0; a < 3; a++) {
         const uint32_t lo_at = (uint32_t)offsetof(lc_qt_node, lo[a]), hi_at = (uint32_t)offsetof(lc_qt_node, hi[a]);
-        if (!(f->moving & (1u << a))) { /* the box stays within its slab on this axis */
+        if (!all && !(f->moving & (1u << a))) { /* the box stays within its slab on this axis */
             ok &= (v4i)(row(nd, lo_at) <= splat(f->hi[a])) & (v4i)(splat(f->lo[a]) <= row(nd, hi_at));
             continue;
         }
@@ -298,13 +302,15 @@ static uint32_t exact_lanes(const lc_walk *w, const lc_qt_node *nd, float t[4])
 }
 
 /* How a walk tests its nodes' lanes (a walk is compiled for each). */
-enum { LANES_BOX, LANES_SPHERE, LANES_CAST, LANES_EXACT };
+enum { LANES_BOX, LANES_SPHERE, LANES_CAST, LANES_CAST3, LANES_EXACT };
 
 static int lanes_of(const lc_walk *w)
 {
     if (!w->f.fast)
         return LANES_EXACT;
-    return w->q->kind == LC_SHAPE_CAST ? LANES_CAST : w->q->kind == LC_SHAPE_BOX ? LANES_BOX : LANES_SPHERE;
+    if (w->q->kind == LC_SHAPE_CAST)
+        return w->f.moving == 7u ? LANES_CAST3 : LANES_CAST;
+    return w->q->kind == LC_SHAPE_BOX ? LANES_BOX : LANES_SPHERE;
 }
 
 /* The lanes of nd the shape may meet (bits), and lower bounds of their
@@ -314,7 +320,8 @@ LC_INLINE uint32_t lanes_met(const lc_walk *w, const lc_qt_node *nd, float t[4],
 {
     switch (how) {
     case LANES_CAST:
-        return cast_lanes(&w->f, nd, t);
+    case LANES_CAST3:
+        return cast_lanes(&w->f, nd, t, how == LANES_CAST3);
     case LANES_EXACT:
         return exact_lanes(w, nd, t);
     default:
@@ -470,7 +477,7 @@ LC_INLINE uint32_t lanes_before(const float *t, float bound)
  * of a short ray's mispredictions; its four entries are written whatever
  * their count (the stack has room: walk_tree). One node is pushed by
  * itself (cheaper than the sort, though its branch mispredicts). */
-static int visit(lc_walk *w, const lc_qt_node *nd, uint32_t met, const float *t, size_t *top)
+LC_INLINE int visit(lc_walk *w, const lc_qt_node *nd, uint32_t met, const float *t, size_t *top)
 {
     const uint32_t near = met & lanes_before(t, w->best_tf), kids = near & ~(uint32_t)nd->objects;
     uint32_t objs = near & nd->objects, k, n, key[4];
@@ -572,8 +579,10 @@ LC_INLINE void walk_cast(lc_walk *w, int how)
 static void walk_box(lc_walk *w) { walk_overlap(w, LANES_BOX); }
 static void walk_sphere(lc_walk *w) { walk_overlap(w, LANES_SPHERE); }
 static void walk_cast_all(lc_walk *w) { walk_overlap(w, LANES_CAST); }
+static void walk_cast3_all(lc_walk *w) { walk_overlap(w, LANES_CAST3); }
 static void walk_exact(lc_walk *w) { walk_overlap(w, LANES_EXACT); }
 static void walk_closest(lc_walk *w) { walk_cast(w, LANES_CAST); }
+static void walk_closest3(lc_walk *w) { walk_cast(w, LANES_CAST3); }
 static void walk_closest_exact(lc_walk *w) { walk_cast(w, LANES_EXACT); }
 
 static int walk_tree(lc_walk *w)
@@ -588,11 +597,16 @@ static int walk_tree(lc_walk *w)
     prepare(w);
     w->stack[0] = qt->root, w->stack_t[0] = 0.0f;
     if (w->q->kind == LC_SHAPE_CAST && w->mode == LOCD_HIT_CLOSEST)
-        (lanes_of(w) == LANES_CAST ? walk_closest : walk_closest_exact)(w);
+        switch (lanes_of(w)) {
+        case LANES_CAST3: walk_closest3(w); break;
+        case LANES_CAST: walk_closest(w); break;
+        default: walk_closest_exact(w); break;
+        }
     else
         switch (lanes_of(w)) {
         case LANES_BOX: walk_box(w); break;
         case LANES_SPHERE: walk_sphere(w); break;
+        case LANES_CAST3: walk_cast3_all(w); break;
         case LANES_CAST: walk_cast_all(w); break;
         default: walk_exact(w); break;
         }
