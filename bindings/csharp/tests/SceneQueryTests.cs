@@ -429,7 +429,7 @@ namespace Locd.Tests
         }
 
         // ------------------------------------------------------------------
-        // Batches against one by one, threads 1, 2, 3, arrays and pointers
+        // Batches against one by one, threads 1, 2, 3, arrays, pointers and spans
         // ------------------------------------------------------------------
 
         /// <summary>n queries of one kind as the batch calls take them: floats (3 or 6 a query),
@@ -470,6 +470,33 @@ namespace Locd.Tests
                 case Kind.Ray: s.RaycastBatch(V, D, Num, mode, hits, mask, reject); break;
                 default: s.SweepBoxBatch(V, D, Num, mode, hits, mask, reject); break;
                 }
+            }
+
+            /// <summary>The span form, from slices that start 5 values into longer arrays (a span's
+            /// start, not its array's, is what the call must read).</summary>
+            public void RunSpans(Scene s, HitMode mode, QueryHits hits, ulong mask, Native.locd_query_reject_fn reject)
+            {
+                ReadOnlySpan<float> v = Slice(V), d = Slice(D);
+                ReadOnlySpan<double> num = Slice(Num);
+                switch (Kind) {
+                case Kind.Box: s.QueryBoxBatch(v, hits, mask, reject); break;
+                case Kind.Point: s.QueryPointBatch(v, hits, mask, reject); break;
+                case Kind.Sphere: s.QuerySphereBatch(v, num, hits, mask, reject); break;
+                case Kind.Ray: s.RaycastBatch(v, d, num, mode, hits, mask, reject); break;
+                default: s.SweepBoxBatch(v, d, num, mode, hits, mask, reject); break;
+                }
+            }
+
+            /// <summary>a's values 5 into an array of NaN (a call that read from the array's start would
+            /// fail on them), as a span of a.Length.</summary>
+            static ReadOnlySpan<T> Slice<T>(T[] a)
+            {
+                var big = new T[a.Length + 10];
+                T nan = (T)(object)(typeof(T) == typeof(float) ? (object)float.NaN : (object)double.NaN);
+                for (int k = 0; k < big.Length; k++)
+                    big[k] = nan;
+                Array.Copy(a, 0, big, 5, a.Length);
+                return new ReadOnlySpan<T>(big, 5, a.Length);
             }
 
             /// <summary>The pointer form, from copies in unmanaged memory (as a NativeArray's).</summary>
@@ -629,14 +656,16 @@ namespace Locd.Tests
                             string at = kind + " " + mode + (reject ? " mask 3 + reject" : "");
                             Snapshot first = null;
                             for (int i = 0; i < 3; i++)
-                                for (int form = 0; form < 2; form++) {
+                                for (int form = 0; form < 3; form++) {
                                     if (form == 0)
                                         input.Run(scenes[i], mode, hits, mask, reject ? RejectOdd : null);
-                                    else
+                                    else if (form == 1)
                                         input.RunPointers(scenes[i], mode, hits, mask, reject ? RejectOdd : null);
+                                    else
+                                        input.RunSpans(scenes[i], mode, hits, mask, reject ? RejectOdd : null);
                                     batches++;
                                     var snap = new Snapshot(hits);
-                                    string which = at + ", " + (i + 1) + " threads, " + (form == 0 ? "arrays" : "pointers");
+                                    string which = at + ", " + (i + 1) + " threads, " + new[] { "arrays", "pointers", "spans" }[form];
                                     if (first == null) {
                                         CheckBatch(snap, input, mode, m, mask, reject, scenes[0], which);
                                         first = snap;
@@ -1150,6 +1179,11 @@ namespace Locd.Tests
                 Assert.Throws<ArgumentException>(() => s.QueryBoxBatch(new float[7], hits), "boxes of 7");
                 Assert.Throws<ArgumentException>(() => s.QueryPointBatch(new float[5], hits), "points of 5");
                 Assert.Throws<ArgumentException>(() => s.QuerySphereBatch(six, one, hits), "1 radius for 2 spheres");
+                Assert.Throws<ArgumentException>(() => s.RaycastBatch(new ReadOnlySpan<float>(three), new ReadOnlySpan<float>(six),
+                                                                      new ReadOnlySpan<double>(one), HitMode.All, hits), "span: 2 directions for 1 ray");
+                Assert.Throws<ArgumentException>(() => s.QuerySphereBatch(new ReadOnlySpan<float>(six), new ReadOnlySpan<double>(one), hits),
+                                                 "span: 1 radius for 2 spheres");
+                Assert.Throws<ArgumentException>(() => s.QueryBoxBatch(new ReadOnlySpan<float>(new float[7]), hits), "span: boxes of 7");
                 fixed (float* p = three)
                 fixed (double* q = one) {
                     float* p1 = p;

@@ -1,7 +1,13 @@
 // The scene's queries of every kind and mode (include/locd/scene.h, docs/queries.md): spheres, ray and
 // box casts with a hit mode, a reject callback, and batches on the scene's engine threads into a
-// QueryHits buffer (arrays, or pointers for Unity's NativeArray: NativeArrayUnsafeUtility's
+// QueryHits buffer (arrays, spans, or pointers for Unity's NativeArray: NativeArrayUnsafeUtility's
 // GetUnsafeReadOnlyPtr). Casts return every hit sorted by (t, id), or the closest, or any one.
+//
+// The span forms need System.Span in the core library: .NET Core and .NET 5+, Mono 6 (Debian 12's
+// 6.8 runs the tests), Unity 2021.2+ (.NET Standard 2.1 APIs); Unity before 2021.2 leaves them out.
+#if !UNITY_5_3_OR_NEWER || UNITY_2021_2_OR_NEWER
+#define LOCD_SPAN
+#endif
 using System;
 using System.Runtime.InteropServices;
 
@@ -214,6 +220,22 @@ namespace Locd
             Batch(0, origins, directions, maxT, n, mode, hits, mask, reject);
         }
 
+#if LOCD_SPAN
+        /// <summary>Span form (a slice of an array, stackalloc memory; nothing is copied): n rays.</summary>
+        public void RaycastBatch(ReadOnlySpan<float> origins, ReadOnlySpan<float> directions, ReadOnlySpan<double> maxT,
+                                 HitMode mode, QueryHits hits, ulong mask = AllCategories,
+                                 Native.locd_query_reject_fn reject = null)
+        {
+            long n = Rows(origins.Length, 3, "origins");
+            CheckRows(directions.Length, 3, n, "directions");
+            CheckRows(maxT.Length, 1, n, "maxT");
+            fixed (float* o = &MemoryMarshal.GetReference(origins))
+            fixed (float* d = &MemoryMarshal.GetReference(directions))
+            fixed (double* m = &MemoryMarshal.GetReference(maxT))
+                RaycastBatch(o, d, m, n, mode, hits, mask, reject);
+        }
+#endif
+
         /// <summary>n boxes (6 floats each) moved by directions (3 each) to maxT (n values).</summary>
         public void SweepBoxBatch(float[] boxes, float[] directions, double[] maxT, HitMode mode, QueryHits hits,
                                   ulong mask = AllCategories, Native.locd_query_reject_fn reject = null)
@@ -233,6 +255,21 @@ namespace Locd
             Batch(1, boxes, directions, maxT, n, mode, hits, mask, reject);
         }
 
+#if LOCD_SPAN
+        public void SweepBoxBatch(ReadOnlySpan<float> boxes, ReadOnlySpan<float> directions, ReadOnlySpan<double> maxT,
+                                  HitMode mode, QueryHits hits, ulong mask = AllCategories,
+                                  Native.locd_query_reject_fn reject = null)
+        {
+            long n = Rows(boxes.Length, 6, "boxes");
+            CheckRows(directions.Length, 3, n, "directions");
+            CheckRows(maxT.Length, 1, n, "maxT");
+            fixed (float* b = &MemoryMarshal.GetReference(boxes))
+            fixed (float* d = &MemoryMarshal.GetReference(directions))
+            fixed (double* m = &MemoryMarshal.GetReference(maxT))
+                SweepBoxBatch(b, d, m, n, mode, hits, mask, reject);
+        }
+#endif
+
         /// <summary>n box queries (6 floats each): each query's ids ascending.</summary>
         public void QueryBoxBatch(float[] boxes, QueryHits hits, ulong mask = AllCategories,
                                   Native.locd_query_reject_fn reject = null)
@@ -247,6 +284,16 @@ namespace Locd
         {
             Batch(2, boxes, null, null, n, HitMode.All, hits, mask, reject);
         }
+
+#if LOCD_SPAN
+        public void QueryBoxBatch(ReadOnlySpan<float> boxes, QueryHits hits, ulong mask = AllCategories,
+                                  Native.locd_query_reject_fn reject = null)
+        {
+            long n = Rows(boxes.Length, 6, "boxes");
+            fixed (float* b = &MemoryMarshal.GetReference(boxes))
+                QueryBoxBatch(b, n, hits, mask, reject);
+        }
+#endif
 
         /// <summary>n point queries (3 floats each): the objects whose box contains each point (a point on
         /// a face, edge or corner is inside), ids ascending.</summary>
@@ -264,6 +311,16 @@ namespace Locd
             Batch(4, points, null, null, n, HitMode.All, hits, mask, reject);
         }
 
+#if LOCD_SPAN
+        public void QueryPointBatch(ReadOnlySpan<float> points, QueryHits hits, ulong mask = AllCategories,
+                                    Native.locd_query_reject_fn reject = null)
+        {
+            long n = Rows(points.Length, 3, "points");
+            fixed (float* p = &MemoryMarshal.GetReference(points))
+                QueryPointBatch(p, n, hits, mask, reject);
+        }
+#endif
+
         /// <summary>n sphere queries (centers: 3 floats each; radii: n values).</summary>
         public void QuerySphereBatch(float[] centers, double[] radii, QueryHits hits, ulong mask = AllCategories,
                                      Native.locd_query_reject_fn reject = null)
@@ -280,6 +337,18 @@ namespace Locd
         {
             Batch(3, centers, null, radii, n, HitMode.All, hits, mask, reject);
         }
+
+#if LOCD_SPAN
+        public void QuerySphereBatch(ReadOnlySpan<float> centers, ReadOnlySpan<double> radii, QueryHits hits,
+                                     ulong mask = AllCategories, Native.locd_query_reject_fn reject = null)
+        {
+            long n = Rows(centers.Length, 3, "centers");
+            CheckRows(radii.Length, 1, n, "radii");
+            fixed (float* c = &MemoryMarshal.GetReference(centers))
+            fixed (double* r = &MemoryMarshal.GetReference(radii))
+                QuerySphereBatch(c, r, n, hits, mask, reject);
+        }
+#endif
 
         /// <summary>kind 0 rays, 1 box casts, 2 boxes, 3 spheres, 4 points.</summary>
         void Batch(int kind, float* v, float* d, double* num, long n, HitMode mode, QueryHits hits, ulong mask,
@@ -314,15 +383,27 @@ namespace Locd
         {
             if (a == null)
                 throw new ArgumentNullException(name);
-            if (a.Length % width != 0)
-                throw new ArgumentException(name + " must hold " + width + " values per query; got " + a.Length, name);
-            return a.Length / width;
+            return Rows(a.Length, width, name);
+        }
+
+        static long Rows(int length, int width, string name)
+        {
+            if (length % width != 0)
+                throw new ArgumentException(name + " must hold " + width + " values per query; got " + length, name);
+            return length / width;
         }
 
         static void CheckRows(Array a, int width, long n, string name)
         {
-            if (Rows(a, width, name) != n)
-                throw new ArgumentException(name + " holds " + (a.Length / width) + " queries for " + n, name);
+            if (a == null)
+                throw new ArgumentNullException(name);
+            CheckRows(a.Length, width, n, name);
+        }
+
+        static void CheckRows(int length, int width, long n, string name)
+        {
+            if (Rows(length, width, name) != n)
+                throw new ArgumentException(name + " holds " + (length / width) + " queries for " + n, name);
         }
     }
 }
