@@ -1,6 +1,8 @@
 /* The level-1 thread pool (lib/core/pool.c): when lc_pool_run returns,
- * every part of the run has been done and its writes are visible to the
- * caller, whichever way each thread waited. A thread yields the CPU for a
+ * every part of the run has been done exactly once and its writes are
+ * visible to the caller, whichever thread claimed it (a part of a worker
+ * still waking up is the caller's) and whichever way each thread waited;
+ * no part of a finished run is run late. A thread yields the CPU for a
  * bounded time, then sleeps on a condition variable; these tests drive
  * each of the four waits: workers that find the next run while they yield
  * or only after they slept, and a caller that finds the workers done while
@@ -22,7 +24,7 @@
 typedef struct run_ctx {
     uint64_t run;                          /* the run's number, read by every part */
     uint64_t cell[LT_POOL_MAX][LT_CELLS];  /* part t writes row t */
-    uint32_t calls[LT_POOL_MAX];           /* parts run per thread id, over all runs */
+    uint32_t calls[LT_POOL_MAX];           /* runs of each part, over all runs */
     uint32_t nap_tid;                      /* this part sleeps nap_us first (LT_POOL_MAX: none) */
     uint32_t nap_us;
     int bad_args;                          /* a part called with t >= k or k past the pool */
@@ -88,7 +90,7 @@ static void drive(uint32_t size, uint32_t runs, uint32_t gap_us, uint32_t nap_ti
                 }
             }
             if (c.calls[t] != want[t]) {
-                LT_FAIL("run %u: thread %u ran %u parts, expected %u", r, t, c.calls[t], want[t]);
+                LT_FAIL("run %u: part %u ran %u times, expected %u", r, t, c.calls[t], want[t]);
                 lc_pool_destroy(p);
                 return;
             }

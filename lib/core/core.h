@@ -222,8 +222,10 @@ typedef struct lc_pool lc_pool;
 typedef void (*lc_task_fn)(void *ctx, uint32_t tid, uint32_t nthreads);
 locd_status lc_pool_create(const locd_allocator *a, uint32_t threads, lc_pool **out);
 void lc_pool_destroy(lc_pool *p);
-/* Runs fn(ctx, t, k) for t = 0..k-1 (k <= pool size; the caller runs t = 0)
- * and returns when all are done. */
+/* Runs fn(ctx, t, k) once for each part t = 0..k-1 (k <= pool size) and
+ * returns when all are done. A part runs on the caller or on a worker,
+ * whichever claims it first, so one thread may run several parts one
+ * after another: a part must never wait for another. */
 void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx);
 uint32_t lc_cpu_count(void);
 

@@ -17,7 +17,12 @@
  * busy, and puts a woken worker on the caller's own CPU, where it runs only
  * when the caller waits. Two threads then took longer than one (10^4
  * boxes, calls 16 ms apart: bench/results/pool_notes.md). A worker that
- * finds itself on the caller's CPU moves off it (move_off). */
+ * finds itself on the caller's CPU moves off it (move_off).
+ *
+ * A run's parts are claimed, not assigned: the caller and the workers
+ * take the next part until none is left, so a worker still waking up
+ * costs the caller no wait (the first run of a call after a frame's pause
+ * had waited for its worker: bench/results/pool_notes.md). */
 #if defined(__linux__) && !defined(_GNU_SOURCE)
 #define _GNU_SOURCE 1 /* sched_getcpu, sched_setaffinity */
 #endif
@@ -47,25 +52,31 @@ struct lc_pool {
     pthread_t *threads;
     pthread_mutex_t mu;
     pthread_cond_t start_cv, done_cv;
-    uint64_t generation; /* atomic; bumped under mu, after fn, ctx, k and pending are set */
-    uint32_t k, pending; /* pending: atomic, workers yet to finish the run */
+    uint64_t generation; /* atomic; bumped under mu, after fn, ctx and claim are set */
+    uint64_t claim;      /* atomic: the run's generation (32 bits), its part count k (16), the next part (16) */
+    uint32_t done;       /* atomic: parts of the run finished */
     int stop;            /* under mu */
+    uint32_t sleeping;   /* under mu: workers asleep on start_cv */
     lc_task_fn fn;
     void *ctx;
-    int caller_cpu; /* the CPU the caller ran on when it started the run, or -1 */
+    int caller_cpu; /* atomic: the CPU the caller ran on when it started the run, or -1 */
     int spread;     /* no more threads than CPUs: each may have one of its own */
 };
-
-typedef struct lc_worker_arg {
-    lc_pool *pool;
-    uint32_t tid;
-} lc_worker_arg;
 
 /* A bounded wait: wait_on() yields the CPU once and says whether the wait
  * may go on (us microseconds from its first call). */
 typedef struct lc_wait {
     double end, us;
 } lc_wait;
+
+static void yield_cpu(void)
+{
+#ifdef _WIN32
+    SwitchToThread();
+#else
+    sched_yield();
+#endif
+}
 
 static int wait_on(lc_wait *w)
 {
@@ -74,11 +85,7 @@ static int wait_on(lc_wait *w)
         w->end = t + w->us / 1000.0;
     else if (t >= w->end)
         return 0;
-#ifdef _WIN32
-    SwitchToThread();
-#else
-    sched_yield();
-#endif
+    yield_cpu();
     return 1;
 }
 
@@ -111,11 +118,34 @@ static int current_cpu(void)
 #endif
 }
 
+/* Runs parts of run `gen` until none is left to claim. A part is claimed
+ * by one compare-and-swap on the claim word, which names the run: a thread
+ * that comes late (the run over, or another begun) claims nothing and
+ * reads nothing else of it. fn and ctx stay until every part is done, so
+ * a claimed part may read them. */
+static void run_parts(lc_pool *p, uint64_t gen)
+{
+    for (;;) {
+        uint64_t cur = __atomic_load_n(&p->claim, __ATOMIC_ACQUIRE);
+        uint32_t part, k;
+        do {
+            part = (uint32_t)(cur & 0xffffu), k = (uint32_t)(cur >> 16 & 0xffffu);
+            if ((uint32_t)(cur >> 32) != (uint32_t)gen || part >= k)
+                return;
+        } while (!__atomic_compare_exchange_n(&p->claim, &cur, cur + 1, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE));
+        p->fn(p->ctx, part, k);
+        if (__atomic_add_fetch(&p->done, 1, __ATOMIC_ACQ_REL) == k) {
+            /* the caller may be asleep: it checks done under mu */
+            pthread_mutex_lock(&p->mu);
+            pthread_cond_signal(&p->done_cv);
+            pthread_mutex_unlock(&p->mu);
+        }
+    }
+}
+
 static void *worker_main(void *arg)
 {
-    lc_worker_arg *wa = arg;
-    lc_pool *p = wa->pool;
-    uint32_t tid = wa->tid;
+    lc_pool *p = arg;
     uint64_t seen = 0;
     for (;;) {
         lc_wait w = {0.0, LC_POOL_WAIT_US};
@@ -124,27 +154,19 @@ static void *worker_main(void *arg)
         if (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen) {
             int stop;
             pthread_mutex_lock(&p->mu);
+            p->sleeping++;
             while (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && !p->stop)
                 pthread_cond_wait(&p->start_cv, &p->mu);
+            p->sleeping--;
             stop = p->stop;
             pthread_mutex_unlock(&p->mu);
             if (stop)
                 break;
         }
-        /* fn, ctx, k and caller_cpu were written before the generation
-           (release), and stay until this worker's part is counted done */
         seen = __atomic_load_n(&p->generation, __ATOMIC_ACQUIRE);
-        if (tid < p->k) {
-            if (p->spread)
-                move_off(p->caller_cpu);
-            p->fn(p->ctx, tid, p->k);
-        }
-        if (__atomic_sub_fetch(&p->pending, 1, __ATOMIC_ACQ_REL) == 0) {
-            /* the caller may be asleep: it checks pending under mu */
-            pthread_mutex_lock(&p->mu);
-            pthread_cond_signal(&p->done_cv);
-            pthread_mutex_unlock(&p->mu);
-        }
+        if (p->spread)
+            move_off(__atomic_load_n(&p->caller_cpu, __ATOMIC_RELAXED));
+        run_parts(p, seen);
     }
     return NULL;
 }
@@ -174,7 +196,6 @@ static void stop_threads(lc_pool *p, uint32_t started)
 locd_status lc_pool_create(const locd_allocator *a, uint32_t threads, lc_pool **out)
 {
     lc_pool *p;
-    lc_worker_arg *args;
     uint32_t t;
     size_t bytes;
     *out = NULL;
@@ -187,20 +208,17 @@ locd_status lc_pool_create(const locd_allocator *a, uint32_t threads, lc_pool **
     p->alloc = *a;
     p->size = threads;
     p->spread = threads <= lc_cpu_count();
-    bytes = (sizeof(pthread_t) + sizeof(lc_worker_arg)) * threads;
+    bytes = sizeof(pthread_t) * threads;
     p->threads = lc_alloc(a, bytes);
     if (!p->threads) {
         lc_free(a, p, sizeof *p);
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the thread pool");
     }
-    args = (lc_worker_arg *)(p->threads + threads);
     pthread_mutex_init(&p->mu, NULL);
     pthread_cond_init(&p->start_cv, NULL);
     pthread_cond_init(&p->done_cv, NULL);
     for (t = 1; t < threads; t++) {
-        args[t].pool = p;
-        args[t].tid = t;
-        if (pthread_create(&p->threads[t - 1], NULL, worker_main, &args[t]) != 0) {
+        if (pthread_create(&p->threads[t - 1], NULL, worker_main, p) != 0) {
             stop_threads(p, t - 1);
             pthread_mutex_destroy(&p->mu);
             pthread_cond_destroy(&p->start_cv);
@@ -224,13 +242,14 @@ void lc_pool_destroy(lc_pool *p)
     pthread_cond_destroy(&p->start_cv);
     pthread_cond_destroy(&p->done_cv);
     a = p->alloc;
-    lc_free(&a, p->threads, (sizeof(pthread_t) + sizeof(lc_worker_arg)) * p->size);
+    lc_free(&a, p->threads, sizeof(pthread_t) * p->size);
     lc_free(&a, p, sizeof *p);
 }
 
 void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
 {
     uint64_t g;
+    uint32_t woke;
     if (k > p->size)
         k = p->size;
     if (k <= 1 || p->size == 1) {
@@ -240,22 +259,31 @@ void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
     pthread_mutex_lock(&p->mu);
     p->fn = fn;
     p->ctx = ctx;
-    p->k = k;
-    p->caller_cpu = p->spread ? current_cpu() : -1; /* (move_off's only reader) */
-    __atomic_store_n(&p->pending, p->size - 1, __ATOMIC_RELAXED);
+    __atomic_store_n(&p->caller_cpu, p->spread ? current_cpu() : -1, __ATOMIC_RELAXED); /* (move_off's only reader) */
+    __atomic_store_n(&p->done, 0, __ATOMIC_RELAXED);
     g = __atomic_load_n(&p->generation, __ATOMIC_RELAXED) + 1;
+    __atomic_store_n(&p->claim, (g & 0xffffffffu) << 32 | (uint64_t)k << 16, __ATOMIC_RELEASE);
     __atomic_store_n(&p->generation, g, __ATOMIC_RELEASE);
+    woke = p->sleeping;
     pthread_cond_broadcast(&p->start_cv);
     pthread_mutex_unlock(&p->mu);
-    fn(ctx, 0, k);
+    /* A worker woken from its sleep lands on this CPU (move_off), where it
+     * would wait for the caller to stop: the caller steps aside once, and
+     * the worker moves off. */
+    if (woke && p->spread)
+        yield_cpu();
+    /* The caller takes parts too: the parts of a worker still waking up
+     * (tens of microseconds on a virtual machine, hundreds after a pause
+     * of a frame) are the caller's, not a wait. */
+    run_parts(p, g);
     {
         lc_wait w = {0.0, p->spread ? LC_POOL_JOIN_US : LC_POOL_WAIT_US};
-        while (__atomic_load_n(&p->pending, __ATOMIC_ACQUIRE) && wait_on(&w))
+        while (__atomic_load_n(&p->done, __ATOMIC_ACQUIRE) != k && wait_on(&w))
             ;
     }
-    if (__atomic_load_n(&p->pending, __ATOMIC_ACQUIRE)) {
+    if (__atomic_load_n(&p->done, __ATOMIC_ACQUIRE) != k) {
         pthread_mutex_lock(&p->mu);
-        while (__atomic_load_n(&p->pending, __ATOMIC_ACQUIRE))
+        while (__atomic_load_n(&p->done, __ATOMIC_ACQUIRE) != k)
             pthread_cond_wait(&p->done_cv, &p->mu);
         pthread_mutex_unlock(&p->mu);
     }
