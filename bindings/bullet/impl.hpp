@@ -104,7 +104,7 @@ struct BulletBroadphase::Impl {
     // dropped at the flush (`stale`).
     struct Moves {
         std::vector<locd_id> ids;
-        std::vector<btScalar> boxes; // 6 a move: min x y z, max x y z
+        std::vector<btScalar> boxes; // 6 a move: min x y z, max x y z (room for at least ids.size())
         std::vector<BulletProxy *> proxies;
         bool stale = false;
     } moves;
@@ -128,6 +128,7 @@ struct BulletBroadphase::Impl {
     bool check(const btBroadphaseProxy *p) const;
     void mark(BulletProxy *p);
     void queue_move(BulletProxy *p);
+    void put_move_box(size_t k, const BulletProxy *p);
     void drop_stale_moves();
     void flush();
     BulletProxy *proxy_of(locd_id id) const
