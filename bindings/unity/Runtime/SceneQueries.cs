@@ -226,13 +226,7 @@ namespace Locd
                                  HitMode mode, QueryHits hits, ulong mask = AllCategories,
                                  Native.locd_query_reject_fn reject = null)
         {
-            long n = Rows(origins.Length, 3, "origins");
-            CheckRows(directions.Length, 3, n, "directions");
-            CheckRows(maxT.Length, 1, n, "maxT");
-            fixed (float* o = &MemoryMarshal.GetReference(origins))
-            fixed (float* d = &MemoryMarshal.GetReference(directions))
-            fixed (double* m = &MemoryMarshal.GetReference(maxT))
-                RaycastBatch(o, d, m, n, mode, hits, mask, reject);
+            SpanBatch(0, origins, 3, "origins", directions, maxT, "maxT", mode, hits, mask, reject);
         }
 #endif
 
@@ -260,13 +254,7 @@ namespace Locd
                                   HitMode mode, QueryHits hits, ulong mask = AllCategories,
                                   Native.locd_query_reject_fn reject = null)
         {
-            long n = Rows(boxes.Length, 6, "boxes");
-            CheckRows(directions.Length, 3, n, "directions");
-            CheckRows(maxT.Length, 1, n, "maxT");
-            fixed (float* b = &MemoryMarshal.GetReference(boxes))
-            fixed (float* d = &MemoryMarshal.GetReference(directions))
-            fixed (double* m = &MemoryMarshal.GetReference(maxT))
-                SweepBoxBatch(b, d, m, n, mode, hits, mask, reject);
+            SpanBatch(1, boxes, 6, "boxes", directions, maxT, "maxT", mode, hits, mask, reject);
         }
 #endif
 
@@ -289,9 +277,8 @@ namespace Locd
         public void QueryBoxBatch(ReadOnlySpan<float> boxes, QueryHits hits, ulong mask = AllCategories,
                                   Native.locd_query_reject_fn reject = null)
         {
-            long n = Rows(boxes.Length, 6, "boxes");
-            fixed (float* b = &MemoryMarshal.GetReference(boxes))
-                QueryBoxBatch(b, n, hits, mask, reject);
+            SpanBatch(2, boxes, 6, "boxes", default(ReadOnlySpan<float>), default(ReadOnlySpan<double>), null,
+                      HitMode.All, hits, mask, reject);
         }
 #endif
 
@@ -315,9 +302,8 @@ namespace Locd
         public void QueryPointBatch(ReadOnlySpan<float> points, QueryHits hits, ulong mask = AllCategories,
                                     Native.locd_query_reject_fn reject = null)
         {
-            long n = Rows(points.Length, 3, "points");
-            fixed (float* p = &MemoryMarshal.GetReference(points))
-                QueryPointBatch(p, n, hits, mask, reject);
+            SpanBatch(4, points, 3, "points", default(ReadOnlySpan<float>), default(ReadOnlySpan<double>), null,
+                      HitMode.All, hits, mask, reject);
         }
 #endif
 
@@ -342,11 +328,26 @@ namespace Locd
         public void QuerySphereBatch(ReadOnlySpan<float> centers, ReadOnlySpan<double> radii, QueryHits hits,
                                      ulong mask = AllCategories, Native.locd_query_reject_fn reject = null)
         {
-            long n = Rows(centers.Length, 3, "centers");
-            CheckRows(radii.Length, 1, n, "radii");
-            fixed (float* c = &MemoryMarshal.GetReference(centers))
-            fixed (double* r = &MemoryMarshal.GetReference(radii))
-                QuerySphereBatch(c, r, n, hits, mask, reject);
+            SpanBatch(3, centers, 3, "centers", default(ReadOnlySpan<float>), radii, "radii", HitMode.All, hits, mask,
+                      reject);
+        }
+
+        /// <summary>The span forms' one body: v holds `width` floats a query; directions 3 a query (casts,
+        /// kinds 0 and 1); num one value a query when numName is given (maxT, radii).</summary>
+        void SpanBatch(int kind, ReadOnlySpan<float> v, int width, string vName, ReadOnlySpan<float> directions,
+                       ReadOnlySpan<double> num, string numName, HitMode mode, QueryHits hits, ulong mask,
+                       Native.locd_query_reject_fn reject)
+        {
+            long n = Rows(v.Length, width, vName);
+            bool cast = kind <= 1;
+            if (cast)
+                CheckRows(directions.Length, 3, n, "directions");
+            if (numName != null)
+                CheckRows(num.Length, 1, n, numName);
+            fixed (float* pv = &MemoryMarshal.GetReference(v))
+            fixed (float* pd = &MemoryMarshal.GetReference(directions))
+            fixed (double* pn = &MemoryMarshal.GetReference(num))
+                Batch(kind, pv, cast ? pd : null, numName != null ? pn : null, n, mode, hits, mask, reject);
         }
 #endif
 
