@@ -84,7 +84,7 @@ locd_status lc_shape_sphere(lc_shape *q, const double *center, double radius, si
 /* A cast of a box (6 values) or a ray's origin (3) along direction d to max_t. */
 locd_status lc_shape_cast(lc_shape *q, const double *v, int box, const double *d, double max_t, size_t k);
 /* v[0, n) as doubles into out (floats widen exactly); v itself when NULL or already doubles.
- * (Inline: a call and its loop were a twentieth of a short ray's instructions.) */
+ * (Inline: the call and its loop were 3% of a short ray's instructions.) */
 LC_INLINE const double *lc_widen(const void *v, int f32, double *out, int n)
 {
     int a;

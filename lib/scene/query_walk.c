@@ -266,8 +266,7 @@ static uint32_t sphere_lanes(const lc_fquery *f, const lc_qt_node *nd)
 
 /* The cast's lanes, and a lower bound of each lane's entry time in t.
  * `all`, a constant where it is inlined: the direction moves on every
- * axis (most rays; no test of which axes move, a third of the node test's
- * branches). */
+ * axis (most rays), and the test asks no axis whether it moves. */
 LC_INLINE uint32_t cast_lanes(const lc_fquery *f, const lc_qt_node *nd, float t[4], int all)
 {
     v4f t0 = splat(0.0f), t1 = splat(f->max_t);
