@@ -16,15 +16,17 @@
  * one CPU: the guest's scheduler takes the other virtual CPUs, halted, for
  * busy, and puts a woken worker on the caller's own CPU, where it runs only
  * when the caller waits. Two threads then took longer than one (10^4
- * boxes, calls 16 ms apart: bench/results/pool_notes.md). A worker that
- * finds itself on the caller's CPU moves off it (move_off).
+ * boxes, calls 16 ms apart: bench/results/pool_notes.md). So the caller
+ * takes its own CPU out of sleeping workers' sets before it wakes them
+ * (steer_off), and a worker that still finds itself on the caller's CPU
+ * moves off it (move_off).
  *
  * A run's parts are claimed, not assigned: the caller and the workers
  * take the next part until none is left, so a worker still waking up
  * costs the caller no wait (the first run of a call after a frame's pause
  * had waited for its worker: bench/results/pool_notes.md). */
 #if defined(__linux__) && !defined(_GNU_SOURCE)
-#define _GNU_SOURCE 1 /* sched_getcpu, sched_setaffinity */
+#define _GNU_SOURCE 1 /* sched_getcpu, sched_setaffinity, pthread_setaffinity_np */
 #endif
 #include "core/core.h"
 
@@ -108,6 +110,49 @@ static void move_off(int caller_cpu)
 #endif
 }
 
+/* Before it wakes sleeping workers, the caller takes its own CPU out of
+ * their sets: woken, they start on another CPU, not behind the caller
+ * (move_off). Each worker puts its own set back once awake (sleep_until). */
+static void steer_off(lc_pool *p, int caller_cpu)
+{
+#if defined(__linux__)
+    cpu_set_t others;
+    uint32_t t;
+    if (caller_cpu < 0 || caller_cpu >= CPU_SETSIZE || sched_getaffinity(0, sizeof others, &others) != 0)
+        return;
+    CPU_CLR(caller_cpu, &others);
+    if (CPU_COUNT(&others) == 0)
+        return;
+    for (t = 0; t + 1 < p->size; t++)
+        (void)pthread_setaffinity_np(p->threads[t], sizeof others, &others);
+#else
+    (void)p, (void)caller_cpu;
+#endif
+}
+
+/* A worker's sleep until the next run (or the stop, returned), its CPU
+ * set as it was before (steer_off may have changed it). */
+static int sleep_until(lc_pool *p, uint64_t seen)
+{
+    int stop;
+#if defined(__linux__)
+    cpu_set_t mine;
+    const int have = sched_getaffinity(0, sizeof mine, &mine) == 0;
+#endif
+    pthread_mutex_lock(&p->mu);
+    p->sleeping++;
+    while (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && !p->stop)
+        pthread_cond_wait(&p->start_cv, &p->mu);
+    p->sleeping--;
+    stop = p->stop;
+    pthread_mutex_unlock(&p->mu);
+#if defined(__linux__)
+    if (have)
+        (void)sched_setaffinity(0, sizeof mine, &mine);
+#endif
+    return stop;
+}
+
 /* The CPU the calling thread runs on, or -1. */
 static int current_cpu(void)
 {
@@ -151,18 +196,8 @@ static void *worker_main(void *arg)
         lc_wait w = {0.0, LC_POOL_WAIT_US};
         while (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && wait_on(&w))
             ;
-        if (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen) {
-            int stop;
-            pthread_mutex_lock(&p->mu);
-            p->sleeping++;
-            while (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && !p->stop)
-                pthread_cond_wait(&p->start_cv, &p->mu);
-            p->sleeping--;
-            stop = p->stop;
-            pthread_mutex_unlock(&p->mu);
-            if (stop)
-                break;
-        }
+        if (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && sleep_until(p, seen))
+            break;
         seen = __atomic_load_n(&p->generation, __ATOMIC_ACQUIRE);
         if (p->spread)
             move_off(__atomic_load_n(&p->caller_cpu, __ATOMIC_RELAXED));
@@ -249,7 +284,6 @@ void lc_pool_destroy(lc_pool *p)
 void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
 {
     uint64_t g;
-    uint32_t woke;
     if (k > p->size)
         k = p->size;
     if (k <= 1 || p->size == 1) {
@@ -264,14 +298,10 @@ void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
     g = __atomic_load_n(&p->generation, __ATOMIC_RELAXED) + 1;
     __atomic_store_n(&p->claim, (g & 0xffffffffu) << 32 | (uint64_t)k << 16, __ATOMIC_RELEASE);
     __atomic_store_n(&p->generation, g, __ATOMIC_RELEASE);
-    woke = p->sleeping;
+    if (p->sleeping && p->spread)
+        steer_off(p, __atomic_load_n(&p->caller_cpu, __ATOMIC_RELAXED));
     pthread_cond_broadcast(&p->start_cv);
     pthread_mutex_unlock(&p->mu);
-    /* A worker woken from its sleep lands on this CPU (move_off), where it
-     * would wait for the caller to stop: the caller steps aside once, and
-     * the worker moves off. */
-    if (woke && p->spread)
-        yield_cpu();
     /* The caller takes parts too: the parts of a worker still waking up
      * (tens of microseconds on a virtual machine, hundreds after a pause
      * of a frame) are the caller's, not a wait. */
