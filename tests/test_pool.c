@@ -9,10 +9,18 @@
  * it yields or only after it slept. Each run's parts write plain (non-atomic) memory,
  * which the caller then reads: under ThreadSanitizer (CI step 40-sanitize)
  * a missing happens-before edge is a reported race. */
+#if defined(__linux__) && !defined(_GNU_SOURCE)
+#define _GNU_SOURCE 1 /* sched_getaffinity, sched_getcpu */
+#endif
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
+#if defined(__linux__)
+#include <dirent.h>
+#include <sched.h>
+#include <stdlib.h>
+#endif
 
 #include "runner.h"
 
@@ -153,6 +161,61 @@ static void destroy_while_idle_or_waiting(void)
     }
 }
 
+/* A woken worker starts away from the caller's CPU: the caller takes its
+ * CPU out of the sleeping workers' sets, and each puts its own set back
+ * once awake. After runs that woke sleeping workers, every thread of the
+ * process may again run on every CPU it could before (a worker left
+ * without the caller's CPU would share one with it whenever the caller
+ * moved there). Linux only, and only with two CPUs or more. */
+static void woken_workers_get_their_cpus_back(void)
+{
+#if defined(__linux__)
+    cpu_set_t before, now;
+    lc_pool *p = NULL;
+    locd_allocator a;
+    static run_ctx c;
+    DIR *d;
+    struct dirent *e;
+    int r, threads = 0;
+    TEST_ASSERT_EQUAL_INT(0, sched_getaffinity(0, sizeof before, &before));
+    if (CPU_COUNT(&before) < 2) {
+        TEST_IGNORE_MESSAGE("one CPU: no worker is steered");
+        return;
+    }
+    lc_allocator_resolve(&a, NULL);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, lc_pool_create(&a, 2, &p));
+    memset(&c, 0, sizeof c);
+    c.nap_tid = LT_POOL_MAX;
+    for (r = 1; r <= 20; r++) {
+        nap(2000); /* past the workers' bounded wait: they sleep */
+        c.run = (uint64_t)r;
+        lc_pool_run(p, 2, part, &c);
+    }
+    nap(20000); /* the last woken worker has put its set back (and sleeps again) */
+    d = opendir("/proc/self/task");
+    TEST_ASSERT_NOT_NULL(d);
+    while ((e = readdir(d)) != NULL) {
+        const long tid = strtol(e->d_name, NULL, 10);
+        if (tid <= 0)
+            continue;
+        threads++;
+        TEST_ASSERT_EQUAL_INT(0, sched_getaffinity((pid_t)tid, sizeof now, &now));
+        if (!CPU_EQUAL(&before, &now)) {
+            closedir(d);
+            lc_pool_destroy(p);
+            LT_FAIL("thread %ld may run on %d CPUs after the runs, %d before", tid, CPU_COUNT(&now),
+                    CPU_COUNT(&before));
+            return;
+        }
+    }
+    closedir(d);
+    lc_pool_destroy(p);
+    TEST_ASSERT_TRUE_MESSAGE(threads >= 2, "the pool's worker is among the process's threads");
+#else
+    TEST_IGNORE_MESSAGE("CPU sets: Linux only");
+#endif
+}
+
 int main(void)
 {
     static const lt_test tests[] = {
@@ -161,6 +224,7 @@ int main(void)
         LT_TEST(caller_sleeps_until_the_last_part),
         LT_TEST(caller_part_slowest),
         LT_TEST(destroy_while_idle_or_waiting),
+        LT_TEST(woken_workers_get_their_cpus_back),
     };
     return LT_RUN(tests);
 }

@@ -58,12 +58,18 @@ struct lc_pool {
     uint64_t claim;      /* atomic: the run's generation (32 bits), its part count k (16), the next part (16) */
     uint32_t done;       /* atomic: parts of the run finished */
     int stop;            /* under mu */
-    uint32_t sleeping;   /* under mu: workers asleep on start_cv */
+    struct lc_worker *worker; /* size - 1 */
     lc_task_fn fn;
     void *ctx;
     int caller_cpu; /* atomic: the CPU the caller ran on when it started the run, or -1 */
     int spread;     /* no more threads than CPUs: each may have one of its own */
 };
+
+typedef struct lc_worker {
+    lc_pool *pool;
+    int asleep;  /* under mu: on start_cv */
+    int steered; /* under mu: steer_off changed its CPU set while it slept */
+} lc_worker;
 
 /* A bounded wait: wait_on() yields the CPU once and says whether the wait
  * may go on (us microseconds from its first call). */
@@ -111,8 +117,8 @@ static void move_off(int caller_cpu)
 }
 
 /* Before it wakes sleeping workers, the caller takes its own CPU out of
- * their sets: woken, they start on another CPU, not behind the caller
- * (move_off). Each worker puts its own set back once awake (sleep_until). */
+ * their sets (under mu): woken, they start on another CPU, not behind the
+ * caller (move_off). Each puts its own set back once awake (sleep_until). */
 static void steer_off(lc_pool *p, int caller_cpu)
 {
 #if defined(__linux__)
@@ -124,31 +130,37 @@ static void steer_off(lc_pool *p, int caller_cpu)
     if (CPU_COUNT(&others) == 0)
         return;
     for (t = 0; t + 1 < p->size; t++)
-        (void)pthread_setaffinity_np(p->threads[t], sizeof others, &others);
+        if (p->worker[t].asleep && pthread_setaffinity_np(p->threads[t], sizeof others, &others) == 0)
+            p->worker[t].steered = 1;
 #else
     (void)p, (void)caller_cpu;
 #endif
 }
 
 /* A worker's sleep until the next run (or the stop, returned), its CPU
- * set as it was before (steer_off may have changed it). */
-static int sleep_until(lc_pool *p, uint64_t seen)
+ * set as it was before if steer_off changed it. */
+static int sleep_until(lc_worker *wk, uint64_t seen)
 {
-    int stop;
+    lc_pool *p = wk->pool;
+    int stop, steered;
 #if defined(__linux__)
     cpu_set_t mine;
     const int have = sched_getaffinity(0, sizeof mine, &mine) == 0;
 #endif
     pthread_mutex_lock(&p->mu);
-    p->sleeping++;
+    wk->asleep = 1;
     while (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && !p->stop)
         pthread_cond_wait(&p->start_cv, &p->mu);
-    p->sleeping--;
+    wk->asleep = 0;
+    steered = wk->steered;
+    wk->steered = 0;
     stop = p->stop;
     pthread_mutex_unlock(&p->mu);
 #if defined(__linux__)
-    if (have)
+    if (have && steered)
         (void)sched_setaffinity(0, sizeof mine, &mine);
+#else
+    (void)steered;
 #endif
     return stop;
 }
@@ -190,13 +202,14 @@ static void run_parts(lc_pool *p, uint64_t gen)
 
 static void *worker_main(void *arg)
 {
-    lc_pool *p = arg;
+    lc_worker *wk = arg;
+    lc_pool *p = wk->pool;
     uint64_t seen = 0;
     for (;;) {
         lc_wait w = {0.0, LC_POOL_WAIT_US};
         while (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && wait_on(&w))
             ;
-        if (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && sleep_until(p, seen))
+        if (__atomic_load_n(&p->generation, __ATOMIC_ACQUIRE) == seen && sleep_until(wk, seen))
             break;
         seen = __atomic_load_n(&p->generation, __ATOMIC_ACQUIRE);
         if (p->spread)
@@ -243,17 +256,20 @@ locd_status lc_pool_create(const locd_allocator *a, uint32_t threads, lc_pool **
     p->alloc = *a;
     p->size = threads;
     p->spread = threads <= lc_cpu_count();
-    bytes = sizeof(pthread_t) * threads;
+    bytes = (sizeof(pthread_t) + sizeof(lc_worker)) * threads;
     p->threads = lc_alloc(a, bytes);
     if (!p->threads) {
         lc_free(a, p, sizeof *p);
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate the thread pool");
     }
+    p->worker = (lc_worker *)(p->threads + threads);
     pthread_mutex_init(&p->mu, NULL);
     pthread_cond_init(&p->start_cv, NULL);
     pthread_cond_init(&p->done_cv, NULL);
     for (t = 1; t < threads; t++) {
-        if (pthread_create(&p->threads[t - 1], NULL, worker_main, p) != 0) {
+        lc_worker *wk = &p->worker[t - 1];
+        wk->pool = p, wk->asleep = 0, wk->steered = 0;
+        if (pthread_create(&p->threads[t - 1], NULL, worker_main, wk) != 0) {
             stop_threads(p, t - 1);
             pthread_mutex_destroy(&p->mu);
             pthread_cond_destroy(&p->start_cv);
@@ -277,7 +293,7 @@ void lc_pool_destroy(lc_pool *p)
     pthread_cond_destroy(&p->start_cv);
     pthread_cond_destroy(&p->done_cv);
     a = p->alloc;
-    lc_free(&a, p->threads, sizeof(pthread_t) * p->size);
+    lc_free(&a, p->threads, (sizeof(pthread_t) + sizeof(lc_worker)) * p->size);
     lc_free(&a, p, sizeof *p);
 }
 
@@ -298,7 +314,7 @@ void lc_pool_run(lc_pool *p, uint32_t k, lc_task_fn fn, void *ctx)
     g = __atomic_load_n(&p->generation, __ATOMIC_RELAXED) + 1;
     __atomic_store_n(&p->claim, (g & 0xffffffffu) << 32 | (uint64_t)k << 16, __ATOMIC_RELEASE);
     __atomic_store_n(&p->generation, g, __ATOMIC_RELEASE);
-    if (p->sleeping && p->spread)
+    if (p->spread)
         steer_off(p, __atomic_load_n(&p->caller_cpu, __ATOMIC_RELAXED));
     pthread_cond_broadcast(&p->start_cv);
     pthread_mutex_unlock(&p->mu);
