@@ -77,15 +77,6 @@ typedef struct lc_wait {
     double end, us;
 } lc_wait;
 
-static void yield_cpu(void)
-{
-#ifdef _WIN32
-    SwitchToThread();
-#else
-    sched_yield();
-#endif
-}
-
 static int wait_on(lc_wait *w)
 {
     const double t = lc_now_ms();
@@ -93,7 +84,11 @@ static int wait_on(lc_wait *w)
         w->end = t + w->us / 1000.0;
     else if (t >= w->end)
         return 0;
-    yield_cpu();
+#ifdef _WIN32
+    SwitchToThread();
+#else
+    sched_yield();
+#endif
     return 1;
 }
 
@@ -124,6 +119,10 @@ static void steer_off(lc_pool *p, int caller_cpu)
 #if defined(__linux__)
     cpu_set_t others;
     uint32_t t;
+    for (t = 0; t + 1 < p->size && !p->worker[t].asleep; t++)
+        ;
+    if (t + 1 >= p->size) /* (none asleep: most runs, no system call) */
+        return;
     if (caller_cpu < 0 || caller_cpu >= CPU_SETSIZE || sched_getaffinity(0, sizeof others, &others) != 0)
         return;
     CPU_CLR(caller_cpu, &others);
