@@ -1,10 +1,11 @@
 // Bullet's stepSimulation on three broad phases: btDbvtBroadphase,
 // btAxisSweep3 (bt32BitAxisSweep3 past 16,000 bodies) and
-// locd::BulletBroadphase, on three scenes scaled to n bodies, with R ray
+// locd::BulletBroadphase (exact, and with btDbvtBroadphase's margin: locd-margin, not run unless
+// asked), on three scenes scaled to n bodies, with R ray
 // casts per step (docs/benchmarks.md, "Bullet: a world on locd").
 //
 //   build/bench/bullet [--sizes 1000,10000] [--steps 40] [--warmup 10] [--rays 1000] [--threads 2]
-//                      [--scenes tower,stacks,heap] [--broadphases dbvt,sap,locd] [--reps 3]
+//                      [--scenes tower,stacks,heap] [--broadphases dbvt,sap,locd,locd-margin] [--reps 3]
 //
 // Per step: the whole stepSimulation, the broad phase's own time (every call
 // into it, timed by a forwarding wrapper: setAabb, create/destroy,
@@ -134,10 +135,8 @@ struct Bench {
 
     Bench(Broadphase kind, unsigned threads, int n, double half_width) : half(half_width)
     {
-        if (kind == Broadphase::locd) {
-            locd::BulletBroadphaseOptions o;
-            o.threads = threads;
-            inner.reset(new locd::BulletBroadphase(o));
+        if (kind == Broadphase::locd || kind == Broadphase::locd_margin) {
+            inner.reset(new locd::BulletBroadphase(locd_options(kind, threads)));
         } else if (kind == Broadphase::dbvt) {
             inner.reset(new btDbvtBroadphase());
         } else {
@@ -294,10 +293,13 @@ int main(int argc, char **argv)
         else if (a == "--broadphases") {
             kinds.clear();
             for (const std::string &b : split(argv[k + 1]))
-                if (b == "dbvt" || b == "sap" || b == "locd")
-                    kinds.push_back(b == "dbvt" ? Broadphase::dbvt : b == "sap" ? Broadphase::sap : Broadphase::locd);
+                if (b == "dbvt" || b == "sap" || b == "locd" || b == "locd-margin")
+                    kinds.push_back(b == "dbvt" ? Broadphase::dbvt
+                                    : b == "sap" ? Broadphase::sap
+                                    : b == "locd" ? Broadphase::locd
+                                                  : Broadphase::locd_margin);
                 else {
-                    std::fprintf(stderr, "unknown broad phase %s (dbvt, sap, locd)\n", b.c_str());
+                    std::fprintf(stderr, "unknown broad phase %s (dbvt, sap, locd, locd-margin)\n", b.c_str());
                     return 2;
                 }
         }
@@ -325,7 +327,9 @@ int main(int argc, char **argv)
                     return median(v);
                 };
                 std::printf("| %s | %d | %s | %.2f | %.2f | %.2f | %ld |\n", scene.c_str(), n,
-                            kind == Broadphase::locd ? "locd::BulletBroadphase" : name_of(kind),
+                            kind == Broadphase::locd          ? "locd::BulletBroadphase"
+                            : kind == Broadphase::locd_margin ? "locd::BulletBroadphase, margin 0.05"
+                                                              : name_of(kind),
                             pick(&Result::step), pick(&Result::broad), pick(&Result::rays), rs[0].pairs);
                 std::fflush(stdout);
             }

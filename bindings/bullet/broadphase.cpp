@@ -53,15 +53,15 @@ bool valid_box(const btVector3 &lo, const btVector3 &hi)
     return true;
 }
 
-void put_box(scalar *v, const btBroadphaseProxy *p)
+void put_box(scalar *v, const BulletProxy *p)
 {
     for (int k = 0; k < 3; k++) {
-        v[k] = p->m_aabbMin[k];
-        v[3 + k] = p->m_aabbMax[k];
+        v[k] = p->scene_min[k];
+        v[3 + k] = p->scene_max[k];
     }
 }
 
-void push_box(std::vector<scalar> &v, const btBroadphaseProxy *p)
+void push_box(std::vector<scalar> &v, const BulletProxy *p)
 {
     v.resize(v.size() + 6);
     put_box(v.data() + v.size() - 6, p);
@@ -91,6 +91,27 @@ inline bool BulletBroadphase::Impl::check(const btBroadphaseProxy *proxy) const
     if (!ok)
         const_cast<Impl *>(this)->st.misuse++;
     return ok;
+}
+
+// Whether the box the scene holds for p serves the AABB lo..hi as it is:
+// the same box (exact pairs), or with a margin a grown box around it.
+inline bool BulletBroadphase::Impl::holds(const BulletProxy *p, const btVector3 &lo, const btVector3 &hi) const
+{
+    bool ok = true;
+    for (int k = 0; k < 3; k++)
+        ok &= margin > 0 ? p->scene_min[k] <= lo[k] && hi[k] <= p->scene_max[k]
+                         : p->scene_min[k] == lo[k] && hi[k] == p->scene_max[k];
+    return ok;
+}
+
+// The scene's box for p's AABB: grown by the margin on every side. Rounding
+// cannot shrink it: lo - margin rounds to a value <= lo.
+inline void BulletBroadphase::Impl::grow(BulletProxy *p)
+{
+    btVector3 d(margin, margin, margin);
+    p->scene_min = p->m_aabbMin - d;
+    p->scene_max = p->m_aabbMax + d;
+    p->box_ok = valid_box(p->m_aabbMin, p->m_aabbMax) && valid_box(p->scene_min, p->scene_max);
 }
 
 inline void BulletBroadphase::Impl::mark(BulletProxy *p)
@@ -191,6 +212,7 @@ void BulletBroadphase::Impl::flush()
         }
     }
     dirty.clear();
+    sent += moves.ids.size();
     locd_status s;
     if (!removed.empty() && (s = locd_scene_remove(scene, removed.data(), removed.size())) != LOCD_OK)
         failed("locd_scene_remove", s);
@@ -235,6 +257,9 @@ BulletBroadphase::BulletBroadphase(const BulletBroadphaseOptions &options) : Bul
 BulletBroadphase::BulletBroadphase(btOverlappingPairCache *pairCache, const BulletBroadphaseOptions &options)
     : impl_(new Impl)
 {
+    impl_->margin = (btScalar)options.margin;
+    if (!(options.margin >= 0) || !std::isfinite(impl_->margin))
+        throw std::invalid_argument("locd::BulletBroadphase: the margin must be finite and >= 0");
     locd_engine_config ec;
     locd_engine_config_init(&ec);
     ec.threads = options.threads;
@@ -292,7 +317,7 @@ btBroadphaseProxy *BulletBroadphase::createProxy(const btVector3 &aabbMin, const
     p->alive = true;
     p->id = LOCD_ID_NONE;
     p->move_batch = 0;
-    p->box_ok = valid_box(aabbMin, aabbMax);
+    m.grow(p);
     LOCD_BULLET_ASSERT(p->box_ok && "createProxy: a NaN, infinite or inverted AABB");
     if (!p->box_ok)
         m.st.misuse++;
@@ -337,14 +362,14 @@ void BulletBroadphase::setAabb(btBroadphaseProxy *proxy, const btVector3 &aabbMi
     if (!m.check(proxy))
         return;
     BulletProxy *p = static_cast<BulletProxy *>(proxy);
-    bool same_box = p->m_aabbMin == aabbMin && p->m_aabbMax == aabbMax;
+    bool held = p->box_ok && m.holds(p, aabbMin, aabbMax);
     bool same_filter = p->m_collisionFilterGroup == p->scene_group && p->m_collisionFilterMask == p->scene_mask;
-    if (same_box && same_filter && p->box_ok)
-        return; // a resting body's step: nothing for the scene
-    if (!same_box) {
-        p->m_aabbMin = aabbMin;
-        p->m_aabbMax = aabbMax;
-        p->box_ok = valid_box(aabbMin, aabbMax);
+    p->m_aabbMin = aabbMin;
+    p->m_aabbMax = aabbMax;
+    if (held && same_filter)
+        return; // a resting body's step (or one inside its grown box): nothing for the scene
+    if (!held) {
+        m.grow(p);
         LOCD_BULLET_ASSERT(p->box_ok && "setAabb: a NaN, infinite or inverted AABB");
         if (!p->box_ok)
             m.st.misuse++;
@@ -369,6 +394,8 @@ void BulletBroadphase::calculateOverlappingPairs(btDispatcher *dispatcher)
     Impl &m = *impl_;
     auto t0 = std::chrono::steady_clock::now();
     m.flush();
+    m.st.moved = m.sent;
+    m.sent = 0;
     locd_status s = locd_scene_update(m.scene, LOCD_SCENE_UPDATE_EVENTS);
     if (s != LOCD_OK) {
         failed("locd_scene_update", s);
@@ -421,12 +448,12 @@ void BulletBroadphase::getBroadphaseAabb(btVector3 &aabbMin, btVector3 &aabbMax)
         if (!p.alive || !p.box_ok)
             return;
         if (!any) {
-            aabbMin = p.m_aabbMin;
-            aabbMax = p.m_aabbMax;
+            aabbMin = p.scene_min;
+            aabbMax = p.scene_max;
             any = true;
         } else {
-            aabbMin.setMin(p.m_aabbMin);
-            aabbMax.setMax(p.m_aabbMax);
+            aabbMin.setMin(p.scene_min);
+            aabbMax.setMax(p.scene_max);
         }
     });
     if (!any)
@@ -447,6 +474,18 @@ BulletBroadphaseStats BulletBroadphase::stats() const
     s.in_scene = locd_scene_count(impl_->scene);
     s.rejected = impl_->rejected.size();
     return s;
+}
+
+bool BulletBroadphase::sceneAabb(const btBroadphaseProxy *proxy, btVector3 &aabbMin, btVector3 &aabbMax) const
+{
+    if (!impl_->check(proxy))
+        return false;
+    const BulletProxy *p = static_cast<const BulletProxy *>(proxy);
+    if (!p->box_ok)
+        return false;
+    aabbMin = p->scene_min;
+    aabbMax = p->scene_max;
+    return true;
 }
 
 const locd_scene *BulletBroadphase::scene() const { return impl_->scene; }

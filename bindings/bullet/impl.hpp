@@ -27,7 +27,7 @@ struct BulletProxy : btBroadphaseProxy {
     std::uint32_t magic = kMagic;
     bool alive = false;
     bool dirty = false;       // in Impl::dirty: its box or filter reaches the scene at the next flush
-    bool box_ok = false;      // finite and min <= max: only then is it in the scene
+    bool box_ok = false;      // AABB and scene box finite, min <= max: only then is it in the scene
     bool is_static = false;   // as added to the scene
     locd_id id = LOCD_ID_NONE; // its scene object, or NONE (not added yet, or held out)
     int scene_group = 0;      // the filter the scene has for it
@@ -35,6 +35,7 @@ struct BulletProxy : btBroadphaseProxy {
     std::uint64_t moved_frame = 0; // the frame of its last changed box
     std::uint64_t move_batch = 0;  // == Impl::batch: its box is queued at moves.ids[move_slot]
     std::uint32_t move_slot = 0;
+    btVector3 scene_min, scene_max; // the box the scene holds: the AABB, grown by Impl::margin
 };
 
 // Bullet's rule (group0 & mask1) && (group1 & mask0) on int is the scene's
@@ -91,6 +92,7 @@ struct BulletBroadphase::Impl {
     locd_scene *scene = nullptr;
     btOverlappingPairCache *cache = nullptr;
     bool owns_cache = false;
+    btScalar margin = 0; // BulletBroadphaseOptions::margin
 
     ProxyPool pool;
     std::deque<BulletProxy *> free_slots; // oldest first
@@ -109,6 +111,7 @@ struct BulletBroadphase::Impl {
         bool stale = false;
     } moves;
     std::uint64_t batch = 1; // the flushes so far, plus one
+    std::uint64_t sent = 0;  // boxes sent to the scene by the flushes since the last update
     std::vector<locd_id> removed; // scene objects of destroyed or held-out proxies, removed at the flush
     std::vector<locd_id> retired; // removed ids of live proxies: by_id keeps them until their lost pairs are read
     // Overlapping pairs the cache refused (its filter callback): offered
@@ -126,6 +129,8 @@ struct BulletBroadphase::Impl {
     bool in_query = false; // a callback that queries again gets buffers of its own
 
     bool check(const btBroadphaseProxy *p) const;
+    bool holds(const BulletProxy *p, const btVector3 &lo, const btVector3 &hi) const;
+    void grow(BulletProxy *p);
     void mark(BulletProxy *p);
     void queue_move(BulletProxy *p);
     void put_move_box(size_t k, const BulletProxy *p);

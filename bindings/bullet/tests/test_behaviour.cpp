@@ -71,7 +71,7 @@ int main(int argc, char **argv)
     int n = argc > 1 ? std::atoi(argv[1]) : heavy() ? 400 : 150;
     int steps = argc > 2 ? std::atoi(argv[2]) : 600;
     Tap tap;
-    for (Broadphase kind : {Broadphase::dbvt, Broadphase::locd}) {
+    for (Broadphase kind : {Broadphase::dbvt, Broadphase::locd, Broadphase::locd_margin}) {
         Heap h = heap(kind, n, steps);
         char what[240];
         std::snprintf(what, sizeof what, "%s: %d bodies at rest in the bowl after %d steps (lowest centre %.3f, "

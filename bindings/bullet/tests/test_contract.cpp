@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <limits>
 #include <set>
+#include <stdexcept>
 
 #include <locd/scene.h>
 
@@ -68,6 +69,175 @@ double entry(const btBroadphaseProxy *p, const btVector3 &from, const btVector3 
     for (int k = 0; k < 3; k++)
         lo[k] = (double)p->m_aabbMin[k] - smax[k], hi[k] = (double)p->m_aabbMax[k] - smin[k];
     return locd_test::segment_entry(lo, hi, from, to);
+}
+
+bool overlap(const btVector3 &alo, const btVector3 &ahi, const btVector3 &blo, const btVector3 &bhi)
+{
+    for (int k = 0; k < 3; k++)
+        if (ahi[k] < blo[k] || bhi[k] < alo[k])
+            return false;
+    return true;
+}
+
+bool contains(const btVector3 &lo, const btVector3 &hi, const btBroadphaseProxy *p)
+{
+    for (int k = 0; k < 3; k++)
+        if (!(lo[k] <= p->m_aabbMin[k] && p->m_aabbMax[k] <= hi[k]))
+            return false;
+    return true;
+}
+
+// A long random sequence of calls between updates: moves (some twice in one
+// batch), filter changes, bad boxes (release builds), proxies destroyed after
+// a move and created in their slots, queries that flush mid-batch. After
+// every update the cache equals brute force over the live proxies' AABBs
+// (with a margin, over the boxes the scene holds, each of which must contain
+// its proxy's AABB) with Bullet's filter rule.
+// Returns the boxes sent to the scene (stats().moved summed).
+std::uint64_t random_sequence(Tap &tap, btDispatcher &disp, double margin)
+{
+    std::uint64_t moved = 0;
+    {
+        locd::BulletBroadphaseOptions options;
+        options.margin = margin;
+        locd::BulletBroadphase bp(options);
+        Rng r(7);
+        std::vector<btBroadphaseProxy *> live;
+        auto random_box = [&](btVector3 &lo, btVector3 &hi) {
+            lo = btVector3(r.uniform(0, 10), r.uniform(0, 10), r.uniform(0, 10));
+            hi = lo + btVector3(r.uniform(0, 1.5), r.uniform(0, 1.5), r.uniform(0, 1.5));
+        };
+        auto add_one = [&]() {
+            btVector3 lo, hi;
+            random_box(lo, hi);
+            live.push_back(box(bp, &disp, lo, hi, 1 + r.below(3), -1));
+        };
+        for (int k = 0; k < 300; k++)
+            add_one();
+        bool vacuous = false; // a frame with no pair would test little
+#ifdef NDEBUG
+        const bool bad_boxes = true;
+#else
+        const bool bad_boxes = false; // they assert
+#endif
+        std::set<btBroadphaseProxy *> held_out; // given a NaN box: in no pair until a valid one
+        int frames_bad = 0, frames = 200, outside = 0;
+        std::uint64_t set = 0;
+        for (int f = 0; f < frames; f++) {
+            int ops = 1 + r.below(120);
+            for (int o = 0; o < ops; o++) {
+                double u = r.uniform(0, 1);
+                btBroadphaseProxy *p = live[(size_t)r.below((int)live.size())];
+                btVector3 lo, hi;
+                random_box(lo, hi);
+                if (u < 0.6) {
+                    // A small move, or a jump.
+                    btVector3 a, b;
+                    bp.getAabb(p, a, b);
+                    if (u < 0.45 && !held_out.count(p)) {
+                        btVector3 d(r.uniform(-0.1, 0.1), r.uniform(-0.1, 0.1), r.uniform(-0.1, 0.1));
+                        lo = a + d, hi = b + d;
+                    }
+                    bp.setAabb(p, lo, hi, &disp);
+                    set++;
+                    held_out.erase(p);
+                } else if (u < 0.7) {
+                    // A new filter, seen at the next setAabb (as btCollisionWorld does).
+                    p->m_collisionFilterGroup = 1 + r.below(3);
+                    p->m_collisionFilterMask = r.uniform(0, 1) < 0.3 ? 1 : -1;
+                    btVector3 a, b;
+                    bp.getAabb(p, a, b);
+                    bp.setAabb(p, a, b, &disp);
+                } else if (u < 0.75 && bad_boxes) {
+                    float nan = std::numeric_limits<float>::quiet_NaN();
+                    bp.setAabb(p, btVector3(nan, 0, 0), hi, &disp);
+                    held_out.insert(p);
+                } else if (u < 0.85) {
+                    bp.setAabb(p, lo, hi, &disp); // moved, then destroyed in the same batch
+                    bp.destroyProxy(p, &disp);
+                    held_out.erase(p);
+                    live.erase(std::find(live.begin(), live.end(), p));
+                    add_one();
+                } else {
+                    Collect got;
+                    bp.aabbTest(lo, hi, got); // flushes the batch so far
+                }
+            }
+            bp.calculateOverlappingPairs(&disp);
+            moved += bp.stats().moved;
+            Pairs want;
+            for (size_t i = 0; i < live.size(); i++)
+                for (size_t j = i + 1; j < live.size(); j++) {
+                    btBroadphaseProxy *a = live[i], *b = live[j];
+                    if (held_out.count(a) || held_out.count(b))
+                        continue;
+                    bool filt = (a->m_collisionFilterGroup & b->m_collisionFilterMask) &&
+                                (b->m_collisionFilterGroup & a->m_collisionFilterMask);
+                    btVector3 alo, ahi, blo, bhi;
+                    if (margin > 0) {
+                        bool ok = bp.sceneAabb(a, alo, ahi) && bp.sceneAabb(b, blo, bhi);
+                        outside += !ok || !contains(alo, ahi, a) || !contains(blo, bhi, b);
+                    } else {
+                        bp.getAabb(a, alo, ahi);
+                        bp.getAabb(b, blo, bhi);
+                    }
+                    if (filt && overlap(alo, ahi, blo, bhi))
+                        want.insert(pair_of(a, b));
+                }
+            frames_bad += cached(bp) != want;
+            vacuous = vacuous || want.empty();
+        }
+        char what[300];
+        std::snprintf(what, sizeof what, "margin %g: 200 batches of random moves, filters, bad boxes, destroys and "
+                      "queries: the cache equals brute force over the %s after every update", margin,
+                      margin > 0 ? "grown boxes, each around its AABB" : "AABBs");
+        tap.ok(frames_bad == 0 && outside == 0 && !vacuous, what);
+        std::printf("# margin %g: %llu boxes set, %llu sent to the scene\n", margin, (unsigned long long)set,
+                    (unsigned long long)moved);
+    }
+    return moved;
+}
+
+// A margin, call by call: grown boxes pair where the AABBs do not, a move
+// inside the grown box sends nothing, one out of it sends the AABB grown
+// again; a bad margin is refused.
+void grown_boxes(Tap &tap, btDispatcher &disp)
+{
+    locd::BulletBroadphaseOptions o;
+    o.margin = 0.1;
+    locd::BulletBroadphase bp(o), exact;
+    btBroadphaseProxy *a = box(bp, &disp, btVector3(0, 0, 0), btVector3(1, 1, 1));
+    btBroadphaseProxy *b = box(bp, &disp, btVector3(1.15f, 0, 0), btVector3(2, 1, 1));
+    box(exact, &disp, btVector3(0, 0, 0), btVector3(1, 1, 1));
+    box(exact, &disp, btVector3(1.15f, 0, 0), btVector3(2, 1, 1));
+    bp.calculateOverlappingPairs(&disp);
+    exact.calculateOverlappingPairs(&disp);
+    tap.ok(cached(bp) == Pairs{pair_of(a, b)} && cached(exact).empty(),
+           "AABBs 0.15 apart: paired with a margin of 0.1, not without");
+    btVector3 lo, hi;
+    bool in = bp.sceneAabb(a, lo, hi);
+    const btVector3 m(0.1f, 0.1f, 0.1f);
+    tap.ok(in && lo == btVector3(0, 0, 0) - m && hi == btVector3(1, 1, 1) + m,
+           "sceneAabb: the AABB grown by the margin");
+    bp.setAabb(a, btVector3(0.05f, 0, 0), btVector3(1.05f, 1, 1), &disp);
+    bp.calculateOverlappingPairs(&disp);
+    bp.getAabb(a, lo, hi);
+    tap.ok(bp.stats().moved == 0 && lo == btVector3(0.05f, 0, 0), "a move inside the grown box sends nothing (getAabb has it)");
+    bp.setAabb(a, btVector3(-0.5f, 0, 0), btVector3(0.5f, 1, 1), &disp);
+    bp.calculateOverlappingPairs(&disp);
+    bp.sceneAabb(a, lo, hi);
+    tap.ok(bp.stats().moved == 1 && cached(bp).empty() && hi == btVector3(0.5f, 1, 1) + m,
+           "a move out of it sends the new AABB grown, and the pair is lost");
+    int threw = 0;
+    for (double m : {-1.0, std::nan(""), 1e300}) {
+        o.margin = m;
+        try {
+            locd::BulletBroadphase bad(o);
+        } catch (const std::invalid_argument &) {
+            threw++;
+        }
+    }
+    tap.ok(threw == 3, "a negative, NaN or (as btScalar) infinite margin is refused");
 }
 
 } // namespace
@@ -159,93 +329,11 @@ int main()
         tap.ok(cached(bp) == want && bp.stats().rejected == 0, "asked again on a move, and added");
         cache.setOverlapFilterCallback(nullptr);
     }
-    {
-        // A long random sequence of calls between updates: moves (some twice
-        // in one batch), filter changes, bad boxes (release builds), proxies
-        // destroyed after a move and created in their slots, queries that
-        // flush mid-batch. After every update the cache equals brute force
-        // over the live proxies' AABBs with Bullet's filter rule.
-        locd::BulletBroadphase bp;
-        Rng r(7);
-        std::vector<btBroadphaseProxy *> live;
-        auto random_box = [&](btVector3 &lo, btVector3 &hi) {
-            lo = btVector3(r.uniform(0, 10), r.uniform(0, 10), r.uniform(0, 10));
-            hi = lo + btVector3(r.uniform(0, 1.5), r.uniform(0, 1.5), r.uniform(0, 1.5));
-        };
-        auto add_one = [&]() {
-            btVector3 lo, hi;
-            random_box(lo, hi);
-            live.push_back(box(bp, &disp, lo, hi, 1 + r.below(3), -1));
-        };
-        for (int k = 0; k < 300; k++)
-            add_one();
-        bool vacuous = false; // a frame with no pair would test little
-#ifdef NDEBUG
-        const bool bad_boxes = true;
-#else
-        const bool bad_boxes = false; // they assert
-#endif
-        std::set<btBroadphaseProxy *> held_out; // given a NaN box: in no pair until a valid one
-        int frames_bad = 0, frames = 200;
-        for (int f = 0; f < frames; f++) {
-            int ops = 1 + r.below(120);
-            for (int o = 0; o < ops; o++) {
-                double u = r.uniform(0, 1);
-                btBroadphaseProxy *p = live[(size_t)r.below((int)live.size())];
-                btVector3 lo, hi;
-                random_box(lo, hi);
-                if (u < 0.6) {
-                    // A small move, or a jump.
-                    btVector3 a, b;
-                    bp.getAabb(p, a, b);
-                    if (u < 0.45 && !held_out.count(p)) {
-                        btVector3 d(r.uniform(-0.1, 0.1), r.uniform(-0.1, 0.1), r.uniform(-0.1, 0.1));
-                        lo = a + d, hi = b + d;
-                    }
-                    bp.setAabb(p, lo, hi, &disp);
-                    held_out.erase(p);
-                } else if (u < 0.7) {
-                    // A new filter, seen at the next setAabb (as btCollisionWorld does).
-                    p->m_collisionFilterGroup = 1 + r.below(3);
-                    p->m_collisionFilterMask = r.uniform(0, 1) < 0.3 ? 1 : -1;
-                    btVector3 a, b;
-                    bp.getAabb(p, a, b);
-                    bp.setAabb(p, a, b, &disp);
-                } else if (u < 0.75 && bad_boxes) {
-                    float nan = std::numeric_limits<float>::quiet_NaN();
-                    bp.setAabb(p, btVector3(nan, 0, 0), hi, &disp);
-                    held_out.insert(p);
-                } else if (u < 0.85) {
-                    bp.setAabb(p, lo, hi, &disp); // moved, then destroyed in the same batch
-                    bp.destroyProxy(p, &disp);
-                    held_out.erase(p);
-                    live.erase(std::find(live.begin(), live.end(), p));
-                    add_one();
-                } else {
-                    Collect got;
-                    bp.aabbTest(lo, hi, got); // flushes the batch so far
-                }
-            }
-            bp.calculateOverlappingPairs(&disp);
-            Pairs want;
-            for (size_t i = 0; i < live.size(); i++)
-                for (size_t j = i + 1; j < live.size(); j++) {
-                    btBroadphaseProxy *a = live[i], *b = live[j];
-                    if (held_out.count(a) || held_out.count(b))
-                        continue;
-                    bool filt = (a->m_collisionFilterGroup & b->m_collisionFilterMask) &&
-                                (b->m_collisionFilterGroup & a->m_collisionFilterMask);
-                    btVector3 alo, ahi;
-                    bp.getAabb(a, alo, ahi);
-                    if (filt && overlap(b, alo, ahi))
-                        want.insert(pair_of(a, b));
-                }
-            frames_bad += cached(bp) != want;
-            vacuous = vacuous || want.empty();
-        }
-        tap.ok(frames_bad == 0 && !vacuous, "200 batches of random moves, filters, bad boxes, destroys and queries: "
-                                             "the cache equals brute force after every update");
-    }
+    // The same calls twice: with a margin, the small moves inside a grown box reach no scene.
+    std::uint64_t exact_moves = random_sequence(tap, disp, 0);
+    std::uint64_t grown_moves = random_sequence(tap, disp, 0.2);
+    tap.ok(grown_moves < exact_moves * 9 / 10, "with a margin, fewer boxes reach the scene");
+    grown_boxes(tap, disp);
     {
         // Queries against brute force over the proxies: rays, sweeps, boxes.
         locd::BulletBroadphase bp;

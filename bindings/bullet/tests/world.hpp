@@ -17,11 +17,25 @@
 
 namespace locd_test {
 
-enum class Broadphase { locd, dbvt, sap };
+// locd_margin: locd::BulletBroadphase with btDbvtBroadphase's margin.
+enum class Broadphase { locd, locd_margin, dbvt, sap };
+
+constexpr double kDbvtMargin = 0.05; // Bullet's gDbvtMargin
 
 inline const char *name_of(Broadphase b)
 {
-    return b == Broadphase::locd ? "locd" : b == Broadphase::dbvt ? "btDbvtBroadphase" : "btAxisSweep3";
+    return b == Broadphase::locd          ? "locd"
+           : b == Broadphase::locd_margin ? "locd, margin 0.05"
+           : b == Broadphase::dbvt        ? "btDbvtBroadphase"
+                                          : "btAxisSweep3";
+}
+
+inline locd::BulletBroadphaseOptions locd_options(Broadphase b, unsigned threads)
+{
+    locd::BulletBroadphaseOptions o;
+    o.threads = threads;
+    o.margin = b == Broadphase::locd_margin ? kDbvtMargin : 0;
+    return o;
 }
 
 // A small deterministic generator (the same bodies on every run and platform).
@@ -53,10 +67,8 @@ struct World {
 
     World(Broadphase kind, unsigned threads, double half_extent)
     {
-        if (kind == Broadphase::locd) {
-            locd::BulletBroadphaseOptions o;
-            o.threads = threads;
-            broadphase.reset(new locd::BulletBroadphase(o));
+        if (kind == Broadphase::locd || kind == Broadphase::locd_margin) {
+            broadphase.reset(new locd::BulletBroadphase(locd_options(kind, threads)));
         } else if (kind == Broadphase::dbvt) {
             broadphase.reset(new btDbvtBroadphase());
         } else {

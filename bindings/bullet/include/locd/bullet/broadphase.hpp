@@ -7,7 +7,8 @@
 //
 // Pairs are exact: two proxies pair iff their AABBs, as last given to
 // createProxy/setAabb, overlap (closed intervals) and Bullet's filter rule
-// passes. Proxy changes are batched and reach the scene at the next
+// passes; with options.margin > 0, iff their grown boxes (sceneAabb)
+// overlap, as btDbvtBroadphase pairs its fattened boxes. Proxy changes are batched and reach the scene at the next
 // calculateOverlappingPairs (or query), which runs one scene update.
 // Like btDbvtBroadphase, one thread at a time may use it.
 #ifndef LOCD_BULLET_BROADPHASE_HPP
@@ -38,6 +39,12 @@ struct BulletBroadphaseOptions {
     std::uint32_t scene_flags = 0;
     // Proxies to reserve room for (0 = grow as needed).
     std::uint64_t capacity_hint = 0;
+    // 0: the scene holds each proxy's AABB as given (exact pairs). > 0: it
+    // holds the AABB grown by this much on every side, and keeps it while
+    // the new AABBs stay inside it (btDbvtBroadphase's gDbvtMargin is
+    // 0.05): a body that jitters in place costs the scene nothing, and
+    // pairs are the grown boxes' overlaps. Finite and >= 0.
+    double margin = 0;
 };
 
 // Counters of the last calculateOverlappingPairs and of misuse since construction.
@@ -46,6 +53,7 @@ struct BulletBroadphaseStats {
     std::uint64_t in_scene = 0;     // of them, in the scene (a bad AABB keeps one out)
     std::uint64_t created = 0;      // pairs the last update created
     std::uint64_t lost = 0;         // and lost
+    std::uint64_t moved = 0;        // boxes sent to the scene for the last update (moves; with a margin, only out of the grown box)
     std::uint64_t rejected = 0;     // overlapping pairs the pair cache refused (user filter), held to offer again
     std::uint64_t misuse = 0;       // bad calls ignored: dead proxy, NaN or inverted AABB
     double update_ms = 0;           // the last calculateOverlappingPairs, flush and pair-cache calls included
@@ -86,11 +94,17 @@ public:
 
     btOverlappingPairCache *getOverlappingPairCache() override;
     const btOverlappingPairCache *getOverlappingPairCache() const override;
-    // The union of the proxies' AABBs (O(proxies)); zero when there are none.
+    // The union of the boxes the scene holds (O(proxies)); zero when there are none.
     void getBroadphaseAabb(btVector3 &aabbMin, btVector3 &aabbMax) const override;
     // With no proxy left, restarts the unique ids (as btDbvtBroadphase does).
     void resetPool(btDispatcher *dispatcher) override;
     void printStats() override;
+
+    // The box the scene holds for a proxy from the next update on: its AABB,
+    // or with a margin the AABB grown when it last left its grown box (it
+    // contains getAabb's). False for a proxy held out of the scene (a bad
+    // AABB); a destroyed proxy is bad use, as for getAabb.
+    bool sceneAabb(const btBroadphaseProxy *proxy, btVector3 &aabbMin, btVector3 &aabbMax) const;
 
     BulletBroadphaseStats stats() const;
     // The scene itself, for its statistics (locd_scene_get_stats). Do not change it.
