@@ -79,7 +79,8 @@ public:
                  btDispatcher *dispatcher) override;
     void getAabb(btBroadphaseProxy *proxy, btVector3 &aabbMin, btVector3 &aabbMax) const override;
 
-    // Offers rayCallback.process() every proxy whose AABB the segment
+    // Offers rayCallback.process() every proxy whose box in the scene (its
+    // AABB, or with a margin its grown box) the segment
     // rayFrom..rayTo meets (grown by -aabbMax..-aabbMin for a convex sweep:
     // the box [rayFrom + aabbMin, rayFrom + aabbMax] swept to rayTo), in
     // order of entry, and stops past rayCallback.m_lambda_max as it shrinks.
