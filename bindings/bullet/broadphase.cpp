@@ -45,12 +45,17 @@ inline locd_status scene_move(locd_scene *s, const locd_id *ids, const float *b,
 }
 #endif
 
+bool ordered(const btVector3 &lo, const btVector3 &hi)
+{
+    return lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2];
+}
+
 bool valid_box(const btVector3 &lo, const btVector3 &hi)
 {
     for (int k = 0; k < 3; k++)
-        if (!std::isfinite(lo[k]) || !std::isfinite(hi[k]) || !(lo[k] <= hi[k]))
+        if (!std::isfinite(lo[k]) || !std::isfinite(hi[k]))
             return false;
-    return true;
+    return ordered(lo, hi);
 }
 
 void put_box(scalar *v, const BulletProxy *p)
@@ -94,24 +99,27 @@ inline bool BulletBroadphase::Impl::check(const btBroadphaseProxy *proxy) const
 }
 
 // Whether the box the scene holds for p serves the AABB lo..hi as it is:
-// the same box (exact pairs), or with a margin a grown box around it.
+// the same box (exact pairs), or with a margin a grown box around it (lo <=
+// hi asked too: an inverted AABB inside the grown box is bad use).
 inline bool BulletBroadphase::Impl::holds(const BulletProxy *p, const btVector3 &lo, const btVector3 &hi) const
 {
     bool ok = true;
     for (int k = 0; k < 3; k++)
-        ok &= margin > 0 ? p->scene_min[k] <= lo[k] && hi[k] <= p->scene_max[k]
+        ok &= margin > 0 ? p->scene_min[k] <= lo[k] && lo[k] <= hi[k] && hi[k] <= p->scene_max[k]
                          : p->scene_min[k] == lo[k] && hi[k] == p->scene_max[k];
     return ok;
 }
 
 // The scene's box for p's AABB: grown by the margin on every side. Rounding
-// cannot shrink it: lo - margin rounds to a value <= lo.
+// cannot shrink it: lo - margin rounds to a value <= lo. The grown box is
+// finite only if the AABB is, but an AABB inverted by less than two margins
+// grows into a valid box: its order is asked of the AABB itself.
 inline void BulletBroadphase::Impl::grow(BulletProxy *p)
 {
     btVector3 d(margin, margin, margin);
     p->scene_min = p->m_aabbMin - d;
     p->scene_max = p->m_aabbMax + d;
-    p->box_ok = valid_box(p->m_aabbMin, p->m_aabbMax) && valid_box(p->scene_min, p->scene_max);
+    p->box_ok = valid_box(p->scene_min, p->scene_max) && ordered(p->m_aabbMin, p->m_aabbMax);
 }
 
 inline void BulletBroadphase::Impl::mark(BulletProxy *p)

@@ -228,6 +228,14 @@ void grown_boxes(Tap &tap, btDispatcher &disp)
     bp.sceneAabb(a, lo, hi);
     tap.ok(bp.stats().moved == 1 && cached(bp).empty() && hi == btVector3(0.5f, 1, 1) + m,
            "a move out of it sends the new AABB grown, and the pair is lost");
+#ifdef NDEBUG
+    // Bad use (release builds; debug builds assert): grown, this AABB would be a valid box.
+    std::uint64_t before = bp.stats().misuse;
+    bp.setAabb(b, btVector3(1.5f, 0, 0), btVector3(1.45f, 1, 1), &disp);
+    bp.calculateOverlappingPairs(&disp);
+    tap.ok(bp.stats().misuse == before + 1 && !bp.sceneAabb(b, lo, hi) && bp.stats().in_scene == 1,
+           "an AABB inverted by less than two margins is bad use all the same: held out");
+#endif
     int threw = 0;
     for (double m : {-1.0, std::nan(""), 1e300}) {
         o.margin = m;
