@@ -97,104 +97,102 @@ bool contains(const btVector3 &lo, const btVector3 &hi, const btBroadphaseProxy 
 std::uint64_t random_sequence(Tap &tap, btDispatcher &disp, double margin)
 {
     std::uint64_t moved = 0;
-    {
-        locd::BulletBroadphaseOptions options;
-        options.margin = margin;
-        locd::BulletBroadphase bp(options);
-        Rng r(7);
-        std::vector<btBroadphaseProxy *> live;
-        auto random_box = [&](btVector3 &lo, btVector3 &hi) {
-            lo = btVector3(r.uniform(0, 10), r.uniform(0, 10), r.uniform(0, 10));
-            hi = lo + btVector3(r.uniform(0, 1.5), r.uniform(0, 1.5), r.uniform(0, 1.5));
-        };
-        auto add_one = [&]() {
+    locd::BulletBroadphaseOptions options;
+    options.margin = margin;
+    locd::BulletBroadphase bp(options);
+    Rng r(7);
+    std::vector<btBroadphaseProxy *> live;
+    auto random_box = [&](btVector3 &lo, btVector3 &hi) {
+        lo = btVector3(r.uniform(0, 10), r.uniform(0, 10), r.uniform(0, 10));
+        hi = lo + btVector3(r.uniform(0, 1.5), r.uniform(0, 1.5), r.uniform(0, 1.5));
+    };
+    auto add_one = [&]() {
+        btVector3 lo, hi;
+        random_box(lo, hi);
+        live.push_back(box(bp, &disp, lo, hi, 1 + r.below(3), -1));
+    };
+    for (int k = 0; k < 300; k++)
+        add_one();
+    bool vacuous = false; // a frame with no pair would test little
+#ifdef NDEBUG
+    const bool bad_boxes = true;
+#else
+    const bool bad_boxes = false; // they assert
+#endif
+    std::set<btBroadphaseProxy *> held_out; // given a NaN box: in no pair until a valid one
+    int frames_bad = 0, frames = 200, outside = 0;
+    std::uint64_t set = 0;
+    for (int f = 0; f < frames; f++) {
+        int ops = 1 + r.below(120);
+        for (int o = 0; o < ops; o++) {
+            double u = r.uniform(0, 1);
+            btBroadphaseProxy *p = live[(size_t)r.below((int)live.size())];
             btVector3 lo, hi;
             random_box(lo, hi);
-            live.push_back(box(bp, &disp, lo, hi, 1 + r.below(3), -1));
-        };
-        for (int k = 0; k < 300; k++)
-            add_one();
-        bool vacuous = false; // a frame with no pair would test little
-#ifdef NDEBUG
-        const bool bad_boxes = true;
-#else
-        const bool bad_boxes = false; // they assert
-#endif
-        std::set<btBroadphaseProxy *> held_out; // given a NaN box: in no pair until a valid one
-        int frames_bad = 0, frames = 200, outside = 0;
-        std::uint64_t set = 0;
-        for (int f = 0; f < frames; f++) {
-            int ops = 1 + r.below(120);
-            for (int o = 0; o < ops; o++) {
-                double u = r.uniform(0, 1);
-                btBroadphaseProxy *p = live[(size_t)r.below((int)live.size())];
-                btVector3 lo, hi;
-                random_box(lo, hi);
-                if (u < 0.6) {
-                    // A small move, or a jump.
-                    btVector3 a, b;
-                    bp.getAabb(p, a, b);
-                    if (u < 0.45 && !held_out.count(p)) {
-                        btVector3 d(r.uniform(-0.1, 0.1), r.uniform(-0.1, 0.1), r.uniform(-0.1, 0.1));
-                        lo = a + d, hi = b + d;
-                    }
-                    bp.setAabb(p, lo, hi, &disp);
-                    set++;
-                    held_out.erase(p);
-                } else if (u < 0.7) {
-                    // A new filter, seen at the next setAabb (as btCollisionWorld does).
-                    p->m_collisionFilterGroup = 1 + r.below(3);
-                    p->m_collisionFilterMask = r.uniform(0, 1) < 0.3 ? 1 : -1;
-                    btVector3 a, b;
-                    bp.getAabb(p, a, b);
-                    bp.setAabb(p, a, b, &disp);
-                } else if (u < 0.75 && bad_boxes) {
-                    float nan = std::numeric_limits<float>::quiet_NaN();
-                    bp.setAabb(p, btVector3(nan, 0, 0), hi, &disp);
-                    held_out.insert(p);
-                } else if (u < 0.85) {
-                    bp.setAabb(p, lo, hi, &disp); // moved, then destroyed in the same batch
-                    bp.destroyProxy(p, &disp);
-                    held_out.erase(p);
-                    live.erase(std::find(live.begin(), live.end(), p));
-                    add_one();
-                } else {
-                    Collect got;
-                    bp.aabbTest(lo, hi, got); // flushes the batch so far
+            if (u < 0.6) {
+                // A small move, or a jump.
+                btVector3 a, b;
+                bp.getAabb(p, a, b);
+                if (u < 0.45 && !held_out.count(p)) {
+                    btVector3 d(r.uniform(-0.1, 0.1), r.uniform(-0.1, 0.1), r.uniform(-0.1, 0.1));
+                    lo = a + d, hi = b + d;
                 }
+                bp.setAabb(p, lo, hi, &disp);
+                set++;
+                held_out.erase(p);
+            } else if (u < 0.7) {
+                // A new filter, seen at the next setAabb (as btCollisionWorld does).
+                p->m_collisionFilterGroup = 1 + r.below(3);
+                p->m_collisionFilterMask = r.uniform(0, 1) < 0.3 ? 1 : -1;
+                btVector3 a, b;
+                bp.getAabb(p, a, b);
+                bp.setAabb(p, a, b, &disp);
+            } else if (u < 0.75 && bad_boxes) {
+                float nan = std::numeric_limits<float>::quiet_NaN();
+                bp.setAabb(p, btVector3(nan, 0, 0), hi, &disp);
+                held_out.insert(p);
+            } else if (u < 0.85) {
+                bp.setAabb(p, lo, hi, &disp); // moved, then destroyed in the same batch
+                bp.destroyProxy(p, &disp);
+                held_out.erase(p);
+                live.erase(std::find(live.begin(), live.end(), p));
+                add_one();
+            } else {
+                Collect got;
+                bp.aabbTest(lo, hi, got); // flushes the batch so far
             }
-            bp.calculateOverlappingPairs(&disp);
-            moved += bp.stats().moved;
-            Pairs want;
-            for (size_t i = 0; i < live.size(); i++)
-                for (size_t j = i + 1; j < live.size(); j++) {
-                    btBroadphaseProxy *a = live[i], *b = live[j];
-                    if (held_out.count(a) || held_out.count(b))
-                        continue;
-                    bool filt = (a->m_collisionFilterGroup & b->m_collisionFilterMask) &&
-                                (b->m_collisionFilterGroup & a->m_collisionFilterMask);
-                    btVector3 alo, ahi, blo, bhi;
-                    if (margin > 0) {
-                        bool ok = bp.sceneAabb(a, alo, ahi) && bp.sceneAabb(b, blo, bhi);
-                        outside += !ok || !contains(alo, ahi, a) || !contains(blo, bhi, b);
-                    } else {
-                        bp.getAabb(a, alo, ahi);
-                        bp.getAabb(b, blo, bhi);
-                    }
-                    if (filt && overlap(alo, ahi, blo, bhi))
-                        want.insert(pair_of(a, b));
-                }
-            frames_bad += cached(bp) != want;
-            vacuous = vacuous || want.empty();
         }
-        char what[300];
-        std::snprintf(what, sizeof what, "margin %g: 200 batches of random moves, filters, bad boxes, destroys and "
-                      "queries: the cache equals brute force over the %s after every update", margin,
-                      margin > 0 ? "grown boxes, each around its AABB" : "AABBs");
-        tap.ok(frames_bad == 0 && outside == 0 && !vacuous, what);
-        std::printf("# margin %g: %llu boxes set, %llu sent to the scene\n", margin, (unsigned long long)set,
-                    (unsigned long long)moved);
+        bp.calculateOverlappingPairs(&disp);
+        moved += bp.stats().moved;
+        Pairs want;
+        for (size_t i = 0; i < live.size(); i++)
+            for (size_t j = i + 1; j < live.size(); j++) {
+                btBroadphaseProxy *a = live[i], *b = live[j];
+                if (held_out.count(a) || held_out.count(b))
+                    continue;
+                bool filt = (a->m_collisionFilterGroup & b->m_collisionFilterMask) &&
+                            (b->m_collisionFilterGroup & a->m_collisionFilterMask);
+                btVector3 alo, ahi, blo, bhi;
+                if (margin > 0) {
+                    bool ok = bp.sceneAabb(a, alo, ahi) && bp.sceneAabb(b, blo, bhi);
+                    outside += !ok || !contains(alo, ahi, a) || !contains(blo, bhi, b);
+                } else {
+                    bp.getAabb(a, alo, ahi);
+                    bp.getAabb(b, blo, bhi);
+                }
+                if (filt && overlap(alo, ahi, blo, bhi))
+                    want.insert(pair_of(a, b));
+            }
+        frames_bad += cached(bp) != want;
+        vacuous = vacuous || want.empty();
     }
+    char what[300];
+    std::snprintf(what, sizeof what, "margin %g: 200 batches of random moves, filters, bad boxes, destroys and "
+                  "queries: the cache equals brute force over the %s after every update", margin,
+                  margin > 0 ? "grown boxes, each around its AABB" : "AABBs");
+    tap.ok(frames_bad == 0 && outside == 0 && !vacuous, what);
+    std::printf("# margin %g: %llu boxes set, %llu sent to the scene\n", margin, (unsigned long long)set,
+                (unsigned long long)moved);
     return moved;
 }
 
