@@ -4,13 +4,20 @@ paths of Bullet's btDbvtBroadphase and FCL's DynamicAABBTreeCollisionManager.
 
     bench/frames.py                 full grid: n = 1e5, 1e6; 1%, 10%, 100% moving; 0% and 90% static
     bench/frames.py --quick         CI-sized (n = 2,000, 3 frames); results under bench/results/tmp/
-    bench/frames.py --report-only   regenerate bench/results/frames.md and docs/img/frames.png
+    bench/frames.py --report-only   regenerate bench/results/frames.md and docs/img/frames.png (and
+                                    frames_cold.md, frames_cold.png)
+    bench/frames.py --sizes 1e3,1e4,1e5 --pause 16 --evict 64
+                                    between a game's other work (frames_cold.md, docs/img/frames_cold.png)
 
 Each row is one run of bench/frames_peers on `locd gen uniform N --seed 1`: every system is built
 once and kept across the frames, the systems take turns within each frame (the order rotating), and
 the figure is the median per frame. With --reps R > 1 the whole grid runs R times, rows interleaved,
 and each figure is the median of the R medians. bench/run --report-only puts bench/results/frames.md
 into docs/benchmarks.md.
+
+With --pause MS or --evict MB, each system's frame follows the rest of a game's frame (frames_peers
+--pause, --evict: MS ms asleep, its threads idle; MB megabytes written and read, its memory out of
+the caches), and the files are frames_cold.* (bench/run puts frames_cold.md after frames.md).
 """
 import argparse
 import datetime
@@ -61,27 +68,34 @@ def run_grid(args, exe, locd, results):
                 bench_run.run([locd, "gen", "uniform", n, "--seed", "1", "-o", scene], stdout=subprocess.DEVNULL)
             frames = args.frames if n < 10 ** 6 else args.frames_large
             cmd = [exe, scene, "--moving", mv, "--static", st, "--frames", frames, "--seed", rep + 1]
+            if args.pause or args.evict:
+                cmd += ["--pause", args.pause, "--evict", args.evict]
             if args.threads:
                 cmd += ["--threads", args.threads]
             res = bench_run.run(cmd, capture_output=True, text=True)
             line = json.loads(res.stdout.strip().splitlines()[-1])
             bench_run.log("  " + " ".join("%s %.3f ms" % (k, v["ms"]) for k, v in line["systems"].items()))
             out.setdefault((n, st, mv), []).append(line)
-    with open(results / "frames.jsonl", "w") as f:
+    with open(results / (stem(args) + ".jsonl"), "w") as f:
         for key in sorted(out):
             for line in out[key]:
                 f.write(json.dumps(line) + "\n")
 
 
-def warmup_of(results):
+def stem(args):
+    """The files' name: frames, or frames_cold for frames between a game's other work."""
+    return "frames_cold" if args.pause or args.evict else "frames"
+
+
+def warmup_of(results, name):
     """The warm-up frames of the runs (frames_peers --warmup; none before it had the option)."""
-    w = {json.loads(t).get("warmup", 0) for t in (results / "frames.jsonl").read_text().splitlines()}
+    w = {json.loads(t).get("warmup", 0) for t in (results / (name + ".jsonl")).read_text().splitlines()}
     return "/".join(str(x) for x in sorted(w))
 
 
-def load(results):
+def load(results, name):
     rows = {}
-    for text in (results / "frames.jsonl").read_text().splitlines():
+    for text in (results / (name + ".jsonl")).read_text().splitlines():
         line = json.loads(text)
         rows.setdefault((line["n"], line["static_fraction"], line["moving"]), []).append(line)
     table = []
@@ -103,10 +117,13 @@ def pct(x):
     return "%g%%" % (100 * x)
 
 
-def report(args, results, img_dir, meta):
-    table = load(results)
+def report(name, results, img_dir, meta):
+    table = load(results, name)
     fmt = bench_run.fmt_ms
     cmd = meta["command"]
+    if name == "frames_cold":
+        report_cold(table, results, img_dir, meta)
+        return
     L = ["## Frame to frame: scene update vs rebuild, Bullet and FCL", ""]
     L.append("A world that changes a little each frame: `locd gen uniform N --seed 1`, a fraction of "
              "the cubes static (chosen by seed), each frame a random fraction of the others moved by up to 3%% of "
@@ -126,22 +143,9 @@ def report(args, results, img_dir, meta):
              "peers' pair caches). "
              "locd runs on %s threads, and on one thread in a second scene (like for like: Bullet and FCL have no "
              "threads on these paths)." % (
-                 meta["reps"], warmup_of(results), meta.get("threads", "?")))
+                 meta["reps"], warmup_of(results, name), meta.get("threads", "?")))
     L.append("")
-    L.append("| n | static | moving | moved / frame | locd update | rebuild | update / rebuild | the same, means "
-             "| locd update, 1 thread | Bullet Dbvt | FCL DynamicAABBTree | best peer / locd update "
-             "| best peer / locd 1 thread |")
-    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for r in table:
-        peers = [r[s] for s in ("bullet_dbvt", "fcl_dynamic_aabb_tree") if r[s] is not None]
-        best = min(peers) if peers else None
-        L.append("| %s | %s | %s | %s | %s | %s | %.3f | %s | %s | %s | %s | %s | %s |" % (
-            bench_run.fmt_n(r["n"]), pct(r["static"]), pct(r["moving"]), "{:,}".format(r["moved"]),
-            fmt(r["locd"]), fmt(r["rebuild"]), r["locd"] / r["rebuild"],
-            "%.3f" % r["ratio_mean"] if r["ratio_mean"] else "-",
-            fmt(r["locd_1t"]), fmt(r["bullet_dbvt"]),
-            fmt(r["fcl_dynamic_aabb_tree"]), "%.2f" % (best / r["locd"]) if best else "-",
-            "%.2f" % (best / r["locd_1t"]) if best and r["locd_1t"] else "-"))
+    L.extend(frame_table(table))
     L.append("")
     big = max((r["n"] for r in table), default=0)
     goals = [(0.0, 0.01, 0.10, "1% moving: update at most 10% of a rebuild"),
@@ -177,12 +181,7 @@ def report(args, results, img_dir, meta):
              "pairs margin-fattened tree volumes and drops a pair only when its incremental cleanup finds the volumes "
              "apart); its frame time includes one pass over the cache keeping the pairs whose boxes overlap.")
     L.append("")
-    L.append("| n | static | moving | locd | locd, 1 thread | rebuild | Bullet | FCL |")
-    L.append("|---|---|---|---|---|---|---|---|")
-    for r in table:
-        L.append("| %s | %s | %s | %s | %s | %s | %s | %s |" % (
-            bench_run.fmt_n(r["n"]), pct(r["static"]), pct(r["moving"]),
-            *["{:,}".format(r[s + "_pairs"]) if r[s + "_pairs"] is not None else "-" for s in SYSTEMS]))
+    L.extend(pairs_table(table))
     L.append("")
     L.append("![frame time against the fraction moving](img/frames.png)")
     L.append("")
@@ -199,6 +198,76 @@ def report(args, results, img_dir, meta):
     (results / "frames.md").write_text("\n".join(L))
     plot(table, img_dir / "frames.png", meta)
     bench_run.log("wrote %s and %s" % (results / "frames.md", img_dir / "frames.png"))
+
+
+def frame_table(table):
+    """The frame times' table: one row per (n, static, moving)."""
+    fmt = bench_run.fmt_ms
+    L = ["| n | static | moving | moved / frame | locd update | rebuild | update / rebuild | the same, means "
+         "| locd update, 1 thread | Bullet Dbvt | FCL DynamicAABBTree | best peer / locd update "
+         "| best peer / locd 1 thread |",
+         "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in table:
+        peers = [r[s] for s in ("bullet_dbvt", "fcl_dynamic_aabb_tree") if r[s] is not None]
+        best = min(peers) if peers else None
+        L.append("| %s | %s | %s | %s | %s | %s | %.3f | %s | %s | %s | %s | %s | %s |" % (
+            bench_run.fmt_n(r["n"]), pct(r["static"]), pct(r["moving"]), "{:,}".format(r["moved"]),
+            fmt(r["locd"]), fmt(r["rebuild"]), r["locd"] / r["rebuild"],
+            "%.3f" % r["ratio_mean"] if r["ratio_mean"] else "-",
+            fmt(r["locd_1t"]), fmt(r["bullet_dbvt"]),
+            fmt(r["fcl_dynamic_aabb_tree"]), "%.2f" % (best / r["locd"]) if best else "-",
+            "%.2f" % (best / r["locd_1t"]) if best and r["locd_1t"] else "-"))
+    return L
+
+
+def pairs_table(table):
+    """Each system's pairs after the last frame."""
+    L = ["| n | static | moving | locd | locd, 1 thread | rebuild | Bullet | FCL |", "|---|---|---|---|---|---|---|---|"]
+    for r in table:
+        L.append("| %s | %s | %s | %s | %s | %s | %s | %s |" % (
+            bench_run.fmt_n(r["n"]), pct(r["static"]), pct(r["moving"]),
+            *["{:,}".format(r[s + "_pairs"]) if r[s + "_pairs"] is not None else "-" for s in SYSTEMS]))
+    return L
+
+
+def report_cold(table, results, img_dir, meta):
+    """The section of frames between a game's other work (--pause, --evict)."""
+    L = ["## Frame to frame between a game's other work", ""]
+    L.append("The tables above run the frames back to back, so every system finds its memory in the caches and "
+             "locd's worker threads awake. In a game the broad phase runs once a frame, between the rest of the "
+             "frame's work. Here each system's frame follows %s ms asleep (locd's pool workers go to sleep after "
+             "a short wait) and %s MB written and read (the caches then hold other data): the same scenes, "
+             "systems and motion as above, medians per frame of %d interleaved repetitions, after %s warm-up "
+             "frames; locd on %s threads and on one." % (
+                 "%g" % meta["pause_ms"], "%g" % meta["evict_mb"], meta["reps"], warmup_of(results, "frames_cold"),
+                 meta.get("threads", "?")))
+    L.append("")
+    L.extend(frame_table(table))
+    L.append("")
+    faster = [r for r in table if r["locd"] < min(r["bullet_dbvt"], r["fcl_dynamic_aabb_tree"])]
+    faster1 = [r for r in table if r["locd_1t"] < min(r["bullet_dbvt"], r["fcl_dynamic_aabb_tree"])]
+    def rows(sel):
+        return "none" if not sel else ", ".join("n = %s, %s static, %s moving" % (
+            bench_run.fmt_n(r["n"]), pct(r["static"]), pct(r["moving"])) for r in sel)
+    L.append("- Faster per frame than Bullet's and FCL's incremental paths: %d of %d rows on %s threads, %d of %d "
+             "on one." % (len(faster), len(table), meta.get("threads", "?"), len(faster1), len(table)))
+    L.append("- Updates dearer than the rebuild of the same boxes, on the medians per frame: %s; on the means per "
+             "frame (which count the frames that build the near-pair list): %s." % (
+                 rows([r for r in table if r["locd"] > r["rebuild"]]),
+                 rows([r for r in table if r["ratio_mean"] and r["ratio_mean"] > 1])))
+    L.append("")
+    L.append("Pairs after the last frame (as above: the rebuild's count includes the static-static pairs):")
+    L.append("")
+    L.extend(pairs_table(table))
+    L.append("")
+    L.append("![frame time against the fraction moving, between a game's other work](img/frames_cold.png)")
+    L.append("")
+    L.append("_Machine: %s; %s; load average %s at start, %s at end; command: `%s`; %s._" % (
+        meta["machine"], meta["simd"], meta["load_start"], meta["load_end"], meta["command"], meta["date"]))
+    L.append("")
+    (results / "frames_cold.md").write_text("\n".join(L))
+    plot(table, img_dir / "frames_cold.png", meta)
+    bench_run.log("wrote %s and %s" % (results / "frames_cold.md", img_dir / "frames_cold.png"))
 
 
 def plot(table, path, meta):
@@ -252,6 +321,8 @@ def main():
     ap.add_argument("--frames-large", type=int, default=8, help="frames per row at 10^6 objects")
     ap.add_argument("--reps", type=int, default=1)
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--pause", type=float, default=0.0, help="ms asleep before each system's frame")
+    ap.add_argument("--evict", type=float, default=0.0, help="MB written and read before each system's frame")
     ap.add_argument("--out", default="")
     args = ap.parse_args()
     if args.quick:
@@ -259,9 +330,11 @@ def main():
     results = Path(args.out) if args.out else ROOT / "bench" / "results" / ("tmp/frames-quick" if args.quick else "")
     img_dir = results if (args.quick or args.out) else ROOT / "docs" / "img"
     results.mkdir(parents=True, exist_ok=True)
-    meta_path = results / "frames_meta.json"
+    meta_path = results / (stem(args) + "_meta.json")
     if args.report_only:
-        report(args, results, img_dir, json.loads(meta_path.read_text()))
+        for name in ("frames", "frames_cold"):
+            if (results / (name + "_meta.json")).exists():
+                report(name, results, img_dir, json.loads((results / (name + "_meta.json")).read_text()))
         return 0
     bdir = Path(args.build) if Path(args.build).is_absolute() else ROOT / args.build
     exe, locd = bdir / "bench" / "frames_peers", bdir / "tools" / "locd"
@@ -273,12 +346,13 @@ def main():
     meta = {"machine": bench_run.machine(), "simd": bench_run.simd(),
             "command": "bench/frames.py" + "".join(" " + shlex.quote(a) for a in sys.argv[1:]),
             "commit": bench_run.git_rev(), "reps": args.reps, "threads": args.threads,
+            "pause_ms": args.pause, "evict_mb": args.evict,
             "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
             "load_start": bench_run.loadavg()}
     run_grid(args, exe, locd, results)
     meta["load_end"] = bench_run.loadavg()
     meta_path.write_text(json.dumps(meta, indent=1) + "\n")
-    report(args, results, img_dir, meta)
+    report(stem(args), results, img_dir, meta)
     return 0
 
 

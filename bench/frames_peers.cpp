@@ -3,6 +3,7 @@
 //
 //   frames_peers SCENE.aabb --moving P --frames F [--static S] [--threads T]
 //                [--seed N] [--warmup W] [--peers locd,rebuild,bullet,fcl]
+//                [--pause MS] [--evict MB]
 //
 // Every system is built once from the scene and then kept across frames, as
 // a game or a simulation keeps its broad phase. Each frame, the workload of
@@ -29,6 +30,12 @@
 // frames touch memory for the first time (locd's rotating pair lists and kept
 // entry list, the peers' pair caches), which a kept broad phase pays once. locd uses T threads; Bullet and
 // FCL have no threads on these paths (one core).
+//
+// In a game the broad phase runs once a frame between the rest of the
+// frame's work: its threads idle and its memory leaves the caches. Before
+// each system's frame (not timed), --pause MS sleeps MS milliseconds (the
+// threads idle: a pool's workers sleep) and --evict MB writes and reads a
+// buffer of MB megabytes (the caches fill with other data).
 #include "peers.h"
 
 extern "C" {
@@ -306,6 +313,26 @@ struct args {
     std::uint64_t seed = 1;
     std::string peers = "locd,locd_1t,rebuild,bullet,fcl";
     std::string label;
+    double pause_ms = 0.0, evict_mb = 0.0;
+};
+
+// The rest of a game's frame, before each system's frame (--pause, --evict).
+struct between_frames {
+    double pause_ms;
+    std::vector<unsigned char> buf;
+    between_frames(double pause, double evict_mb) : pause_ms(pause), buf((std::size_t)(evict_mb * 1048576.0)) {}
+    void run()
+    {
+        if (!buf.empty()) { // every cache line written, then read: the caches hold this buffer
+            volatile unsigned sum = 0;
+            for (std::size_t i = 0; i < buf.size(); i += 64)
+                buf[i] = (unsigned char)(buf[i] + 1);
+            for (std::size_t i = 0; i < buf.size(); i += 64)
+                sum = sum + buf[i];
+        }
+        if (pause_ms > 0)
+            cli_sleep_ms(pause_ms);
+    }
 };
 
 args parse(int argc, char **argv)
@@ -317,7 +344,10 @@ args parse(int argc, char **argv)
         if (o == "--help" || o == "-h") {
             std::printf("usage: frames_peers SCENE.aabb --moving P --frames F [--static S] [--threads T] [--seed N]\n"
                         "                    [--warmup W] [--peers locd,locd_1t,rebuild,bullet,fcl] [--label TEXT]\n"
-                        "  --warmup W  frames run first and not counted (default 2)\n");
+                        "                    [--pause MS] [--evict MB]\n"
+                        "  --warmup W  frames run first and not counted (default 2)\n"
+                        "  --pause MS  sleep MS milliseconds before each system's frame (its threads idle)\n"
+                        "  --evict MB  write and read MB megabytes before each system's frame (cold caches)\n");
             std::exit(0);
         }
         if (o.rfind("--", 0) == 0 && !v)
@@ -338,13 +368,17 @@ args parse(int argc, char **argv)
             a.peers = argv[++i];
         else if (o == "--label")
             a.label = argv[++i];
+        else if (o == "--pause")
+            a.pause_ms = std::atof(argv[++i]);
+        else if (o == "--evict")
+            a.evict_mb = std::atof(argv[++i]);
         else if (o.rfind("--", 0) == 0)
             die("unknown option " + o);
         else
             a.scene = argv[i];
     }
     if (!a.scene || !(a.moving >= 0.0 && a.moving <= 1.0) || !(a.static_frac >= 0.0 && a.static_frac <= 1.0) ||
-        a.frames < 1)
+        a.frames < 1 || !(a.pause_ms >= 0.0 && a.pause_ms <= 60000.0) || !(a.evict_mb >= 0.0 && a.evict_mb <= 4096.0))
         die("usage: frames_peers SCENE.aabb --moving P --frames F [--static S] (see --help)");
     return a;
 }
@@ -377,6 +411,7 @@ int main(int argc, char **argv)
 
     std::vector<std::unique_ptr<system_base>> sys;
     std::vector<double> setup_ms;
+    between_frames between(a.pause_ms, a.evict_mb);
     try {
         auto add = [&](system_base *s, double t0) {
             sys.emplace_back(s);
@@ -398,8 +433,10 @@ int main(int argc, char **argv)
                 for (auto &x : sys)
                     x->ms.clear();
             frames_motion_step(&m, boxes.data());
-            for (std::size_t k = 0; k < sys.size(); k++)
+            for (std::size_t k = 0; k < sys.size(); k++) {
+                between.run();
                 sys[(f + k) % sys.size()]->frame(m, boxes.data());
+            }
         }
     } catch (const std::exception &e) {
         die(std::string("a peer threw: ") + e.what());
@@ -412,8 +449,9 @@ int main(int argc, char **argv)
     locd_stats_init(&st);
     locd_engine_get_stats(eng, &st);
     std::printf("{\"label\":\"%s\",\"n\":%zu,\"static_fraction\":%.4g,\"moving\":%.4g,\"moved_per_frame\":%zu,"
-                "\"frames\":%zu,\"warmup\":%zu,\"threads\":%u,\"seed\":%llu,\"cpu\":\"%s\",\"kernel\":\"%s\",\"systems\":{",
-                a.label.c_str(), sc.n, a.static_frac, a.moving, m.moved, a.frames, a.warmup, st.threads,
+                "\"frames\":%zu,\"warmup\":%zu,\"pause_ms\":%.4g,\"evict_mb\":%.4g,\"threads\":%u,\"seed\":%llu,"
+                "\"cpu\":\"%s\",\"kernel\":\"%s\",\"systems\":{",
+                a.label.c_str(), sc.n, a.static_frac, a.moving, m.moved, a.frames, a.warmup, a.pause_ms, a.evict_mb, st.threads,
                 (unsigned long long)a.seed, cpu, kernel && *kernel ? kernel : "auto");
     for (std::size_t k = 0; k < sys.size(); k++)
         std::printf("%s\"%s\":{\"ms\":%.4f,\"mean_ms\":%.4f,\"setup_ms\":%.2f,\"pairs\":%zu}", k ? "," : "",

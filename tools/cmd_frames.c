@@ -1,5 +1,5 @@
 /* locd frames SCENE.aabb --moving P --frames F [--threads T] [--static S]
- *             [--check] [--seed N]
+ *             [--pause MS] [--check] [--seed N]
  *
  * Frame to frame on a locd scene (locd/scene.h): the scene's boxes go into a
  * scene (a fraction S of them static, chosen by seed); each frame a random
@@ -21,6 +21,7 @@
 typedef struct frames_args {
     const char *scene;
     double moving, static_frac;
+    double pause_ms; /* slept before each timed update and rebuild */
     size_t frames;
     uint32_t threads;
     uint64_t seed;
@@ -29,13 +30,16 @@ typedef struct frames_args {
 
 static void usage(FILE *f)
 {
-    fprintf(f, "usage: locd frames SCENE.aabb --moving P --frames F [--threads T] [--static S] [--check] [--seed N]\n"
+    fprintf(f, "usage: locd frames SCENE.aabb --moving P --frames F [--threads T] [--static S] [--pause MS] [--check]\n"
+               "                   [--seed N]\n"
                "  Puts the boxes in a locd scene (fraction S static, default 0), then for F frames moves a\n"
                "  random fraction P (0..1) of the non-static boxes by up to 3%% of the mean box edge per axis\n"
                "  and updates. Prints one JSON line: update_ms and rebuild_ms (medians per frame; the rebuild\n"
                "  is a full find_pairs on the same boxes, interleaved with the updates), ratio, their means\n"
                "  (update_mean_ms, rebuild_mean_ms, ratio_mean), pairs (median per frame), created and lost\n"
                "  (totals over the frames).\n"
+               "  --pause MS sleeps MS milliseconds before each timed update and rebuild, as a game's frames\n"
+               "  are apart (the threads idle in between; default 0).\n"
                "  --check compares every frame with a from-scratch find (pairs, created, lost): exit 1 on a\n"
                "  difference. --threads defaults to every CPU, --seed to 1.\n");
 }
@@ -75,6 +79,8 @@ static void parse_args(int argc, char **argv, frames_args *a)
             a->threads = (uint32_t)cli_size_option(argv[++i], 1, 64, "frames: --threads must be 1..64");
         } else if (!strcmp(o, "--seed")) {
             a->seed = cli_seed_option(argv[++i], "frames");
+        } else if (!strcmp(o, "--pause")) {
+            a->pause_ms = (double)cli_size_option(argv[++i], 0, 60000, "frames: --pause must be 0..60000 ms");
         } else if (o[0] == '-') {
             cli_die("frames: unknown option %s (see --help)", o);
         } else if (!a->scene) {
@@ -291,7 +297,10 @@ static void setup(frames_run *r)
 
 static double rebuild(frames_run *r)
 {
-    double t0 = cli_now_ms();
+    double t0;
+    if (r->a.pause_ms > 0)
+        cli_sleep_ms(r->a.pause_ms);
+    t0 = cli_now_ms();
     ok(locd_engine_find_pairs_f32(r->eng, r->boxes, r->sc.n, 0, r->pairs), "rebuild");
     return cli_now_ms() - t0;
 }
@@ -306,6 +315,8 @@ static double update(frames_run *r)
         r->mid[k] = r->ids[i];
         memcpy(r->mbox + 6 * k, r->boxes + 6 * (size_t)i, 6 * sizeof(float));
     }
+    if (r->a.pause_ms > 0)
+        cli_sleep_ms(r->a.pause_ms);
     t0 = cli_now_ms();
     ok(locd_scene_move_f32(r->scene, r->mid, r->mbox, r->m.moved), "move");
     ok(locd_scene_update(r->scene, LOCD_SCENE_UPDATE_PAIRS | LOCD_SCENE_UPDATE_EVENTS), "update");

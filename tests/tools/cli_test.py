@@ -260,6 +260,23 @@ def pause_sleeps_before_each_run_outside_the_timed_call():
 
 
 @test
+def frames_pause_sleeps_before_each_update_and_rebuild_outside_the_timing():
+    """locd frames --pause MS: each frame's update and its rebuild follow MS ms of sleep (the wall time
+    grows by about 2 x frames x MS), the times reported do not include it, and a bad value is refused."""
+    with Tmp() as t:
+        scene = t.gen(2000, 3)
+        start = time.monotonic()
+        r = run(["frames", scene, "--moving", "0.1", "--frames", "4", "--pause", "30"])
+        wall = time.monotonic() - start
+        assert r.returncode == 0, r.stderr
+        assert wall >= 2 * 4 * 0.030, wall
+        out = json.loads(r.stdout)
+        assert out["update_ms"] < 30 and out["rebuild_ms"] < 30, r.stdout
+        refused(run(["frames", scene, "--moving", "0.1", "--frames", "1", "--pause", "-1"]), "--pause")
+        refused(run(["frames", scene, "--moving", "0.1", "--frames", "1", "--pause", "1e9"]), "--pause")
+
+
+@test
 def out_of_range_numbers_are_refused_not_crashed_on():
     """Issue 18: --repeat 1e12 segfaulted (unchecked allocation), --seed junk became 0, `gen uniform 1e12`
     said "unknown kind" when the allocation failed."""
