@@ -6,13 +6,16 @@
 # the build prints them). Each run's ratio is its own frames'
 # medians, so a load change on a shared machine hits both builds alike.
 #   bench/ab_frames.sh OLD/tools/locd NEW/tools/locd SCENE.aabb
-# Env: ROUNDS (6), MOVING (1), FRAMES (15), THREADS (2), STATIC (0).
+# Env: ROUNDS (6), MOVING (1), FRAMES (15), THREADS (2), STATIC (0), PAUSE (0: ms
+# asleep before each update and rebuild, locd frames --pause).
 # Build the old commit apart, e.g.
 #   git worktree add /tmp/old REV && cd /tmp/old &&
 #   meson setup build -Dbuildtype=release -Dtests=disabled && ninja -C build tools/locd
 set -eu
 A=$1 B=$2 SCENE=$3
-ROUNDS=${ROUNDS:-6} MOVING=${MOVING:-1} FRAMES=${FRAMES:-15} THREADS=${THREADS:-2} STATIC=${STATIC:-0}
+ROUNDS=${ROUNDS:-6} MOVING=${MOVING:-1} FRAMES=${FRAMES:-15} THREADS=${THREADS:-2} STATIC=${STATIC:-0} PAUSE=${PAUSE:-0}
+pause_arg=""
+if [ "$PAUSE" != 0 ]; then pause_arg="--pause $PAUSE"; fi # (older builds lack the option)
 out=$(mktemp)
 trap 'rm -f "$out"' EXIT
 r=0
@@ -20,7 +23,8 @@ while [ "$r" -lt "$ROUNDS" ]; do
     if [ $((r % 2)) -eq 0 ]; then order="A B"; else order="B A"; fi
     for side in $order; do
         if [ "$side" = A ]; then bin=$A; else bin=$B; fi
-        line=$("$bin" frames "$SCENE" --moving "$MOVING" --static "$STATIC" --frames "$FRAMES" --threads "$THREADS")
+        # shellcheck disable=SC2086
+        line=$("$bin" frames "$SCENE" --moving "$MOVING" --static "$STATIC" --frames "$FRAMES" --threads "$THREADS" $pause_arg)
         echo "$side $line" | tee -a "$out"
     done
     r=$((r + 1))

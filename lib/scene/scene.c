@@ -4,6 +4,7 @@
  * scene as it was. The broad phase sees the changes at the next update
  * (update.c) through the dirty and removed lists. */
 #include "scene/scene.h"
+#include "scene/update.h"
 
 void locd_scene_config_init(locd_scene_config *config)
 {
@@ -86,6 +87,7 @@ void locd_scene_destroy(locd_scene *s)
     lc_pair_order_memo_fini(a, &s->order);
     lc_kept_release(s);
     lc_near_release(s);
+    lc_update_keep_release(s);
     s->magic = LC_MAGIC_DEAD;
     lc_free(a, s, sizeof *s);
 }

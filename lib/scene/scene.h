@@ -36,6 +36,20 @@
 #include "scene/query_tree.h"
 #include "scene/slots.h"
 
+/* The rows of a small update's moved objects and its entry buffer, kept
+ * for the next update (update_buffers.c): a game's frame, a few objects
+ * moved, then allocates none of them. Typed as the update's (update.h). */
+typedef struct lc_update_keep {
+    uint32_t *stay, *srch, *slot, *dense;
+    lc_cells *cells, *new_cells;
+    lc_record *rec;
+    uint64_t *qfat, *new_q;
+    uint8_t *flags;
+    size_t cap; /* rows in each array that is not NULL */
+    uint64_t *buf;
+    size_t buf_cap;
+} lc_update_keep;
+
 struct locd_scene {
     uint32_t magic;
     locd_engine *engine;
@@ -56,6 +70,7 @@ struct locd_scene {
     lc_backoff backoff;
     lc_query_tree qtree;
     locd_pairs found; /* the engine's pairs of a find (from scratch, the partner and near-pair lists' builds) */
+    lc_update_keep keep;
     locd_scene_stats stats;
 };
 

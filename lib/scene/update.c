@@ -160,6 +160,7 @@ locd_status locd_scene_update(locd_scene *s, uint32_t flags)
     memset(&u, 0, sizeof u);
     u.s = s;
     u.flags = flags;
+    lc_update_adopt(&u);
     lc_pair_set_lend(&s->set, &u.next, &u.cr, &u.lo);
     u.moved = lc_slots_live_dirty(s); /* every path's count: the live objects of the dirty list */
     if ((st = run(&u)) != LOCD_OK) {

@@ -97,6 +97,11 @@ locd_status lc_moved_events(lc_update *u, const lc_moved *m);
 locd_status lc_update_room(lc_update *u, size_t len, size_t n);
 /* Room for the moved objects' rows: stay and srch, the undo, the survey. */
 locd_status lc_update_moved_room(lc_update *u, size_t n, int undo);
+/* A new update takes the rows and entry buffer the last one kept
+ * (lc_update_keep); lc_update_free keeps them again while they are small
+ * and frees the rest; lc_update_keep_release frees them (the scene's end). */
+void lc_update_adopt(lc_update *u);
 void lc_update_free(lc_update *u);
+void lc_update_keep_release(locd_scene *s);
 
 #endif
