@@ -23,7 +23,7 @@ locd_status lc_update_room(lc_update *u, size_t len, size_t n)
 #define TAKE(a, p, n) ((p) != NULL || ((p) = lc_alloc((a), (n) * sizeof *(p))) != NULL)
 
 /* An update keeps its moved objects' rows for the next one up to this
- * many rows (about 150 bytes a row), and its entry buffer up to this many
+ * many rows (about 160 bytes a row), and its entry buffer up to this many
  * entries: the scene holds at most about 600 KB between updates, and a
  * large update's buffers go back to the allocator. */
 #define LC_KEEP_ROWS 2048
