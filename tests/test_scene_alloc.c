@@ -276,11 +276,12 @@ static void doubles_come_in_late(void)
 }
 
 /* A small update (a few objects moved: a game's frame) takes the rows its
- * moved objects need (ten arrays) and its entry buffer from the update
- * before it instead of allocating them again: the median small update of
- * this scene made 28 allocations when each allocated its own, 18 since;
- * the budget, 22, fails if those eleven come back. The pairs stay exact,
- * and the scene gives every block back when it goes. */
+ * moved objects need (ten arrays), its entry buffer and its search's
+ * output buffers from the update before it instead of allocating them
+ * again: the median small update of this scene made 28 allocations when
+ * each allocated its own, 16 since; the budget, 22, fails if the rows and
+ * the entry buffer (eleven) come back. The pairs stay exact, and the scene
+ * gives every block back when it goes. */
 static locd_status small_move_and_update(locd_scene *s, su_world *w, su_model *m, const locd_id *ids, int first,
                                          uint64_t *calls)
 {

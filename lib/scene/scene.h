@@ -34,11 +34,13 @@
 #include "scene/partner_lists.h"
 #include "scene/path.h"
 #include "scene/query_tree.h"
+#include "scene/search.h"
 #include "scene/slots.h"
 
-/* The rows of a small update's moved objects and its entry buffer, kept
- * for the next update (update_buffers.c): a game's frame, a few objects
- * moved, then allocates none of them. Typed as the update's (update.h). */
+/* The rows of a small update's moved objects, its entry buffer and its
+ * search's output, kept for the next update (update_buffers.c): a game's
+ * frame, a few objects moved, then allocates none of them. Typed as the
+ * update's (update.h). */
 typedef struct lc_update_keep {
     uint32_t *stay, *srch, *slot, *dense;
     lc_cells *cells, *new_cells;
@@ -48,6 +50,7 @@ typedef struct lc_update_keep {
     size_t cap; /* rows in each array that is not NULL */
     uint64_t *buf;
     size_t buf_cap;
+    lc_search_out found;
 } lc_update_keep;
 
 struct locd_scene {
