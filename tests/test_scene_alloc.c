@@ -326,9 +326,7 @@ static void small_updates_reuse_their_rows(void)
     for (i = 0; i < N0; i++)
         su_random_box(&w, b + 6 * i);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
-    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b, N0, NULL, ids));
-    for (i = 0; i < N0; i++)
-        su_model_add(&m, ids[i], b + 6 * i, 1, ~(uint64_t)0, 0, 0, 0);
+    su_add_boxes(s, &m, b, N0, 0, ids);
     su_check_update(s, &m);
     for (frame = 0; frame <= FRAMES; frame++) {
         TEST_ASSERT_EQUAL_INT(LOCD_OK, small_move_and_update(s, &w, &m, ids, 8 * frame, &calls[frame]));
