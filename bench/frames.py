@@ -119,11 +119,11 @@ def pct(x):
 
 def report(name, results, img_dir, meta):
     table = load(results, name)
-    fmt = bench_run.fmt_ms
-    cmd = meta["command"]
     if name == "frames_cold":
         report_cold(table, results, img_dir, meta)
         return
+    fmt = bench_run.fmt_ms
+    cmd = meta["command"]
     L = ["## Frame to frame: scene update vs rebuild, Bullet and FCL", ""]
     L.append("A world that changes a little each frame: `locd gen uniform N --seed 1`, a fraction of "
              "the cubes static (chosen by seed), each frame a random fraction of the others moved by up to 3%% of "
