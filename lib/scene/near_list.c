@@ -158,10 +158,19 @@ LC_INLINE void prefetch_partner(const pass_ctx *c, const float *fb, uint32_t e)
 #define LC_PUT_FWD(p, lim, full, a, b) ((p) != (lim) ? ((p)[0] = (a), (p)[1] = (b), (p) += 2) : ((full) = 1, (p)))
 #define LC_PUT_BACK(p, lim, full, a, b) ((p) != (lim) ? ((p) -= 2, (p)[0] = (a), (p)[1] = (b), (p)) : ((full) = 1, (p)))
 
+/* A row (a, b) written at p when `hit`: with the room for it known, no
+ * branch on whether the boxes meet (about half the candidates do, in no
+ * order a predictor could learn): the row is written always, and p moves
+ * past it (forward) or down to it (backward) only when it counts. */
+#define LC_ROW_FWD(p, hit, a, b) ((p)[0] = (a), (p)[1] = (b), (p) += 2 * (size_t)(hit))
+#define LC_ROW_BACK(p, hit, a, b) ((p)[-2] = (a), (p)[-1] = (b), (p) -= 2 * (size_t)(hit))
+#define LC_ROW_CHECKED_FWD(p, hit, a, b) ((hit) ? LC_PUT_FWD(p, w_lim, rfull, a, b) : (p))
+#define LC_ROW_CHECKED_BACK(p, hit, a, b) ((hit) ? LC_PUT_BACK(p, w_lim, rfull, a, b) : (p))
+
 /* Candidate x of object i (box bi, id idi): its PAIRED bit set to whether
- * the boxes meet now; its row when they do, and (a frame) a created or a
- * lost row when the bit changed. */
-#define LC_NEAR_VISIT(put)                                                                                      \
+ * the boxes meet now; its row when they do (row: one of LC_ROW_*), and (a
+ * frame) a created or a lost row when the bit changed. */
+#define LC_NEAR_VISIT(put, row)                                                                                 \
     do {                                                                                                        \
         const uint32_t v = nb[x], j = v & LC_INDEX_BITS, was = v >> 31;                                          \
         const float *bj = fb + 6 * (size_t)j;                                                                   \
@@ -176,8 +185,7 @@ LC_INLINE void prefetch_partner(const pass_ctx *c, const float *fb, uint32_t e)
                     put(lo, lo_lim, efull, idi, near_id(c, j));                                                 \
             }                                                                                                   \
         }                                                                                                       \
-        if (hit)                                                                                                \
-            put(w, w_lim, rfull, idi, near_id(c, j));                                                           \
+        row(w, hit, idi, near_id(c, j));                                                                        \
     } while (0)
 
 static void task_pass(void *arg, uint32_t t, uint32_t k)
@@ -199,12 +207,16 @@ static void task_pass(void *arg, uint32_t t, uint32_t k)
         for (i = i1; i-- > i0;) {
             const float *bi = fb + 6 * i;
             const locd_id idi = near_id(c, i);
+            const int room = (size_t)(w - w_lim) >= 2 * (size_t)(off[i + 1] - off[i]);
             if (c->check && stop_here(c, bi, fat, i))
                 break;
             for (x = off[i + 1]; x-- > off[i];) {
                 if (x >= off[i0] + LC_NEAR_AHEAD)
                     prefetch_partner(c, fb, nb[x - LC_NEAR_AHEAD]);
-                LC_NEAR_VISIT(LC_PUT_BACK);
+                if (room)
+                    LC_NEAR_VISIT(LC_PUT_BACK, LC_ROW_BACK);
+                else
+                    LC_NEAR_VISIT(LC_PUT_BACK, LC_ROW_CHECKED_BACK);
             }
         }
     } else {
@@ -212,12 +224,16 @@ static void task_pass(void *arg, uint32_t t, uint32_t k)
         for (i = i0; i < i1; i++) {
             const float *bi = fb + 6 * i;
             const locd_id idi = near_id(c, i);
+            const int room = (size_t)(w_lim - w) >= 2 * (size_t)(off[i + 1] - off[i]);
             if (c->check && stop_here(c, bi, fat, i))
                 break;
             for (x = off[i]; x < off[i + 1]; x++) {
                 if (x + LC_NEAR_AHEAD < xend)
                     prefetch_partner(c, fb, nb[x + LC_NEAR_AHEAD]);
-                LC_NEAR_VISIT(LC_PUT_FWD);
+                if (room)
+                    LC_NEAR_VISIT(LC_PUT_FWD, LC_ROW_FWD);
+                else
+                    LC_NEAR_VISIT(LC_PUT_FWD, LC_ROW_CHECKED_FWD);
             }
         }
     }
