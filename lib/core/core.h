@@ -212,8 +212,9 @@ locd_status lc_pairs_give(locd_pairs *from, locd_pairs *out);
  * within equal high bits (stable LSD passes over the bits that vary);
  * returns the buffer holding the result (entries or scratch). */
 LC_SHARED uint64_t *lc_radix_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint32_t index_bits);
-/* Sorts v[0, n) ascending: qsort, or (lc_sort_u64_radix) the radix sort
- * from LC_RADIX_SORT_MIN values on, its scratch allocated. */
+/* Sorts v[0, n) ascending: a shell sort below LC_RADIX_SORT_MIN values,
+ * qsort from there (lc_sort_u64), or the radix sort (lc_sort_u64_radix,
+ * its scratch allocated). */
 void lc_sort_u64(uint64_t *v, size_t n);
 locd_status lc_sort_u64_radix(const locd_allocator *a, uint64_t *v, size_t n);
 

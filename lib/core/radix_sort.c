@@ -8,17 +8,24 @@
 
 #define LC_RADIX_MAX_BITS 11
 #define LC_RADIX_MAX_PASSES 6
-/* Below this many values qsort is faster than the radix sort's passes. */
+/* Below this many values a shell sort (short_sort) is faster than the radix sort's passes. */
 #define LC_RADIX_SORT_MIN 256
 
-static void insertion_sort(uint64_t *a, size_t n)
+/* Shell sort with Ciura's gaps, for short arrays (below
+ * LC_RADIX_SORT_MIN): no call per comparison, as qsort makes, and no
+ * quadratic case, as an insertion sort has on a few hundred keys. */
+static void short_sort(uint64_t *v, size_t n)
 {
-    size_t i, j;
-    for (i = 1; i < n; i++) {
-        uint64_t v = a[i];
-        for (j = i; j > 0 && a[j - 1] > v; j--)
-            a[j] = a[j - 1];
-        a[j] = v;
+    static const size_t gaps[] = {132, 57, 23, 10, 4, 1};
+    size_t g, i, j;
+    for (g = 0; g < sizeof gaps / sizeof gaps[0]; g++) {
+        const size_t gap = gaps[g];
+        for (i = gap; i < n; i++) {
+            const uint64_t x = v[i];
+            for (j = i; j >= gap && v[j - gap] > x; j -= gap)
+                v[j] = v[j - gap];
+            v[j] = x;
+        }
     }
 }
 
@@ -34,7 +41,7 @@ uint64_t *lc_radix_sort(uint64_t *entries, uint64_t *scratch, size_t count, uint
     if (count < 2)
         return entries;
     if (count <= 64) {
-        insertion_sort(entries, count);
+        short_sort(entries, count);
         return entries;
     }
     first = entries[0] >> index_bits;
@@ -99,7 +106,10 @@ static int cmp_u64(const void *pa, const void *pb)
 
 void lc_sort_u64(uint64_t *v, size_t n)
 {
-    qsort(v, n, sizeof *v, cmp_u64);
+    if (n < LC_RADIX_SORT_MIN)
+        short_sort(v, n);
+    else
+        qsort(v, n, sizeof *v, cmp_u64);
 }
 
 locd_status lc_sort_u64_radix(const locd_allocator *a, uint64_t *v, size_t n)
