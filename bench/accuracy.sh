@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates docs/accuracy.md, docs/accuracy.csv and docs/img/accuracy.png:
-# what the broad phase's knobs cost in time (issue 8). About 5-10 minutes on
+# what the broad phase's knobs cost in time. About 5-10 minutes on
 # 2 cores. Extra arguments go to `locd accuracy` (e.g. --quick, --threads 2).
 #   BUILD=build-accuracy bash bench/accuracy.sh
 set -euo pipefail

@@ -380,7 +380,8 @@ static const struct {
      "mixed scene the automatic depth is 6 at 1M objects and 5 at 100k; on scenes whose boxes all stop above "
      "the key's limit it is about the level where they stop, which changes only the key's length."},
     {"cell_bias", "2. Level-choice bias (`cell_bias`)", "cell_bias",
-     "A box goes to the deepest level whose cell edge is at least 2^bias times its largest extent. Bias 0 gives "
+     "A box goes to the deepest level whose cell edge is at least 2^bias times its largest extent (a flat or thin "
+     "box deeper, while it spans on average no more cells than a cube at that bias: docs/encoding.md). Bias 0 gives "
      "the smallest cells (up to 8 cells per box, fewest candidates per cell); each step up halves the entries per "
      "object towards 1 but doubles the cell edge, so a cell's path meets more boxes.",
      "**Default: 2** (`LOCD_DEFAULT_CELL_BIAS`): a box touches at most two cells per axis, about 1.7 entries per "

@@ -160,7 +160,9 @@ typedef struct locd_engine_config {
     uint32_t threads;            /* threads (level 1) or worker processes (level 2); 0 = one per core */
     uint32_t max_depth;          /* octree depth limit, 0..LOCD_MAX_DEPTH; 0 = automatic (as deep as the key allows) */
     int32_t cell_bias;           /* a box goes to the deepest level whose cell edge is >= 2^bias times its
-                                    largest extent; default LOCD_DEFAULT_CELL_BIAS (2; see docs/encoding.md); 0..8 */
+                                    largest extent, a flat or thin box up to bias levels deeper (it spans no
+                                    more cells than a cube there); default LOCD_DEFAULT_CELL_BIAS (2; see
+                                    docs/encoding.md); 0..8 */
     uint32_t flags;              /* LOCD_CONFIG_* */
     const char *service_address; /* level 3: "unix:/path/to.sock" or "tcp:host:port" */
     const char *service_secret;  /* level 3 over TCP: shared secret; NULL = none */

@@ -1,9 +1,10 @@
 /* Step 1: boxes -> (octree cell, object) entries.
  *
  * Each box goes to the deepest level whose cell edge is at least 2^bias times
- * the box's largest quantized extent, so it touches at most two cells per
- * axis (at most 8 entries; about 1.7 on average for the default bias 2 on
- * uniform cubes, 2.7 for bias 1). */
+ * the box's largest quantized extent, or up to `bias` levels deeper for a
+ * flat or thin box (lc_level_of), and touches at most two cells per axis (at
+ * most 8 entries; about 1.7 on average for the default bias 2 on uniform
+ * cubes, 2.7 for bias 1). */
 #include "octree/octree.h"
 
 #include <assert.h>
@@ -21,6 +22,42 @@ LC_AVX512 LC_INLINE __m512i spread3x8(__m256i v)
     x = _mm512_and_si512(_mm512_or_si512(x, _mm512_slli_epi64(x, 4)), _mm512_set1_epi64(0x10c30c30c30c30c3LL));
     x = _mm512_and_si512(_mm512_or_si512(x, _mm512_slli_epi64(x, 2)), _mm512_set1_epi64(0x1249249249249249LL));
     return x;
+}
+
+/* lc_level_of on eight boxes: the quantized boxes q (lo xyz, hi xyz) after
+ * the cube's extension, the bias, the depth and lc_spread_limit(bias). The
+ * same doubles as the scalar function's, computed in the same order. */
+LC_AVX512 LC_INLINE __m256i level_of8(const __m256i q[6], int32_t bias, uint32_t depth, __m512d limit)
+{
+    const __m512d one = _mm512_set1_pd(1.0);
+    const __m256i dmax = _mm256_set1_epi32((int)depth), zero = _mm256_setzero_si256();
+    __m256i e[3], w, len, lv, top;
+    __m512d ed[3];
+    __mmask8 go;
+    int a;
+    for (a = 0; a < 3; a++) {
+        e[a] = _mm256_sub_epi32(q[a + 3], q[a]);
+        ed[a] = _mm512_cvtepu32_pd(e[a]);
+    }
+    w = _mm256_max_epu32(_mm256_max_epu32(e[0], e[1]), e[2]);
+    len = _mm256_sub_epi32(_mm256_set1_epi32(32), _mm256_lzcnt_epi32(w));
+    /* lc_level_for(w, bias) and lc_level_for(w, 0): 31 - bias - bitlen(w), clamped to [0, depth] */
+    lv = _mm256_sub_epi32(_mm256_set1_epi32((int)LC_QBITS - bias), len);
+    lv = _mm256_min_epi32(_mm256_max_epi32(lv, zero), dmax);
+    top = _mm256_min_epi32(_mm256_max_epi32(_mm256_sub_epi32(_mm256_set1_epi32((int)LC_QBITS), len), zero), dmax);
+    go = _mm256_cmplt_epi32_mask(lv, top);
+    while (go) {
+        const __m256i next = _mm256_add_epi32(lv, _mm256_set1_epi32(1));
+        const __m512d s = _mm512_castsi512_pd(_mm512_slli_epi64( /* 2^(next - 31): its exponent field */
+            _mm512_cvtepu32_epi64(_mm256_add_epi32(next, _mm256_set1_epi32(1023 - (int)LC_QBITS))), 52));
+        const __m512d p = _mm512_mul_pd(_mm512_mul_pd(_mm512_add_pd(one, _mm512_mul_pd(ed[0], s)),
+                                                      _mm512_add_pd(one, _mm512_mul_pd(ed[1], s))),
+                                        _mm512_add_pd(one, _mm512_mul_pd(ed[2], s)));
+        go &= _mm512_cmp_pd_mask(p, limit, _CMP_LE_OQ);
+        lv = _mm256_mask_mov_epi32(lv, go, next);
+        go &= _mm256_cmplt_epi32_mask(next, top);
+    }
+    return lv;
 }
 
 /* lc_pack_qbox on eight boxes (q: lo xyz, hi xyz, one vector each): object
@@ -135,6 +172,43 @@ LC_AVX2_ENCODE LC_INLINE __m256i spread3x4(__m128i v, uint32_t depth)
     x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 4)), _mm256_set1_epi64x(0x10c30c30c30c30c3LL));
     x = _mm256_and_si256(_mm256_or_si256(x, _mm256_slli_epi64(x, 2)), _mm256_set1_epi64x(0x1249249249249249LL));
     return x;
+}
+
+/* lc_level_of on four boxes, as level_of8. bitlen(w) is the exponent of w
+ * as a double (exact: w < 2^31), less 1022. */
+LC_AVX2_ENCODE LC_INLINE __m128i level_of4(const __m128i q[6], int32_t bias, uint32_t depth, __m256d limit)
+{
+    const __m256d one = _mm256_set1_pd(1.0);
+    const __m256i lo32 = _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6);
+    const __m128i dmax = _mm_set1_epi32((int)depth), zero = _mm_setzero_si128();
+    __m128i e[3], w, len, lv, top, go;
+    __m256d ed[3];
+    int a;
+    for (a = 0; a < 3; a++) {
+        e[a] = _mm_sub_epi32(q[a + 3], q[a]);
+        ed[a] = _mm256_cvtepi32_pd(e[a]);
+    }
+    w = _mm_max_epu32(_mm_max_epu32(e[0], e[1]), e[2]);
+    len = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
+        _mm256_srli_epi64(_mm256_castpd_si256(_mm256_cvtepi32_pd(w)), 52), lo32));
+    len = _mm_max_epi32(_mm_sub_epi32(len, _mm_set1_epi32(1022)), zero);
+    lv = _mm_min_epi32(_mm_max_epi32(_mm_sub_epi32(_mm_set1_epi32((int)LC_QBITS - bias), len), zero), dmax);
+    top = _mm_min_epi32(_mm_max_epi32(_mm_sub_epi32(_mm_set1_epi32((int)LC_QBITS), len), zero), dmax);
+    go = _mm_cmplt_epi32(lv, top);
+    while (_mm_movemask_epi8(go)) {
+        const __m128i next = _mm_add_epi32(lv, _mm_set1_epi32(1));
+        const __m256d s = _mm256_castsi256_pd(_mm256_slli_epi64( /* 2^(next - 31): its exponent field */
+            _mm256_cvtepi32_epi64(_mm_add_epi32(next, _mm_set1_epi32(1023 - (int)LC_QBITS))), 52));
+        const __m256d p = _mm256_mul_pd(_mm256_mul_pd(_mm256_add_pd(one, _mm256_mul_pd(ed[0], s)),
+                                                      _mm256_add_pd(one, _mm256_mul_pd(ed[1], s))),
+                                        _mm256_add_pd(one, _mm256_mul_pd(ed[2], s)));
+        const __m128i le = _mm256_castsi256_si128(
+            _mm256_permutevar8x32_epi32(_mm256_castpd_si256(_mm256_cmp_pd(p, limit, _CMP_LE_OQ)), lo32));
+        go = _mm_and_si128(go, le);
+        lv = _mm_blendv_epi8(lv, next, go);
+        go = _mm_and_si128(go, _mm_cmplt_epi32(next, top));
+    }
+    return lv;
 }
 
 /* lc_pack_qbox on four boxes (q: lo xyz, hi xyz, four lanes each). */

@@ -14,7 +14,7 @@ static size_t LC_FN(encode_scalar_)(const locd_grid *g, const LC_T *boxes, size_
         const LC_T *b = boxes + 6 * i;
         int32_t lo[3], hi[3];
         uint32_t ext, lvl, sh, a, x, y, z;
-        uint32_t c0[3], c1[3];
+        uint32_t c0[3], c1[3], e[3];
         uint64_t mx[2], my[2], mz[2], base;
         for (a = 0; a < 3; a++) {
             lo[a] = lc_quantize(g, (int)a, (double)b[a]);
@@ -22,25 +22,27 @@ static size_t LC_FN(encode_scalar_)(const locd_grid *g, const LC_T *boxes, size_
         }
         if (qbox)
             lc_pack_qbox(lo, hi, qbox + 2 * i);
-        ext = (uint32_t)(hi[0] - lo[0]);
-        if ((uint32_t)(hi[1] - lo[1]) > ext)
-            ext = (uint32_t)(hi[1] - lo[1]);
-        if ((uint32_t)(hi[2] - lo[2]) > ext)
-            ext = (uint32_t)(hi[2] - lo[2]);
         if (cubes) { /* the paper's bounding cube: same extent on every axis */
+            ext = (uint32_t)(hi[0] - lo[0]);
+            if ((uint32_t)(hi[1] - lo[1]) > ext)
+                ext = (uint32_t)(hi[1] - lo[1]);
+            if ((uint32_t)(hi[2] - lo[2]) > ext)
+                ext = (uint32_t)(hi[2] - lo[2]);
             for (a = 0; a < 3; a++) {
                 int64_t h = (int64_t)lo[a] + ext;
                 hi[a] = h > 2147483647 ? 2147483647 : (int32_t)h;
             }
         }
-        lvl = lc_level_for(ext, bias, depth);
+        for (a = 0; a < 3; a++)
+            e[a] = (uint32_t)(hi[a] - lo[a]);
+        lvl = lc_level_of(e, bias, depth);
         sh = LC_QBITS - lvl;
         for (a = 0; a < 3; a++) {
             c0[a] = (uint32_t)lo[a] >> sh;
             c1[a] = (uint32_t)hi[a] >> sh;
         }
-        /* The level leaves each box at most 2^-bias of its cell and lc_grid_check
-           keeps bias >= 0, so a box spans at most two cells per axis: the
+        /* The level's cell edge is above the box's largest extent
+           (lc_level_of), so a box spans at most two cells per axis: the
            next-cell codes below are all the cells it needs. */
         assert(c1[0] - c0[0] <= 1 && c1[1] - c0[1] <= 1 && c1[2] - c0[2] <= 1);
         mx[0] = lc_morton_split3(c0[0]);
@@ -107,7 +109,8 @@ LC_AVX512 static size_t LC_FN(encode_avx512_)(const locd_grid *g, const LC_T *bo
     const int cubes = (g->flags & LOCD_CONFIG_CUBES) != 0;
     const __m512d half = _mm512_set1_pd(0.5), zero = _mm512_setzero_pd(), qmax = _mm512_set1_pd(LC_QMAX);
     const __m512d sa = _mm512_set1_pd(g->scale_a), sb = _mm512_set1_pd(g->scale_b);
-    const __m256i top = _mm256_set1_epi32(31 - g->cell_bias), dmax = _mm256_set1_epi32((int)depth);
+    const __m256i dmax = _mm256_set1_epi32((int)depth);
+    const __m512d limit = _mm512_set1_pd(lc_spread_limit(g->cell_bias));
     const __m512i lane8 = _mm512_setr_epi64(0, 1, 2, 3, 4, 5, 6, 7);
     const size_t end = first + count;
     size_t i = first, w = 0;
@@ -126,17 +129,14 @@ LC_AVX512 static size_t LC_FN(encode_avx512_)(const locd_grid *g, const LC_T *bo
         }
         if (qbox)
             pack_qbox8(q, qbox + 2 * i);
-        {
+        if (cubes) { /* the paper's bounding cube: same extent on every axis */
             __m256i ext = _mm256_max_epu32(_mm256_sub_epi32(q[3], q[0]), _mm256_sub_epi32(q[4], q[1]));
             ext = _mm256_max_epu32(ext, _mm256_sub_epi32(q[5], q[2]));
-            if (cubes) /* the paper's bounding cube: same extent on every axis */
-                for (a = 0; a < 3; a++)
-                    q[a + 3] = _mm256_min_epu32(_mm256_add_epi32(q[a], ext), _mm256_set1_epi32(2147483647));
-            /* lc_level_for: 31 - bias - bitlen(ext), clamped to [0, depth] */
-            lv = _mm256_sub_epi32(top, _mm256_sub_epi32(_mm256_set1_epi32(32), _mm256_lzcnt_epi32(ext)));
-            lv = _mm256_min_epi32(_mm256_max_epi32(lv, _mm256_setzero_si256()), dmax);
-            sh = _mm256_sub_epi32(_mm256_set1_epi32(LC_QBITS), lv);
+            for (a = 0; a < 3; a++)
+                q[a + 3] = _mm256_min_epu32(_mm256_add_epi32(q[a], ext), _mm256_set1_epi32(2147483647));
         }
+        lv = level_of8(q, g->cell_bias, depth, limit);
+        sh = _mm256_sub_epi32(_mm256_set1_epi32(LC_QBITS), lv);
         for (a = 0; a < 3; a++) { /* d is 0 or 1: lc_grid_check keeps the bias >= 0 */
             c0[a] = _mm256_srlv_epi32(q[a], sh);
             d[a] = _mm256_sub_epi32(_mm256_srlv_epi32(q[a + 3], sh), c0[a]);
@@ -165,7 +165,7 @@ LC_AVX512 static size_t LC_FN(encode_avx512_)(const locd_grid *g, const LC_T *bo
 #ifdef LC_HAVE_AVX2_ENCODE
 /* Four objects per step, with the scalar body's arithmetic (the same IEEE
  * operations as lc_quantize, so the same integers; the level from the
- * extent as the scalar lc_level_for) and its entries in its order. The
+ * extents as the scalar lc_level_of) and its entries in its order. The
  * eight candidate cells of the four objects are computed as vectors; each
  * object's real ones leave through store_cells4, with no branch on how many
  * cells an object has. A second cell's Morton bits are the first's plus one
@@ -179,6 +179,7 @@ LC_AVX2_ENCODE static size_t LC_FN(encode_avx2_)(const locd_grid *g, const LC_T 
     const int cubes = (g->flags & LOCD_CONFIG_CUBES) != 0;
     const __m256d half = _mm256_set1_pd(0.5), zero = _mm256_setzero_pd(), qmax = _mm256_set1_pd(LC_QMAX);
     const __m256d sa = _mm256_set1_pd(g->scale_a), sb = _mm256_set1_pd(g->scale_b);
+    const __m256d limit = _mm256_set1_pd(lc_spread_limit(bias));
     const __m256i lane4 = _mm256_setr_epi64x(0, 1, 2, 3);
     const __m256i axis = _mm256_set1_epi64x(0x1249249249249249LL), others = _mm256_set1_epi64x(~0x1249249249249249LL);
     const size_t end = first + count;
@@ -186,7 +187,7 @@ LC_AVX2_ENCODE static size_t LC_FN(encode_avx2_)(const locd_grid *g, const LC_T 
     for (; i + 4 <= end && w + 32 <= capacity; i += 4) {
         const LC_T *b = boxes + 6 * i;
         __m256d x[6];
-        __m128i q[6], ext, sh, lv, c0[3], d[3];
+        __m128i q[6], sh, lv, c0[3], d[3];
         __m256i m0[3], m1[3], shl, base, code[8];
         uint32_t dd[4];
         int a, k;
@@ -198,20 +199,13 @@ LC_AVX2_ENCODE static size_t LC_FN(encode_avx2_)(const locd_grid *g, const LC_T 
         }
         if (qbox)
             pack_qbox4(q, qbox + 2 * i);
-        ext = _mm_max_epu32(_mm_sub_epi32(q[3], q[0]), _mm_sub_epi32(q[4], q[1]));
-        ext = _mm_max_epu32(ext, _mm_sub_epi32(q[5], q[2]));
-        if (cubes) /* the paper's bounding cube: same extent on every axis */
+        if (cubes) { /* the paper's bounding cube: same extent on every axis */
+            const __m128i ext = _mm_max_epu32(_mm_max_epu32(_mm_sub_epi32(q[3], q[0]), _mm_sub_epi32(q[4], q[1])),
+                                              _mm_sub_epi32(q[5], q[2]));
             for (a = 0; a < 3; a++)
                 q[a + 3] = _mm_min_epu32(_mm_add_epi32(q[a], ext), _mm_set1_epi32(2147483647));
-        { /* lc_level_for: bitlen(ext) is the exponent of ext as a double (exact: ext < 2^31), less 1022 */
-            const __m256i e = _mm256_srli_epi64(_mm256_castpd_si256(_mm256_cvtepi32_pd(ext)), 52);
-            const __m128i len = _mm_max_epi32(
-                _mm_sub_epi32(_mm256_castsi256_si128(_mm256_permutevar8x32_epi32(e, _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6))),
-                              _mm_set1_epi32(1022)),
-                _mm_setzero_si128());
-            lv = _mm_sub_epi32(_mm_set1_epi32((int)LC_QBITS - bias), len);
-            lv = _mm_min_epi32(_mm_max_epi32(lv, _mm_setzero_si128()), _mm_set1_epi32((int)depth));
         }
+        lv = level_of4(q, bias, depth, limit);
         sh = _mm_sub_epi32(_mm_set1_epi32(LC_QBITS), lv);
         for (a = 0; a < 3; a++) { /* d is 0 or 1: lc_grid_check keeps the bias >= 0 */
             __m256i sp, next, has;

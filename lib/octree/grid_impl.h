@@ -50,15 +50,16 @@ static void LC_FN(tune_strided_)(locd_grid *g, const LC_T *boxes, size_t stride,
         return;
     for (k = 0; k < s; k++) {
         const LC_T *b = boxes + 6 * (k * stride);
-        uint32_t ext = 0;
+        uint32_t e[3];
         int a;
         for (a = 0; a < 3; a++) {
             const int32_t l = lc_quantize(g, a, (double)b[a]), h = lc_quantize(g, a, (double)b[a + 3]);
             q[k][a] = l;
-            if ((uint32_t)(h - l) > ext)
-                ext = (uint32_t)(h - l);
+            e[a] = (uint32_t)(h - l);
         }
-        lvl[k] = lc_level_for(ext, g->cell_bias, g->depth);
+        if (g->flags & LOCD_CONFIG_CUBES) /* encode's bounding cube */
+            e[0] = e[1] = e[2] = lc_max3(e);
+        lvl[k] = lc_level_of(e, g->cell_bias, g->depth);
     }
     g->depth = tune_depth((const int32_t(*)[3])q, lvl, s, n, g->depth, code, tmp);
 }

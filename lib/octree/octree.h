@@ -97,14 +97,64 @@ LC_INLINE void lc_pack_qbox(const int32_t lo[3], const int32_t hi[3], uint64_t *
            (uint64_t)(hi[2] >> LC_SDROP) << (2 * LC_SBITS);
 }
 
-/* The level of a box whose largest quantized extent is w: the deepest
- * whose cell edge is at least 2^bias times w, at most `depth`. */
+/* The deepest level, at most `depth`, whose cell edge is at least 2^bias
+ * times w (and a power of two above it: 2^(bias + bitlength(w))). */
 LC_INLINE uint32_t lc_level_for(uint32_t w, int32_t bias, uint32_t depth)
 {
     int32_t l = (int32_t)LC_QBITS - bias - (int32_t)(w ? 32u - (uint32_t)__builtin_clz(w) : 0u);
     if (l < 0)
         l = 0;
     return (uint32_t)l > depth ? depth : (uint32_t)l;
+}
+
+/* 2^k as a double, for -1022 <= k <= 1023, without a call. */
+LC_INLINE double lc_pow2(int k)
+{
+    const uint64_t bits = (uint64_t)(k + 1023) << 52;
+    double d;
+    memcpy(&d, &bits, sizeof d);
+    return d;
+}
+
+/* (1 + 2^-bias)^3: the cells a box whose extents are all 2^-bias of its
+ * cell's edge spans, on average over its place in the grid. */
+LC_INLINE double lc_spread_limit(int32_t bias)
+{
+    const double f = 1.0 + lc_pow2(-bias);
+    return f * f * f;
+}
+
+/* The level of a box whose quantized extents are e[0..2] (docs/encoding.md):
+ * from the level of its largest extent w (lc_level_for), as many levels
+ * deeper as keep the cells it spans on average, (1 + e0/c)(1 + e1/c)(1 +
+ * e2/c) for cell edge c, within lc_spread_limit(bias), and c above w (at
+ * most two cells per axis). A cube stays where w alone puts it; a flat or
+ * thin box (a triangle's) goes up to `bias` levels deeper, where smaller
+ * cells meet fewer boxes for a few more entries. The SIMD encodes compute
+ * the same product with the same operations in the same order (no FMA:
+ * meson.build), so every kernel gives every box the same level. */
+LC_INLINE uint32_t lc_max3(const uint32_t e[3])
+{
+    const uint32_t w = e[0] > e[1] ? e[0] : e[1];
+    return w > e[2] ? w : e[2];
+}
+
+LC_INLINE uint32_t lc_level_of(const uint32_t e[3], int32_t bias, uint32_t depth)
+{
+    const uint32_t w = lc_max3(e);
+    uint32_t l, top;
+    double limit;
+    l = lc_level_for(w, bias, depth);
+    top = lc_level_for(w, 0, depth);
+    if (l == top)
+        return l;
+    limit = lc_spread_limit(bias);
+    for (; l < top; l++) {
+        const double s = lc_pow2((int)l + 1 - (int)LC_QBITS); /* 1 / the cell edge one level deeper */
+        if ((1.0 + (double)e[0] * s) * (1.0 + (double)e[1] * s) * (1.0 + (double)e[2] * s) > limit)
+            break;
+    }
+    return l;
 }
 
 /* ---- encode / merge (encode.c, merge.c); the radix sort is core's lc_radix_sort ---- */

@@ -15,7 +15,7 @@ namespace Locd
         public int Threads { get; set; }
         /// <summary>Octree depth limit; 0 = automatic.</summary>
         public int MaxDepth { get; set; }
-        /// <summary>Cell edge >= 2^CellBias times a box's largest extent; 0..8, default 2.</summary>
+        /// <summary>Cell edge >= 2^CellBias times a box's largest extent (a flat or thin box finer); 0..8, default 2.</summary>
         public int CellBias { get; set; }
         /// <summary>Encode bounding cubes (the paper's choice) instead of the boxes.</summary>
         public bool Cubes { get; set; }
