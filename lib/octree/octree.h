@@ -124,6 +124,13 @@ LC_INLINE double lc_spread_limit(int32_t bias)
     return f * f * f;
 }
 
+/* The largest of three extents. */
+LC_INLINE uint32_t lc_max3(const uint32_t e[3])
+{
+    const uint32_t w = e[0] > e[1] ? e[0] : e[1];
+    return w > e[2] ? w : e[2];
+}
+
 /* The level of a box whose quantized extents are e[0..2] (docs/encoding.md):
  * from the level of its largest extent w (lc_level_for), as many levels
  * deeper as keep the cells it spans on average, (1 + e0/c)(1 + e1/c)(1 +
@@ -133,26 +140,28 @@ LC_INLINE double lc_spread_limit(int32_t bias)
  * cells meet fewer boxes for a few more entries. The SIMD encodes compute
  * the same product with the same operations in the same order (no FMA:
  * meson.build), so every kernel gives every box the same level. */
-LC_INLINE uint32_t lc_max3(const uint32_t e[3])
-{
-    const uint32_t w = e[0] > e[1] ? e[0] : e[1];
-    return w > e[2] ? w : e[2];
-}
-
 LC_INLINE uint32_t lc_level_of(const uint32_t e[3], int32_t bias, uint32_t depth)
 {
     const uint32_t w = lc_max3(e);
-    uint32_t l, top;
-    double limit;
-    l = lc_level_for(w, bias, depth);
-    top = lc_level_for(w, 0, depth);
-    if (l == top)
+    uint32_t l = lc_level_for(w, bias, depth);
+    uint64_t next;
+    if (l >= depth)
         return l;
-    limit = lc_spread_limit(bias);
-    for (; l < top; l++) {
-        const double s = lc_pow2((int)l + 1 - (int)LC_QBITS); /* 1 / the cell edge one level deeper */
-        if ((1.0 + (double)e[0] * s) * (1.0 + (double)e[1] * s) * (1.0 + (double)e[2] * s) > limit)
-            break;
+    /* A box none of whose extents is within 2^-bias of the next level's
+       cell edge spans more there than the limit, in doubles too (each
+       factor exceeds 1 + 2^-bias by 2^-38 or more, far above their
+       rounding): the common cube stops here, in integers. */
+    next = (1ull << (LC_QBITS - 1 - l)) >> bias;
+    if (e[0] > next && e[1] > next && e[2] > next)
+        return l;
+    {
+        const uint32_t top = lc_level_for(w, 0, depth);
+        const double limit = lc_spread_limit(bias);
+        for (; l < top; l++) {
+            const double s = lc_pow2((int)l + 1 - (int)LC_QBITS); /* 1 / the cell edge one level deeper */
+            if ((1.0 + (double)e[0] * s) * (1.0 + (double)e[1] * s) * (1.0 + (double)e[2] * s) > limit)
+                break;
+        }
     }
     return l;
 }

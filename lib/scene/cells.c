@@ -6,7 +6,7 @@
 void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t q[4])
 {
     int32_t lo[3], hi[3];
-    uint32_t ext = 0, sh, a, m, e[3];
+    uint32_t ext = 0, sh, a, m;
     for (a = 0; a < 3; a++) {
         lo[a] = lc_quantize(g, (int)a, b[a]);
         hi[a] = lc_quantize(g, (int)a, b[a + 3]);
@@ -32,9 +32,12 @@ void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t q[4]
             int64_t h = (int64_t)lo[a] + ext;
             hi[a] = h > 2147483647 ? 2147483647 : (int32_t)h;
         }
-    for (a = 0; a < 3; a++)
-        e[a] = (uint32_t)(hi[a] - lo[a]);
-    c->level = (uint8_t)lc_level_of(e, g->cell_bias, g->depth);
+    /* The largest edge's level, not lc_level_of's deeper one for a flat
+       box: this runs for every moved object of every update, where the
+       spread test cost 3% of an update of 100 moved cubes among 900
+       (`frames_peers frames-uniform-1000.aabb --moving 1 --static 0.9`), and
+       the scene's cells are already a level finer than the engine's. */
+    c->level = (uint8_t)lc_level_for(ext, g->cell_bias, g->depth);
     sh = LC_QBITS - c->level;
     c->span = 0;
     for (a = 0; a < 3; a++) {
