@@ -2,7 +2,8 @@
  * the pair set is patched in place): dirty lists read as a list or as
  * every slot's flags; a scene of over 65,536 pairs on one and two threads,
  * each update against a fresh scene of the same objects; the partner lists
- * of the fat boxes through their life (built, used, dropped, built again). */
+ * of the fat boxes through their life (built, used, dropped, built again),
+ * in a large scene and in a small one. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -276,10 +277,66 @@ static void partner_lists_come_and_go(void)
     free(m.pairs);
 }
 
+/* A small scene never moves 1,024 objects, so its partner lists go when
+ * more of the moved objects left their fat boxes than stayed and those
+ * that left are over 8% of the objects: such an update then goes from
+ * scratch (stats.rebuilt), cheaper there than every moved object searching
+ * (path.c). 5% jumping keeps the lists and the update incremental. Every
+ * frame against the model. */
+static void small_scene_drops_its_lists_when_most_jump(void)
+{
+    const size_t n = 2000;
+    su_world w = su_world_make(6161, 22.0, 1.0, 0);
+    su_model m;
+    locd_engine *e = su_new_engine(1, NULL);
+    locd_scene *s = NULL;
+    locd_scene_stats st;
+    double b[6];
+    size_t i, k;
+    int frame;
+    memset(&m, 0, sizeof m);
+    TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
+    for (i = 0; i < n; i++) {
+        locd_id id;
+        pl_box(&w, b);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_add_f64(s, b, 1, NULL, &id));
+        su_model_add(&m, id, b, 1, ~(uint64_t)0, 0, 0, 0);
+    }
+    su_check_update(s, &m);
+    for (frame = 1; frame <= 14; frame++) {
+        /* frames 6 and 12: 5% and 10% of the objects jump; the others: 2% move a little */
+        const size_t jump = frame == 6 ? n / 20 : frame == 12 ? n / 10 : 0;
+        size_t moved = 0;
+        for (k = 0; k < jump; k++) {
+            su_obj *mo = &m.o[(k * 13 + 1) % m.n];
+            pl_box(&w, b);
+            b[0] += 0.01, b[3] += 0.01; /* never where it was */
+            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s, &mo->id, b, 1));
+            memcpy(mo->box, b, sizeof b);
+        }
+        if (!jump)
+            for (i = (size_t)frame % 50; i < m.n; i += 50, moved++)
+                pl_move(s, &w, &m.o[i], 0.002);
+        su_check_update(s, &m);
+        locd_scene_stats_init(&st);
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_get_stats(s, &st));
+        TEST_ASSERT_EQUAL_UINT32(frame == 12 ? 1u : 0u, st.rebuilt);
+        if (frame >= 2 && frame <= 5) /* the lists, built at frame 1 */
+            TEST_ASSERT_TRUE(st.coasted * 10 >= moved * 9);
+        if (frame == 7) /* kept through frame 6's 5% */
+            TEST_ASSERT_TRUE(st.coasted * 10 >= moved * 9);
+    }
+    locd_scene_destroy(s);
+    locd_engine_destroy(e);
+    free(m.o);
+    free(m.pairs);
+}
+
 static const lt_test tests[] = {
     LT_TEST(dense_and_sparse_dirty_lists),
     LT_TEST(large_scene_threads_and_fresh),
     LT_TEST(partner_lists_come_and_go),
+    LT_TEST(small_scene_drops_its_lists_when_most_jump),
 };
 
 int main(void)

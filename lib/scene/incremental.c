@@ -8,12 +8,6 @@
 #include "scene/scene.h"
 #include "scene/update.h"
 
-/* Partner lists are kept while the moved objects mostly stay in their fat
- * boxes. A survey where more of them left than stayed, and at least
- * LC_PARTNERS_MIN_LEFT left, drops the lists: searching every moved object
- * costs less than searching most of them and keeping the lists. */
-#define LC_PARTNERS_MIN_LEFT 1024
-
 /* The survey's totals over the parts. */
 typedef struct survey_sum {
     size_t fresh, stay, srch, calm, ndel[2], nadd[2], nq;
@@ -44,7 +38,7 @@ static lc_finding survey_finding(lc_update *u, const survey_sum *m)
     locd_scene *s = u->s;
     if (m->outside || s->entries.ndense + m->fresh > s->entries.cap)
         return LC_FOUND_OUTSIDE;
-    if (s->partners.valid && m->srch > m->stay && m->srch >= LC_PARTNERS_MIN_LEFT) {
+    if (s->partners.valid && lc_path_partners_go(m->srch, m->stay, s->slots.live)) {
         lc_partners_drop(s);
         lc_backoff_partners_dropped(&s->backoff);
         return LC_FOUND_MOST_LEFT;

@@ -41,6 +41,17 @@
 #define LC_NEAR_SERVE_MIN 4
 #define LC_NEAR_SERVE_MAX 16
 #define LC_BACKOFF_MAX 64
+/* Partner lists are kept while the moved objects mostly stay in their fat
+ * boxes. A survey where more of them left than stayed drops the lists when
+ * at least LC_PARTNERS_MIN_LEFT left (searching every moved object costs
+ * less than searching most of them and keeping the lists), or when those
+ * that left are over LC_SCRATCH_SHARE of the objects: an update whose
+ * moved objects all search costs more than one from scratch there, and
+ * the lists are what kept it incremental (a small scene, whose updates
+ * never move 1024 objects: at 10^3 and 10^4 cubes, 10% of them moved by a
+ * tenth of their edge, the update cost 1.3-1.7 times a rebuild with them,
+ * `bench_scene SCENE --moving 0.1`). */
+#define LC_PARTNERS_MIN_LEFT 1024
 /* Partner lists are built again (at the end of an incremental update)
  * after LC_CALM_UPDATES updates in a row in which at least LC_CALM_TENTHS
  * tenths of the moved objects stayed in their fat boxes. */
@@ -111,6 +122,12 @@ lc_path lc_path_choose(const lc_path_facts *f)
     if (moved_over(f, f->has_partners ? LC_SCRATCH_SHARE_PARTNERS : LC_SCRATCH_SHARE))
         return from_scratch(f);
     return f->has_entries ? LC_PATH_INCREMENTAL : LC_PATH_RELIST;
+}
+
+int lc_path_partners_go(size_t left, size_t stayed, size_t live)
+{
+    return left > stayed && (left >= LC_PARTNERS_MIN_LEFT ||
+                             (left > LC_PATH_MIN_MOVED && (double)left > LC_SCRATCH_SHARE * (double)live));
 }
 
 /* A wait doubled after a cache that did not pay for itself. */

@@ -54,6 +54,9 @@ typedef struct lc_path_facts {
 
 void lc_path_facts_of(locd_scene *s, size_t moved, lc_finding finding, lc_path_facts *f);
 lc_path lc_path_choose(const lc_path_facts *f);
+/* Whether an incremental update's survey drops the partner lists: `left`
+ * of its moved objects left their fat boxes, `stayed` did not, of `live`. */
+int lc_path_partners_go(size_t left, size_t stayed, size_t live);
 
 /* The waits after a choice (band_updates, near_skip), and after what the
  * paths found: a near-pair list that a box left (served: the updates it
