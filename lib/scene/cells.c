@@ -3,22 +3,28 @@
  * grid fitted to the live boxes when the entry lists are built. */
 #include "scene/scene.h"
 
-void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t q[4])
+uint32_t lc_cells_box(const locd_grid *g, const double *b, lc_qcorners *k, uint64_t q[4])
+{
+    uint32_t ext = 0, a;
+    for (a = 0; a < 3; a++) {
+        k->lo[a] = lc_quantize(g, (int)a, b[a]);
+        k->hi[a] = lc_quantize(g, (int)a, b[a + 3]);
+        if ((uint32_t)(k->hi[a] - k->lo[a]) > ext)
+            ext = (uint32_t)(k->hi[a] - k->lo[a]);
+    }
+    lc_pack_qbox(k->lo, k->hi, q + 2);
+    return ext;
+}
+
+void lc_cells_fat(const locd_grid *g, const lc_qcorners *k, uint32_t ext, lc_cells *c, uint64_t q[4])
 {
     int32_t lo[3], hi[3];
-    uint32_t ext = 0, sh, a, m;
-    for (a = 0; a < 3; a++) {
-        lo[a] = lc_quantize(g, (int)a, b[a]);
-        hi[a] = lc_quantize(g, (int)a, b[a + 3]);
-        if ((uint32_t)(hi[a] - lo[a]) > ext)
-            ext = (uint32_t)(hi[a] - lo[a]);
-    }
-    lc_pack_qbox(lo, hi, q + 2);
+    uint32_t sh, a, m;
     /* the fat box: a margin of the largest edge >> LC_FAT_SHIFT on every
        side, kept in the quantized range (it still holds the box) */
     m = ext >> LC_FAT_SHIFT;
     for (a = 0; a < 3; a++) {
-        int64_t l = (int64_t)lo[a] - m, h = (int64_t)hi[a] + m;
+        int64_t l = (int64_t)k->lo[a] - m, h = (int64_t)k->hi[a] + m;
         lo[a] = l < 0 ? 0 : (int32_t)l;
         hi[a] = h > 2147483647 ? 2147483647 : (int32_t)h;
     }
@@ -46,6 +52,13 @@ void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t q[4]
             c->span |= (uint8_t)(1u << a);
     }
     c->pad[0] = c->pad[1] = 0;
+}
+
+void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t q[4])
+{
+    lc_qcorners k;
+    const uint32_t ext = lc_cells_box(g, b, &k, q);
+    lc_cells_fat(g, &k, ext, c, q);
 }
 
 int lc_cells_same(const lc_cells *a, const lc_cells *b)

@@ -58,8 +58,9 @@ static void survey_part(lc_update *u, lc_encode_part *shared)
         uint64_t *q = u->new_q + LC_QPAIR * k;
         double box[6];
         const double *b;
+        lc_qcorners qc;
         lc_cells c;
-        uint32_t cnt;
+        uint32_t cnt, ext;
         survey_prefetch(s, d, k, pt->e);
         if (!(f & LC_SLOT_LIVE))
             continue;
@@ -67,16 +68,18 @@ static void survey_part(lc_update *u, lc_encode_part *shared)
         pt->fresh += !(f & LC_SLOT_LISTED);
         b = lc_slot_box(&s->slots, slot, box);
         pt->outside |= !lc_grid_holds(g, b);
-        lc_cells_of(g, b, &c, q);
+        ext = lc_cells_box(g, b, &qc, q);
         if (stays(s, slot, f, q)) {
             pt->calm++;
-            if (s->partners.valid) {
-                c.pad[0] = 1; /* (pass 2 reads it) */
+            if (s->partners.valid) { /* its fat box and cells stay: pass 2 reads only pad[0] */
+                memset(&c, 0, sizeof c);
+                c.pad[0] = 1;
                 u->new_cells[k] = c;
                 pt->nstay++;
                 continue;
             }
         }
+        lc_cells_fat(g, &qc, ext, &c, q);
         pt->nsrch++;
         u->new_cells[k] = c;
         cnt = lc_cells_count(&c);

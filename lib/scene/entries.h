@@ -101,6 +101,14 @@ typedef struct lc_entries {
 /* An object's cells on grid g (those of its fat box), and the packed sweep
  * boxes (lc_pack_qbox) of its fat box (q[0], q[1]) and of its box (q[2], q[3]). */
 void lc_cells_of(const locd_grid *g, const double *b, lc_cells *c, uint64_t q[LC_QPAIR]);
+/* lc_cells_of in two steps: the box's quantized corners k and packed box
+ * (q[2], q[3]), returning its largest edge; then its fat box and cells
+ * (q[0], q[1], c), which an object that stays in its fat box skips. */
+typedef struct lc_qcorners {
+    int32_t lo[3], hi[3];
+} lc_qcorners;
+uint32_t lc_cells_box(const locd_grid *g, const double *b, lc_qcorners *k, uint64_t q[LC_QPAIR]);
+void lc_cells_fat(const locd_grid *g, const lc_qcorners *k, uint32_t ext, lc_cells *c, uint64_t q[LC_QPAIR]);
 int lc_cells_same(const lc_cells *a, const lc_cells *b);
 /* Writes the object's entries (1 to 8) from its cells; returns how many. */
 uint32_t lc_cells_entries(const locd_grid *g, const lc_cells *c, uint32_t index, uint64_t *out);
