@@ -183,6 +183,21 @@ static void pl_move(locd_scene *s, su_world *w, su_obj *o, double step)
     memcpy(o->box, b, sizeof b);
 }
 
+/* Moves `count` of the model's objects (every 13th, from the second) to
+ * new random boxes, never where they were: they leave their fat boxes. */
+static void pl_jump(locd_scene *s, su_world *w, su_model *m, size_t count)
+{
+    double b[6];
+    size_t k;
+    for (k = 0; k < count; k++) {
+        su_obj *mo = &m->o[(k * 13 + 1) % m->n];
+        pl_box(w, b);
+        b[0] += 0.01, b[3] += 0.01;
+        TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s, &mo->id, b, 1));
+        memcpy(mo->box, b, sizeof b);
+    }
+}
+
 /* The partner lists through their life: objects moving a little each frame
  * take their pairs from their lists (stats.coasted); a frame where most
  * moved objects leave their fat boxes drops the lists (every moved object
@@ -225,13 +240,7 @@ static void partner_lists_come_and_go(void)
         if (teleport) {
             /* more leave their fat boxes than stay, at least LC_ADJ_MIN_LEFT
                (1,024), under 8% of the objects: lists dropped, incremental */
-            for (k = 0; k < 1100; k++) {
-                su_obj *mo = &m.o[(k * 13 + 1) % m.n];
-                pl_box(&w, b);
-                b[0] += 0.01, b[3] += 0.01; /* never where it was */
-                TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s, &mo->id, b, 1));
-                memcpy(mo->box, b, sizeof b);
-            }
+            pl_jump(s, &w, &m, 1100);
             for (k = 0; k < 100; k++)
                 pl_move(s, &w, &m.o[(k * 13 + 7) % m.n], 0.002);
         } else {
@@ -292,7 +301,7 @@ static void small_scene_drops_its_lists_when_most_jump(void)
     locd_scene *s = NULL;
     locd_scene_stats st;
     double b[6];
-    size_t i, k;
+    size_t i;
     int frame;
     memset(&m, 0, sizeof m);
     TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_create(e, NULL, &s));
@@ -307,13 +316,7 @@ static void small_scene_drops_its_lists_when_most_jump(void)
         /* frames 6 and 12: 5% and 10% of the objects jump; the others: 2% move a little */
         const size_t jump = frame == 6 ? n / 20 : frame == 12 ? n / 10 : 0;
         size_t moved = 0;
-        for (k = 0; k < jump; k++) {
-            su_obj *mo = &m.o[(k * 13 + 1) % m.n];
-            pl_box(&w, b);
-            b[0] += 0.01, b[3] += 0.01; /* never where it was */
-            TEST_ASSERT_EQUAL_INT(LOCD_OK, locd_scene_move_f64(s, &mo->id, b, 1));
-            memcpy(mo->box, b, sizeof b);
-        }
+        pl_jump(s, &w, &m, jump);
         if (!jump)
             for (i = (size_t)frame % 50; i < m.n; i += 50, moved++)
                 pl_move(s, &w, &m.o[i], 0.002);

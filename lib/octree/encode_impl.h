@@ -137,7 +137,7 @@ LC_AVX512 static size_t LC_FN(encode_avx512_)(const locd_grid *g, const LC_T *bo
         }
         lv = level_of8(q, g->cell_bias, depth, limit);
         sh = _mm256_sub_epi32(_mm256_set1_epi32(LC_QBITS), lv);
-        for (a = 0; a < 3; a++) { /* d is 0 or 1: lc_grid_check keeps the bias >= 0 */
+        for (a = 0; a < 3; a++) { /* d is 0 or 1: the cell edge is above the largest extent (lc_level_of) */
             c0[a] = _mm256_srlv_epi32(q[a], sh);
             d[a] = _mm256_sub_epi32(_mm256_srlv_epi32(q[a + 3], sh), c0[a]);
             m0[a] = _mm512_slli_epi64(spread3x8(c0[a]), a);
@@ -207,7 +207,7 @@ LC_AVX2_ENCODE static size_t LC_FN(encode_avx2_)(const locd_grid *g, const LC_T 
         }
         lv = level_of4(q, bias, depth, limit);
         sh = _mm_sub_epi32(_mm_set1_epi32(LC_QBITS), lv);
-        for (a = 0; a < 3; a++) { /* d is 0 or 1: lc_grid_check keeps the bias >= 0 */
+        for (a = 0; a < 3; a++) { /* d is 0 or 1: the cell edge is above the largest extent (lc_level_of) */
             __m256i sp, next, has;
             c0[a] = _mm_srlv_epi32(q[a], sh);
             d[a] = _mm_sub_epi32(_mm_srlv_epi32(q[a + 3], sh), c0[a]);
