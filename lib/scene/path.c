@@ -48,8 +48,8 @@
  * that left are over LC_SCRATCH_SHARE of the objects: an update whose
  * moved objects all search costs more than one from scratch there, and
  * the lists are what kept it incremental (a small scene, whose updates
- * never move 1024 objects: at 10^3 and 10^4 cubes, 10% of them moved by a
- * tenth of their edge, the update cost 1.3-1.7 times a rebuild with them,
+ * never move 1024 objects: at 10^3 cubes, 10% of them moved by a tenth of
+ * their edge, the update cost 1.6-1.7 times a rebuild with them,
  * `bench_scene SCENE --moving 0.1`). */
 #define LC_PARTNERS_MIN_LEFT 1024
 /* Partner lists are built again (at the end of an incremental update)
@@ -58,9 +58,15 @@
 #define LC_CALM_UPDATES 4
 #define LC_CALM_TENTHS 9
 
+/* More than `share` of the live objects, and more than LC_PATH_MIN_MOVED. */
+LC_INLINE int count_over(size_t count, size_t live, double share)
+{
+    return (double)count > share * (double)live && count > LC_PATH_MIN_MOVED;
+}
+
 LC_INLINE int moved_over(const lc_path_facts *f, double share)
 {
-    return (double)f->moved > share * (double)f->live && f->moved > LC_PATH_MIN_MOVED;
+    return count_over(f->moved, f->live, share);
 }
 
 /* Most objects moved: the near-pair list's updates. */
@@ -126,8 +132,7 @@ lc_path lc_path_choose(const lc_path_facts *f)
 
 int lc_path_partners_go(size_t left, size_t stayed, size_t live)
 {
-    return left > stayed && (left >= LC_PARTNERS_MIN_LEFT ||
-                             (left > LC_PATH_MIN_MOVED && (double)left > LC_SCRATCH_SHARE * (double)live));
+    return left > stayed && (left >= LC_PARTNERS_MIN_LEFT || count_over(left, live, LC_SCRATCH_SHARE));
 }
 
 /* A wait doubled after a cache that did not pay for itself. */
