@@ -27,10 +27,12 @@ typedef struct lc_seg {
     uint32_t level;
 } lc_seg;
 
-/* Column views of the candidate records. */
+/* Column views of the candidate records, and a column of scratch for one
+ * scan: the objects of its candidates whose ends tie (see emit_ties). */
 typedef struct lc_cols {
     int32_t *lo[3], *hi[3];
     uint32_t *idx;
+    uint32_t *tie;
 } lc_cols;
 
 /* One entry being tested against its candidates. */
@@ -53,6 +55,7 @@ typedef size_t (*lc_scan_fn)(const lc_scan *sc, size_t first, size_t end, uint32
 #define LC_PAD 16
 #define LC_PAIR_SLACK 16
 #define LC_STRIDE(cap) ((cap) + LC_PAD)
+#define LC_COLS 8 /* lo xyz, hi xyz, index; the ties' scratch (not copied on growth) */
 
 static void cols_of(const lc_sweep_out *o, lc_cols *c)
 {
@@ -63,6 +66,7 @@ static void cols_of(const lc_sweep_out *o, lc_cols *c)
         c->hi[a] = o->cand + (size_t)(a + 3) * stride;
     }
     c->idx = (uint32_t *)(o->cand + 6 * stride);
+    c->tie = (uint32_t *)(o->cand + 7 * stride);
 }
 
 /* Grows the record columns to hold `need` records, keeping [0, used). */
@@ -76,16 +80,16 @@ static locd_status cand_reserve(lc_sweep_out *o, size_t used, size_t need)
         cap = need;
     if (cap < 256)
         cap = 256;
-    if (!lc_mul_size(LC_STRIDE(cap), 7 * sizeof(int32_t), &bytes))
+    if (!lc_mul_size(LC_STRIDE(cap), LC_COLS * sizeof(int32_t), &bytes))
         return lc_error(LOCD_ERR_NO_MEMORY, "candidate list of %zu records overflows size_t", cap);
     block = lc_alloc(o->alloc, bytes);
     if (!block)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate %zu bytes for candidates", bytes);
     memset(block, 0, bytes); /* padding lanes are read, never used: keep them defined */
-    for (col = 0; col < 7 && used; col++)
+    for (col = 0; col < LC_COLS - 1 && used; col++)
         memcpy(block + col * LC_STRIDE(cap), o->cand + col * LC_STRIDE(o->cand_cap), used * sizeof(int32_t));
     if (o->cand)
-        lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * 7 * sizeof(int32_t));
+        lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * LC_COLS * sizeof(int32_t));
     o->cand = block;
     o->cand_cap = cap;
     return LOCD_OK;
@@ -491,8 +495,8 @@ LC_INLINE int lc_descends(uint64_t next, uint64_t pm, uint32_t level, uint32_t d
 }
 
 /* The closed box test on the original coordinates, for the scalar and
- * NEON scans (emit_if_canonical; the AVX2 loops use exact_meets_avx2, one
- * vector compare). Inlined, so it is compiled for the caller's target:
+ * NEON scans (emit_ties; the AVX2 loops use exact_meets_avx2, one vector
+ * compare). Inlined, so it is compiled for the caller's target:
  * called from an AVX2 or AVX-512 loop as a separate SSE-encoded function
  * (before those loops had a test of their own), it ran with the
  * vector registers' upper halves dirty (no vzeroupper there), and the
@@ -511,9 +515,19 @@ LC_INLINE int exact_overlap(const void *boxes, int f64, uint32_t i, uint32_t j)
     }
 }
 
-/* Candidate r passed the quantized reject test: report it if this cell is
- * the pair's canonical cell and the boxes really overlap. */
-LC_INLINE size_t emit_if_canonical(const lc_scan *sc, size_t r, uint32_t *pairs, size_t np, uint64_t *exact)
+/* Pair (j, the entry) at pairs[np], smaller object first. */
+LC_INLINE void put_pair(uint32_t *pairs, size_t np, uint32_t j, uint32_t me)
+{
+    pairs[2 * np] = j < me ? j : me;
+    pairs[2 * np + 1] = j < me ? me : j;
+}
+
+/* Candidate r passed the quantized reject test: reports it if this cell is
+ * the pair's canonical cell and the boxes overlap strictly inside each
+ * other's quantized range (the quantization is monotone, so they overlap);
+ * equal quantized ends are a tie, whose object goes to the tie column at
+ * *nt for the exact test (emit_ties). */
+LC_INLINE size_t emit_if_canonical(const lc_scan *sc, size_t r, uint32_t *pairs, size_t np, size_t *nt)
 {
     const int32_t l0 = sc->c.lo[0][r], l1 = sc->c.lo[1][r], l2 = sc->c.lo[2][r];
     const int32_t h0 = sc->c.hi[0][r], h1 = sc->c.hi[1][r], h2 = sc->c.hi[2][r];
@@ -524,29 +538,44 @@ LC_INLINE size_t emit_if_canonical(const lc_scan *sc, size_t r, uint32_t *pairs,
         return np; /* two sets: both objects in the same one */
     if (((m0 >> sc->s) != sc->cell[0]) | ((m1 >> sc->s) != sc->cell[1]) | ((m2 >> sc->s) != sc->cell[2]))
         return np; /* reported in another cell */
-    /* Strictly inside each other's quantized range: the quantization is
-       monotone, so the boxes overlap. Equal ends need the exact test. */
     if (!((h0 > sc->lo[0]) & (sc->hi[0] > l0) & (h1 > sc->lo[1]) & (sc->hi[1] > l1) & (h2 > sc->lo[2]) &
           (sc->hi[2] > l2))) {
-        ++*exact;
-        if (!exact_overlap(sc->boxes, sc->f64, sc->idx, j))
-            return np;
+        sc->c.tie[(*nt)++] = j;
+        return np;
     }
-    pairs[2 * np] = j < sc->idx ? j : sc->idx;
-    pairs[2 * np + 1] = j < sc->idx ? sc->idx : j;
+    put_pair(pairs, np, j, sc->idx);
     return np + 1;
+}
+
+/* The end of a scan of candidates [first, end): its ties (tie[0, nt), in
+ * record order) after its other pairs, each kept if the boxes meet on the
+ * original coordinates. Every kernel orders a scan's pairs so, hence the
+ * same bytes from each. A real mesh's neighbours share vertices, so most
+ * of its pairs tie: tested one by one behind a branch per block of
+ * candidates, they took half of the sweep on the triangle meshes
+ * (bench/results/kernels_notes.md, "Ties at the end of a scan"). */
+LC_INLINE size_t emit_ties(const lc_scan *sc, size_t nt, uint32_t *pairs, size_t np, uint64_t *exact)
+{
+    size_t i;
+    *exact += nt;
+    for (i = 0; i < nt; i++) {
+        const uint32_t j = sc->c.tie[i];
+        put_pair(pairs, np, j, sc->idx);
+        np += (size_t)exact_overlap(sc->boxes, sc->f64, sc->idx, j);
+    }
+    return np;
 }
 
 static size_t scan_scalar(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np, uint64_t *exact)
 {
-    size_t r;
+    size_t r, nt = 0;
     for (r = first; r < end; r++) {
         if ((sc->c.hi[0][r] < sc->lo[0]) | (sc->hi[0] < sc->c.lo[0][r]) | (sc->c.hi[1][r] < sc->lo[1]) |
             (sc->hi[1] < sc->c.lo[1][r]) | (sc->c.hi[2][r] < sc->lo[2]) | (sc->hi[2] < sc->c.lo[2][r]))
             continue;
-        np = emit_if_canonical(sc, r, pairs, np, exact);
+        np = emit_if_canonical(sc, r, pairs, np, &nt);
     }
-    return np;
+    return emit_ties(sc, nt, pairs, np, exact);
 }
 
 #ifdef LC_HAVE_AVX2_KERNEL
@@ -625,19 +654,24 @@ LC_AVX2 LC_INLINE int exact_meets_avx2(const lc_exact_ref *ref, const void *boxe
     }
 }
 
-/* Clears the lanes of `weak` in m whose objects' boxes miss me's (the
- * exact test of quantized ends that are equal); counts the tests. */
-LC_AVX2 LC_INLINE unsigned exact_lanes_avx2(const lc_scan *sc, int f64, const uint32_t *J, unsigned m, unsigned weak,
-                                            uint64_t *exact)
+/* emit_ties with the vector test; a tie of two sets' query is dropped here
+ * when both objects are in one set. */
+LC_AVX2 LC_INLINE size_t emit_ties_avx2(const lc_scan *sc, int f64, size_t nt, uint32_t *pairs, size_t np,
+                                        uint64_t *exact)
 {
+    const uint32_t me = sc->idx, split = sc->split;
     lc_exact_ref ref;
-    exact_ref_avx2(&ref, sc->boxes, f64, sc->idx);
-    *exact += (uint64_t)__builtin_popcount(weak);
-    for (; weak; weak &= weak - 1) {
-        const unsigned lane = (unsigned)__builtin_ctz(weak);
-        m &= ~((unsigned)!exact_meets_avx2(&ref, sc->boxes, f64, J[lane]) << lane);
+    size_t i;
+    if (!nt) /* (no load of me's box, a likely miss, for a scan with none) */
+        return np;
+    exact_ref_avx2(&ref, sc->boxes, f64, me);
+    *exact += nt;
+    for (i = 0; i < nt; i++) {
+        const uint32_t j = sc->c.tie[i];
+        put_pair(pairs, np, j, me);
+        np += (size_t)(exact_meets_avx2(&ref, sc->boxes, f64, j) & (!split || (j < split) != (me < split)));
     }
-    return m;
+    return np;
 }
 
 /* Inlined into the AVX2 main loop (sweep_range_*_avx2), whose runs of
@@ -659,8 +693,9 @@ LC_AVX2 LC_INLINE size_t scan_avx2_of(const lc_scan *sc, size_t first, size_t en
                   cz = _mm256_set1_epi32(sc->cell[2]);
     const __m128i sh = _mm_cvtsi32_si128((int)sc->s);
     const __m256i mev = _mm256_set1_epi32((int)me);
-    size_t r;
+    size_t r, nt = 0;
     for (r = first; r < end; r += 8) {
+        const __m256i Jv = _mm256_loadu_si256((const __m256i *)(J + r));
         const __m256i L0 = _mm256_loadu_si256((const __m256i *)(X0 + r)),
                       H0 = _mm256_loadu_si256((const __m256i *)(X1 + r));
         const __m256i L1 = _mm256_loadu_si256((const __m256i *)(Y0 + r)),
@@ -687,7 +722,7 @@ LC_AVX2 LC_INLINE size_t scan_avx2_of(const lc_scan *sc, size_t first, size_t en
                                  _mm256_cmpeq_epi32(_mm256_sra_epi32(_mm256_max_epi32(L1, lo1), sh), cy)),
                 _mm256_cmpeq_epi32(_mm256_sra_epi32(_mm256_max_epi32(L2, lo2), sh), cz));
             /* Strictly inside each other's quantized range: a true overlap.
-               Equal ends need the exact test. */
+               Equal ends tie: the exact test at the scan's end. */
             const __m256i strict = _mm256_and_si256(
                 _mm256_and_si256(_mm256_and_si256(_mm256_cmpgt_epi32(H0, lo0), _mm256_cmpgt_epi32(hi0, L0)),
                                  _mm256_and_si256(_mm256_cmpgt_epi32(H1, lo1), _mm256_cmpgt_epi32(hi1, L1))),
@@ -695,22 +730,25 @@ LC_AVX2 LC_INLINE size_t scan_avx2_of(const lc_scan *sc, size_t first, size_t en
             m &= (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(canon));
             weak = m & ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(strict));
         }
-        if (weak)
-            m = exact_lanes_avx2(sc, f64, J + r, m, weak, exact);
+        /* The ties' objects to the tie column (emit_ties_avx2), no branch:
+           a block's ties came and went with no pattern on the meshes. */
+        _mm256_storeu_si256((__m256i *)(sc->c.tie + nt),
+                            _mm256_permutevar8x32_epi32(
+                                Jv, _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(lc_compress8 + weak)))));
+        nt += (size_t)__builtin_popcount(weak);
+        m &= ~weak;
         if (!split) { /* every lane left is a pair: written in lane order, no loop */
-            np = store_pairs_avx2(pairs, np, _mm256_loadu_si256((const __m256i *)(J + r)), mev, m);
+            np = store_pairs_avx2(pairs, np, Jv, mev, m);
             continue;
         }
         for (; m; m &= m - 1) { /* in lane order, as the scalar path */
             const uint32_t j = J[r + (unsigned)__builtin_ctz(m)];
             if ((j < split) == (me < split))
                 continue; /* two sets: both objects in the same one */
-            pairs[2 * np] = j < me ? j : me;
-            pairs[2 * np + 1] = j < me ? me : j;
-            np++;
+            put_pair(pairs, np++, j, me);
         }
     }
-    return np;
+    return emit_ties_avx2(sc, f64, nt, pairs, np, exact);
 }
 
 /* scan_avx2_of as an lc_scan_fn (the precision from sc). */
@@ -978,7 +1016,7 @@ void lc_sweep_out_fini(lc_sweep_out *o)
     lc_buf_release(o->alloc, &o->pairs, sizeof(uint32_t));
     lc_buf_release(o->alloc, &o->group, sizeof(uint64_t));
     if (o->cand)
-        lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * 7 * sizeof(int32_t));
+        lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * LC_COLS * sizeof(int32_t));
     o->cand = NULL;
     o->cand_cap = 0;
 }
