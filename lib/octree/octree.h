@@ -208,7 +208,7 @@ typedef struct lc_sweep_out {
     lc_buf pairs; /* uint32, two per pair */
     int pairs_lent; /* pairs.data is the caller's memory (see lc_sweep_out_lend) */
     size_t count; /* pairs */
-    int32_t *cand;   /* candidate records, 8 columns of cand_cap: lo xyz, hi xyz, index, ties (sweep.c) */
+    int32_t *cand;   /* candidate records, 7 columns of cand_cap: lo xyz, hi xyz, index */
     size_t cand_cap;
     int kernel;           /* LC_KERNEL_*, fixed at init */
     void (*filter)(void); /* the segment filter for that kernel (sweep.c casts it back) */

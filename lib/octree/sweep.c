@@ -27,13 +27,19 @@ typedef struct lc_seg {
     uint32_t level;
 } lc_seg;
 
-/* Column views of the candidate records, and a column of scratch for one
- * scan: the objects of its candidates whose ends tie (see emit_ties). */
+/* Column views of the candidate records. */
 typedef struct lc_cols {
     int32_t *lo[3], *hi[3];
     uint32_t *idx;
-    uint32_t *tie;
 } lc_cols;
+
+/* The ties an AVX2 scan wrote as pairs before their exact test: their
+ * places in the pair array, as offsets from pair `base` (ties_flush). */
+#define LC_TIES 1024
+typedef struct lc_ties {
+    size_t base, n;
+    uint32_t pos[LC_TIES + 8]; /* room for one more block's 8 */
+} lc_ties;
 
 /* One entry being tested against its candidates. */
 typedef struct lc_scan {
@@ -45,6 +51,7 @@ typedef struct lc_scan {
     const void *boxes;
     int f64;
     uint32_t split; /* lc_sweep_out's: 0, or the first object of set b */
+    lc_ties *ties;  /* the sweep's (its state's) */
 } lc_scan;
 
 typedef size_t (*lc_scan_fn)(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np,
@@ -55,7 +62,6 @@ typedef size_t (*lc_scan_fn)(const lc_scan *sc, size_t first, size_t end, uint32
 #define LC_PAD 16
 #define LC_PAIR_SLACK 16
 #define LC_STRIDE(cap) ((cap) + LC_PAD)
-#define LC_COLS 8 /* lo xyz, hi xyz, index; the ties' scratch (not copied on growth) */
 
 static void cols_of(const lc_sweep_out *o, lc_cols *c)
 {
@@ -66,7 +72,6 @@ static void cols_of(const lc_sweep_out *o, lc_cols *c)
         c->hi[a] = o->cand + (size_t)(a + 3) * stride;
     }
     c->idx = (uint32_t *)(o->cand + 6 * stride);
-    c->tie = (uint32_t *)(o->cand + 7 * stride);
 }
 
 /* Grows the record columns to hold `need` records, keeping [0, used). */
@@ -80,16 +85,16 @@ static locd_status cand_reserve(lc_sweep_out *o, size_t used, size_t need)
         cap = need;
     if (cap < 256)
         cap = 256;
-    if (!lc_mul_size(LC_STRIDE(cap), LC_COLS * sizeof(int32_t), &bytes))
+    if (!lc_mul_size(LC_STRIDE(cap), 7 * sizeof(int32_t), &bytes))
         return lc_error(LOCD_ERR_NO_MEMORY, "candidate list of %zu records overflows size_t", cap);
     block = lc_alloc(o->alloc, bytes);
     if (!block)
         return lc_error(LOCD_ERR_NO_MEMORY, "could not allocate %zu bytes for candidates", bytes);
     memset(block, 0, bytes); /* padding lanes are read, never used: keep them defined */
-    for (col = 0; col < LC_COLS - 1 && used; col++)
+    for (col = 0; col < 7 && used; col++)
         memcpy(block + col * LC_STRIDE(cap), o->cand + col * LC_STRIDE(o->cand_cap), used * sizeof(int32_t));
     if (o->cand)
-        lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * LC_COLS * sizeof(int32_t));
+        lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * 7 * sizeof(int32_t));
     o->cand = block;
     o->cand_cap = cap;
     return LOCD_OK;
@@ -373,6 +378,75 @@ static const uint64_t lc_compress8[256] = {
     0x0000070605040302ull, 0x0007060504030200ull, 0x0007060504030201ull, 0x0706050403020100ull,
 };
 
+/* Byte k of entry m: how many lanes below lane k are set in m, the place
+ * of lane k's pair among those a block writes (store_pairs_avx2). */
+static const uint64_t lc_rank8[256] = {
+    0x0000000000000000ull, 0x0101010101010100ull, 0x0101010101010000ull, 0x0202020202020100ull,
+    0x0101010101000000ull, 0x0202020202010100ull, 0x0202020202010000ull, 0x0303030303020100ull,
+    0x0101010100000000ull, 0x0202020201010100ull, 0x0202020201010000ull, 0x0303030302020100ull,
+    0x0202020201000000ull, 0x0303030302010100ull, 0x0303030302010000ull, 0x0404040403020100ull,
+    0x0101010000000000ull, 0x0202020101010100ull, 0x0202020101010000ull, 0x0303030202020100ull,
+    0x0202020101000000ull, 0x0303030202010100ull, 0x0303030202010000ull, 0x0404040303020100ull,
+    0x0202020100000000ull, 0x0303030201010100ull, 0x0303030201010000ull, 0x0404040302020100ull,
+    0x0303030201000000ull, 0x0404040302010100ull, 0x0404040302010000ull, 0x0505050403020100ull,
+    0x0101000000000000ull, 0x0202010101010100ull, 0x0202010101010000ull, 0x0303020202020100ull,
+    0x0202010101000000ull, 0x0303020202010100ull, 0x0303020202010000ull, 0x0404030303020100ull,
+    0x0202010100000000ull, 0x0303020201010100ull, 0x0303020201010000ull, 0x0404030302020100ull,
+    0x0303020201000000ull, 0x0404030302010100ull, 0x0404030302010000ull, 0x0505040403020100ull,
+    0x0202010000000000ull, 0x0303020101010100ull, 0x0303020101010000ull, 0x0404030202020100ull,
+    0x0303020101000000ull, 0x0404030202010100ull, 0x0404030202010000ull, 0x0505040303020100ull,
+    0x0303020100000000ull, 0x0404030201010100ull, 0x0404030201010000ull, 0x0505040302020100ull,
+    0x0404030201000000ull, 0x0505040302010100ull, 0x0505040302010000ull, 0x0606050403020100ull,
+    0x0100000000000000ull, 0x0201010101010100ull, 0x0201010101010000ull, 0x0302020202020100ull,
+    0x0201010101000000ull, 0x0302020202010100ull, 0x0302020202010000ull, 0x0403030303020100ull,
+    0x0201010100000000ull, 0x0302020201010100ull, 0x0302020201010000ull, 0x0403030302020100ull,
+    0x0302020201000000ull, 0x0403030302010100ull, 0x0403030302010000ull, 0x0504040403020100ull,
+    0x0201010000000000ull, 0x0302020101010100ull, 0x0302020101010000ull, 0x0403030202020100ull,
+    0x0302020101000000ull, 0x0403030202010100ull, 0x0403030202010000ull, 0x0504040303020100ull,
+    0x0302020100000000ull, 0x0403030201010100ull, 0x0403030201010000ull, 0x0504040302020100ull,
+    0x0403030201000000ull, 0x0504040302010100ull, 0x0504040302010000ull, 0x0605050403020100ull,
+    0x0201000000000000ull, 0x0302010101010100ull, 0x0302010101010000ull, 0x0403020202020100ull,
+    0x0302010101000000ull, 0x0403020202010100ull, 0x0403020202010000ull, 0x0504030303020100ull,
+    0x0302010100000000ull, 0x0403020201010100ull, 0x0403020201010000ull, 0x0504030302020100ull,
+    0x0403020201000000ull, 0x0504030302010100ull, 0x0504030302010000ull, 0x0605040403020100ull,
+    0x0302010000000000ull, 0x0403020101010100ull, 0x0403020101010000ull, 0x0504030202020100ull,
+    0x0403020101000000ull, 0x0504030202010100ull, 0x0504030202010000ull, 0x0605040303020100ull,
+    0x0403020100000000ull, 0x0504030201010100ull, 0x0504030201010000ull, 0x0605040302020100ull,
+    0x0504030201000000ull, 0x0605040302010100ull, 0x0605040302010000ull, 0x0706050403020100ull,
+    0x0000000000000000ull, 0x0101010101010100ull, 0x0101010101010000ull, 0x0202020202020100ull,
+    0x0101010101000000ull, 0x0202020202010100ull, 0x0202020202010000ull, 0x0303030303020100ull,
+    0x0101010100000000ull, 0x0202020201010100ull, 0x0202020201010000ull, 0x0303030302020100ull,
+    0x0202020201000000ull, 0x0303030302010100ull, 0x0303030302010000ull, 0x0404040403020100ull,
+    0x0101010000000000ull, 0x0202020101010100ull, 0x0202020101010000ull, 0x0303030202020100ull,
+    0x0202020101000000ull, 0x0303030202010100ull, 0x0303030202010000ull, 0x0404040303020100ull,
+    0x0202020100000000ull, 0x0303030201010100ull, 0x0303030201010000ull, 0x0404040302020100ull,
+    0x0303030201000000ull, 0x0404040302010100ull, 0x0404040302010000ull, 0x0505050403020100ull,
+    0x0101000000000000ull, 0x0202010101010100ull, 0x0202010101010000ull, 0x0303020202020100ull,
+    0x0202010101000000ull, 0x0303020202010100ull, 0x0303020202010000ull, 0x0404030303020100ull,
+    0x0202010100000000ull, 0x0303020201010100ull, 0x0303020201010000ull, 0x0404030302020100ull,
+    0x0303020201000000ull, 0x0404030302010100ull, 0x0404030302010000ull, 0x0505040403020100ull,
+    0x0202010000000000ull, 0x0303020101010100ull, 0x0303020101010000ull, 0x0404030202020100ull,
+    0x0303020101000000ull, 0x0404030202010100ull, 0x0404030202010000ull, 0x0505040303020100ull,
+    0x0303020100000000ull, 0x0404030201010100ull, 0x0404030201010000ull, 0x0505040302020100ull,
+    0x0404030201000000ull, 0x0505040302010100ull, 0x0505040302010000ull, 0x0606050403020100ull,
+    0x0100000000000000ull, 0x0201010101010100ull, 0x0201010101010000ull, 0x0302020202020100ull,
+    0x0201010101000000ull, 0x0302020202010100ull, 0x0302020202010000ull, 0x0403030303020100ull,
+    0x0201010100000000ull, 0x0302020201010100ull, 0x0302020201010000ull, 0x0403030302020100ull,
+    0x0302020201000000ull, 0x0403030302010100ull, 0x0403030302010000ull, 0x0504040403020100ull,
+    0x0201010000000000ull, 0x0302020101010100ull, 0x0302020101010000ull, 0x0403030202020100ull,
+    0x0302020101000000ull, 0x0403030202010100ull, 0x0403030202010000ull, 0x0504040303020100ull,
+    0x0302020100000000ull, 0x0403030201010100ull, 0x0403030201010000ull, 0x0504040302020100ull,
+    0x0403030201000000ull, 0x0504040302010100ull, 0x0504040302010000ull, 0x0605050403020100ull,
+    0x0201000000000000ull, 0x0302010101010100ull, 0x0302010101010000ull, 0x0403020202020100ull,
+    0x0302010101000000ull, 0x0403020202010100ull, 0x0403020202010000ull, 0x0504030303020100ull,
+    0x0302010100000000ull, 0x0403020201010100ull, 0x0403020201010000ull, 0x0504030302020100ull,
+    0x0403020201000000ull, 0x0504030302010100ull, 0x0504030302010000ull, 0x0605040403020100ull,
+    0x0302010000000000ull, 0x0403020101010100ull, 0x0403020101010000ull, 0x0504030202020100ull,
+    0x0403020101000000ull, 0x0504030202010100ull, 0x0504030202010000ull, 0x0605040303020100ull,
+    0x0403020100000000ull, 0x0504030201010100ull, 0x0504030201010000ull, 0x0605040302020100ull,
+    0x0504030201000000ull, 0x0605040302010100ull, 0x0605040302010000ull, 0x0706050403020100ull,
+};
+
 /* Lanes of records r..r+7 whose box overlaps [lo, hi] (closed). */
 __attribute__((target("avx2"))) LC_INLINE unsigned overlap8(const lc_cols *c, size_t r, __m256i lo0, __m256i lo1,
                                                             __m256i lo2, __m256i hi0, __m256i hi1, __m256i hi2)
@@ -495,8 +569,8 @@ LC_INLINE int lc_descends(uint64_t next, uint64_t pm, uint32_t level, uint32_t d
 }
 
 /* The closed box test on the original coordinates, for the scalar and
- * NEON scans (emit_ties; the AVX2 loops use exact_meets_avx2, one vector
- * compare). Inlined, so it is compiled for the caller's target:
+ * NEON scans (emit_if_canonical; the AVX2 loops use exact_meets_avx2, one
+ * vector compare). Inlined, so it is compiled for the caller's target:
  * called from an AVX2 or AVX-512 loop as a separate SSE-encoded function
  * (before those loops had a test of their own), it ran with the
  * vector registers' upper halves dirty (no vzeroupper there), and the
@@ -508,26 +582,48 @@ LC_INLINE int exact_overlap(const void *boxes, int f64, uint32_t i, uint32_t j)
 {
     if (f64) {
         const double *a = (const double *)boxes + 6 * (size_t)i, *b = (const double *)boxes + 6 * (size_t)j;
-        return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+        return (a[0] <= b[3]) & (b[0] <= a[3]) & (a[1] <= b[4]) & (b[1] <= a[4]) & (a[2] <= b[5]) & (b[2] <= a[5]);
     } else {
         const float *a = (const float *)boxes + 6 * (size_t)i, *b = (const float *)boxes + 6 * (size_t)j;
-        return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
+        return (a[0] <= b[3]) & (b[0] <= a[3]) & (a[1] <= b[4]) & (b[1] <= a[4]) & (a[2] <= b[5]) & (b[2] <= a[5]);
     }
 }
 
-/* Pair (j, the entry) at pairs[np], smaller object first. */
-LC_INLINE void put_pair(uint32_t *pairs, size_t np, uint32_t j, uint32_t me)
+/* Tests the ties written as pairs (t), drops the pairs whose boxes miss
+ * and returns the new count. Dropping leaves the others in order, so the
+ * pairs are those, in the order, that a test of each tie where it was
+ * found gives (the scalar kernel's). A real mesh's neighbours share
+ * vertices, so most of its pairs tie, and nearly all of them meet: tested
+ * where found, behind a branch per block of 8 that went either way with no
+ * pattern, they took half of the sweep on the triangle meshes
+ * (bench/results/kernels_notes.md, "Ties tested after their pairs"). */
+LC_INLINE size_t ties_flush(lc_ties *t, const void *boxes, int f64, uint32_t *pairs, size_t np, uint64_t *exact)
 {
-    pairs[2 * np] = j < me ? j : me;
-    pairs[2 * np + 1] = j < me ? me : j;
+    size_t k, f, nf = 0, w;
+    *exact += t->n;
+    for (k = 0; k < t->n; k++) { /* the misses' offsets to the front of pos */
+        const size_t p = t->base + t->pos[k];
+        const int meet = exact_overlap(boxes, f64, pairs[2 * p], pairs[2 * p + 1]);
+        t->pos[nf] = t->pos[k];
+        nf += (size_t)!meet;
+    }
+    if (nf) { /* close the gaps */
+        w = t->base + t->pos[0];
+        for (f = 0; f < nf; f++) {
+            const size_t from = t->base + t->pos[f] + 1, to = f + 1 < nf ? t->base + t->pos[f + 1] : np;
+            memmove(pairs + 2 * w, pairs + 2 * from, (to - from) * 2 * sizeof *pairs);
+            w += to - from;
+        }
+        np = w;
+    }
+    t->n = 0;
+    t->base = np;
+    return np;
 }
 
-/* Candidate r passed the quantized reject test: reports it if this cell is
- * the pair's canonical cell and the boxes overlap strictly inside each
- * other's quantized range (the quantization is monotone, so they overlap);
- * equal quantized ends are a tie, whose object goes to the tie column at
- * *nt for the exact test (emit_ties). */
-LC_INLINE size_t emit_if_canonical(const lc_scan *sc, size_t r, uint32_t *pairs, size_t np, size_t *nt)
+/* Candidate r passed the quantized reject test: report it if this cell is
+ * the pair's canonical cell and the boxes really overlap. */
+LC_INLINE size_t emit_if_canonical(const lc_scan *sc, size_t r, uint32_t *pairs, size_t np, uint64_t *exact)
 {
     const int32_t l0 = sc->c.lo[0][r], l1 = sc->c.lo[1][r], l2 = sc->c.lo[2][r];
     const int32_t h0 = sc->c.hi[0][r], h1 = sc->c.hi[1][r], h2 = sc->c.hi[2][r];
@@ -538,44 +634,29 @@ LC_INLINE size_t emit_if_canonical(const lc_scan *sc, size_t r, uint32_t *pairs,
         return np; /* two sets: both objects in the same one */
     if (((m0 >> sc->s) != sc->cell[0]) | ((m1 >> sc->s) != sc->cell[1]) | ((m2 >> sc->s) != sc->cell[2]))
         return np; /* reported in another cell */
+    /* Strictly inside each other's quantized range: the quantization is
+       monotone, so the boxes overlap. Equal ends need the exact test. */
     if (!((h0 > sc->lo[0]) & (sc->hi[0] > l0) & (h1 > sc->lo[1]) & (sc->hi[1] > l1) & (h2 > sc->lo[2]) &
           (sc->hi[2] > l2))) {
-        sc->c.tie[(*nt)++] = j;
-        return np;
+        ++*exact;
+        if (!exact_overlap(sc->boxes, sc->f64, sc->idx, j))
+            return np;
     }
-    put_pair(pairs, np, j, sc->idx);
+    pairs[2 * np] = j < sc->idx ? j : sc->idx;
+    pairs[2 * np + 1] = j < sc->idx ? sc->idx : j;
     return np + 1;
-}
-
-/* The end of a scan of candidates [first, end): its ties (tie[0, nt), in
- * record order) after its other pairs, each kept if the boxes meet on the
- * original coordinates. Every kernel orders a scan's pairs so, hence the
- * same bytes from each. A real mesh's neighbours share vertices, so most
- * of its pairs tie: tested one by one behind a branch per block of
- * candidates, they took half of the sweep on the triangle meshes
- * (bench/results/kernels_notes.md, "Ties at the end of a scan"). */
-LC_INLINE size_t emit_ties(const lc_scan *sc, size_t nt, uint32_t *pairs, size_t np, uint64_t *exact)
-{
-    size_t i;
-    *exact += nt;
-    for (i = 0; i < nt; i++) {
-        const uint32_t j = sc->c.tie[i];
-        put_pair(pairs, np, j, sc->idx);
-        np += (size_t)exact_overlap(sc->boxes, sc->f64, sc->idx, j);
-    }
-    return np;
 }
 
 static size_t scan_scalar(const lc_scan *sc, size_t first, size_t end, uint32_t *pairs, size_t np, uint64_t *exact)
 {
-    size_t r, nt = 0;
+    size_t r;
     for (r = first; r < end; r++) {
         if ((sc->c.hi[0][r] < sc->lo[0]) | (sc->hi[0] < sc->c.lo[0][r]) | (sc->c.hi[1][r] < sc->lo[1]) |
             (sc->hi[1] < sc->c.lo[1][r]) | (sc->c.hi[2][r] < sc->lo[2]) | (sc->hi[2] < sc->c.lo[2][r]))
             continue;
-        np = emit_if_canonical(sc, r, pairs, np, &nt);
+        np = emit_if_canonical(sc, r, pairs, np, exact);
     }
-    return emit_ties(sc, nt, pairs, np, exact);
+    return np;
 }
 
 #ifdef LC_HAVE_AVX2_KERNEL
@@ -654,24 +735,19 @@ LC_AVX2 LC_INLINE int exact_meets_avx2(const lc_exact_ref *ref, const void *boxe
     }
 }
 
-/* emit_ties with the vector test; a tie of two sets' query is dropped here
- * when both objects are in one set. */
-LC_AVX2 LC_INLINE size_t emit_ties_avx2(const lc_scan *sc, int f64, size_t nt, uint32_t *pairs, size_t np,
-                                        uint64_t *exact)
+/* Clears the lanes of `weak` in m whose objects' boxes miss me's (the
+ * exact test of quantized ends that are equal); counts the tests. */
+LC_AVX2 LC_INLINE unsigned exact_lanes_avx2(const lc_scan *sc, int f64, const uint32_t *J, unsigned m, unsigned weak,
+                                            uint64_t *exact)
 {
-    const uint32_t me = sc->idx, split = sc->split;
     lc_exact_ref ref;
-    size_t i;
-    if (!nt) /* (no load of me's box, a likely miss, for a scan with none) */
-        return np;
-    exact_ref_avx2(&ref, sc->boxes, f64, me);
-    *exact += nt;
-    for (i = 0; i < nt; i++) {
-        const uint32_t j = sc->c.tie[i];
-        put_pair(pairs, np, j, me);
-        np += (size_t)(exact_meets_avx2(&ref, sc->boxes, f64, j) & (!split || (j < split) != (me < split)));
+    exact_ref_avx2(&ref, sc->boxes, f64, sc->idx);
+    *exact += (uint64_t)__builtin_popcount(weak);
+    for (; weak; weak &= weak - 1) {
+        const unsigned lane = (unsigned)__builtin_ctz(weak);
+        m &= ~((unsigned)!exact_meets_avx2(&ref, sc->boxes, f64, J[lane]) << lane);
     }
-    return np;
+    return m;
 }
 
 /* Inlined into the AVX2 main loop (sweep_range_*_avx2), whose runs of
@@ -693,9 +769,14 @@ LC_AVX2 LC_INLINE size_t scan_avx2_of(const lc_scan *sc, size_t first, size_t en
                   cz = _mm256_set1_epi32(sc->cell[2]);
     const __m128i sh = _mm_cvtsi32_si128((int)sc->s);
     const __m256i mev = _mm256_set1_epi32((int)me);
-    size_t r, nt = 0;
+    lc_ties *const t = sc->ties;
+    size_t r, nt;
+    if (!t->n)
+        t->base = np; /* offsets from here */
+    else if (np - t->base > 0x7fffffffu) /* keep them 32-bit */
+        np = ties_flush(t, sc->boxes, f64, pairs, np, exact);
+    nt = t->n;
     for (r = first; r < end; r += 8) {
-        const __m256i Jv = _mm256_loadu_si256((const __m256i *)(J + r));
         const __m256i L0 = _mm256_loadu_si256((const __m256i *)(X0 + r)),
                       H0 = _mm256_loadu_si256((const __m256i *)(X1 + r));
         const __m256i L1 = _mm256_loadu_si256((const __m256i *)(Y0 + r)),
@@ -722,7 +803,7 @@ LC_AVX2 LC_INLINE size_t scan_avx2_of(const lc_scan *sc, size_t first, size_t en
                                  _mm256_cmpeq_epi32(_mm256_sra_epi32(_mm256_max_epi32(L1, lo1), sh), cy)),
                 _mm256_cmpeq_epi32(_mm256_sra_epi32(_mm256_max_epi32(L2, lo2), sh), cz));
             /* Strictly inside each other's quantized range: a true overlap.
-               Equal ends tie: the exact test at the scan's end. */
+               Equal ends need the exact test. */
             const __m256i strict = _mm256_and_si256(
                 _mm256_and_si256(_mm256_and_si256(_mm256_cmpgt_epi32(H0, lo0), _mm256_cmpgt_epi32(hi0, L0)),
                                  _mm256_and_si256(_mm256_cmpgt_epi32(H1, lo1), _mm256_cmpgt_epi32(hi1, L1))),
@@ -730,25 +811,35 @@ LC_AVX2 LC_INLINE size_t scan_avx2_of(const lc_scan *sc, size_t first, size_t en
             m &= (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(canon));
             weak = m & ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(strict));
         }
-        /* The ties' objects to the tie column (emit_ties_avx2), no branch:
-           a block's ties came and went with no pattern on the meshes. */
-        _mm256_storeu_si256((__m256i *)(sc->c.tie + nt),
-                            _mm256_permutevar8x32_epi32(
-                                Jv, _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(lc_compress8 + weak)))));
-        nt += (size_t)__builtin_popcount(weak);
-        m &= ~weak;
         if (!split) { /* every lane left is a pair: written in lane order, no loop */
-            np = store_pairs_avx2(pairs, np, Jv, mev, m);
+            /* the ties' places to t (no branch), tested at the next flush */
+            const __m256i at = _mm256_add_epi32(_mm256_set1_epi32((int)(np - t->base)),
+                                                _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(lc_rank8 + m))));
+            _mm256_storeu_si256(
+                (__m256i *)(t->pos + nt),
+                _mm256_permutevar8x32_epi32(at, _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(lc_compress8 + weak)))));
+            nt += (size_t)__builtin_popcount(weak);
+            np = store_pairs_avx2(pairs, np, _mm256_loadu_si256((const __m256i *)(J + r)), mev, m);
+            if (nt > LC_TIES - 8) {
+                t->n = nt;
+                np = ties_flush(t, sc->boxes, f64, pairs, np, exact);
+                nt = 0;
+            }
             continue;
         }
+        if (weak)
+            m = exact_lanes_avx2(sc, f64, J + r, m, weak, exact);
         for (; m; m &= m - 1) { /* in lane order, as the scalar path */
             const uint32_t j = J[r + (unsigned)__builtin_ctz(m)];
             if ((j < split) == (me < split))
                 continue; /* two sets: both objects in the same one */
-            put_pair(pairs, np++, j, me);
+            pairs[2 * np] = j < me ? j : me;
+            pairs[2 * np + 1] = j < me ? me : j;
+            np++;
         }
     }
-    return emit_ties_avx2(sc, f64, nt, pairs, np, exact);
+    t->n = nt;
+    return np;
 }
 
 /* scan_avx2_of as an lc_scan_fn (the precision from sc). */
@@ -817,6 +908,7 @@ typedef struct lc_sweep_state {
     size_t slab[LC_BUCKETS + 1]; /* its buckets' first rows */
     int64_t ext[2];              /* its largest x and y extents */
     lc_anc an;                   /* the open dense cell's ancestors in x order, if on */
+    lc_ties ties;                /* the AVX2 scan's ties not yet tested */
 } lc_sweep_state;
 
 static void sweep_ctx_init(lc_sweep_ctx *cx, lc_sweep_state *ss, const locd_grid *g, const void *boxes, int f64,
@@ -837,6 +929,9 @@ static void sweep_ctx_init(lc_sweep_ctx *cx, lc_sweep_state *ss, const locd_grid
     ss->sc.boxes = boxes;
     ss->sc.f64 = f64;
     ss->sc.split = o->split;
+    ss->ties.n = 0;
+    ss->ties.base = cx->npairs;
+    ss->sc.ties = &ss->ties;
 }
 
 /* The end of the cell that starts at entry p: the next entry with another key. */
@@ -1016,7 +1111,7 @@ void lc_sweep_out_fini(lc_sweep_out *o)
     lc_buf_release(o->alloc, &o->pairs, sizeof(uint32_t));
     lc_buf_release(o->alloc, &o->group, sizeof(uint64_t));
     if (o->cand)
-        lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * LC_COLS * sizeof(int32_t));
+        lc_free(o->alloc, o->cand, LC_STRIDE(o->cand_cap) * 7 * sizeof(int32_t));
     o->cand = NULL;
     o->cand_cap = 0;
 }

@@ -36,14 +36,19 @@ LC_TARGET LC_INLINE void LC_FN(qbox_of_)(const locd_grid *g, const LC_T *boxes, 
     }
 }
 
-/* Starts loading the box of entry `ahead` (if it is before `limit`). */
+/* Starts loading the box of entry `ahead` (if it is before `limit`), and
+ * with `ties` set its original box too. */
 LC_INLINE void LC_FN(prefetch_)(const locd_grid *g, const LC_T *boxes, const uint64_t *qbox,
-                                const uint64_t *entries, size_t ahead, size_t limit)
+                                const uint64_t *entries, size_t ahead, size_t limit, int ties)
 {
     if (ahead < limit) {
         const size_t idx = (size_t)(entries[ahead] & ((1ull << g->index_bits) - 1));
         if (qbox) {
             __builtin_prefetch(qbox + 2 * idx); /* 16 bytes: one cache line */
+            if (ties) {
+                __builtin_prefetch(boxes + 6 * idx);
+                __builtin_prefetch(boxes + 6 * idx + 5);
+            }
         } else { /* a 24- or 48-byte box may straddle two cache lines */
             __builtin_prefetch(boxes + 6 * idx);
             __builtin_prefetch(boxes + 6 * idx + 5);
@@ -368,11 +373,13 @@ static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T 
         /* Keep the loads of the next LC_PREFETCH entries past this cell in
            flight: a dense cell reads all its boxes at once. */
         for (; pf < q + LC_PREFETCH && pf < end; pf++)
-            LC_FN(prefetch_)(g, boxes, qbox, entries, pf, end);
+            LC_FN(prefetch_)(g, boxes, qbox, entries, pf, end, cx.exact * 4 > pf - begin);
         if ((st = LC_FN(sweep_cell_)(&cx, &ss, boxes, p, q, end)) != LOCD_OK)
             return st;
         p = q;
     }
+    cx.npairs = ties_flush(&ss.ties, boxes, sizeof(LC_T) == sizeof(double), (uint32_t *)o->pairs.data, cx.npairs,
+                           &cx.exact);
     o->count = cx.npairs;
     o->candidates += cx.candidates;
     o->exact_tests += cx.exact;

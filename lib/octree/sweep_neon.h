@@ -3,9 +3,9 @@
  * halves. Included by sweep.c only, beside its AVX2 functions, because it
  * works on sweep.c's own types and helpers: the record columns (lc_cols,
  * LC_PAD spare slots past the last record), the entry under test (lc_scan),
- * copy_row, emit_if_canonical and emit_ties. Each candidate that passes the
- * vector reject test goes to emit_if_canonical in ascending record order, as
- * in the scalar loop, so the pairs and their order are the scalar kernel's
+ * copy_row and emit_if_canonical. Each candidate that passes the vector
+ * reject test goes to emit_if_canonical in ascending record order, as in
+ * the scalar loop, so the pairs and their order are the scalar kernel's
  * byte for byte (test_determinism compares them under qemu, CI step
  * 38-arm). Advanced SIMD is part of every AArch64 CPU, so there is no run
  * time check and no target attribute (docs/encoding.md, "SIMD kernels"). */
@@ -63,16 +63,16 @@ static size_t scan_neon(const lc_scan *sc, size_t first, size_t end, uint32_t *p
 {
     const int32x4_t lo0 = vdupq_n_s32(sc->lo[0]), lo1 = vdupq_n_s32(sc->lo[1]), lo2 = vdupq_n_s32(sc->lo[2]);
     const int32x4_t hi0 = vdupq_n_s32(sc->hi[0]), hi1 = vdupq_n_s32(sc->hi[1]), hi2 = vdupq_n_s32(sc->hi[2]);
-    size_t r, nt = 0;
+    size_t r;
     /* Past `end` lie padding or stale rows: masked off. */
     for (r = first; r < end; r += 8) {
         uint64_t m = overlap8_neon(&sc->c, r, lo0, lo1, lo2, hi0, hi1, hi2);
         if (end - r < 8)
             m &= first_lanes_neon(end - r);
         while (m) {
-            np = emit_if_canonical(sc, r + ((size_t)__builtin_ctzll(m) >> 3), pairs, np, &nt);
+            np = emit_if_canonical(sc, r + ((size_t)__builtin_ctzll(m) >> 3), pairs, np, exact);
             m &= m - 1;
         }
     }
-    return emit_ties(sc, nt, pairs, np, exact);
+    return np;
 }
