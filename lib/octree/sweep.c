@@ -597,15 +597,18 @@ LC_INLINE int exact_overlap(const void *boxes, int f64, uint32_t i, uint32_t j)
  * where found, behind a branch per block of 8 that went either way with no
  * pattern, they took half of the sweep on the triangle meshes
  * (bench/results/kernels_notes.md, "Ties tested after their pairs"). */
-LC_INLINE size_t ties_flush(lc_ties *t, const void *boxes, int f64, uint32_t *pairs, size_t np, uint64_t *exact)
+typedef int (*lc_meet_fn)(const void *boxes, int f64, uint32_t i, uint32_t j);
+
+LC_INLINE size_t ties_flush_with(lc_ties *t, const void *boxes, int f64, uint32_t *pairs, size_t np, uint64_t *exact,
+                                 lc_meet_fn meet)
 {
     size_t k, f, nf = 0, w;
     *exact += t->n;
     for (k = 0; k < t->n; k++) { /* the misses' offsets to the front of pos */
         const size_t p = t->base + t->pos[k];
-        const int meet = exact_overlap(boxes, f64, pairs[2 * p], pairs[2 * p + 1]);
+        const int met = meet(boxes, f64, pairs[2 * p], pairs[2 * p + 1]);
         t->pos[nf] = t->pos[k];
-        nf += (size_t)!meet;
+        nf += (size_t)!met;
     }
     if (nf) { /* close the gaps */
         w = t->base + t->pos[0];
@@ -619,6 +622,13 @@ LC_INLINE size_t ties_flush(lc_ties *t, const void *boxes, int f64, uint32_t *pa
     t->n = 0;
     t->base = np;
     return np;
+}
+
+/* ties_flush_with the scalar test (the portable loop has no ties to test:
+ * only the AVX2 scan makes them). */
+LC_INLINE size_t ties_flush(lc_ties *t, const void *boxes, int f64, uint32_t *pairs, size_t np, uint64_t *exact)
+{
+    return ties_flush_with(t, boxes, f64, pairs, np, exact, exact_overlap);
 }
 
 /* Candidate r passed the quantized reject test: report it if this cell is
@@ -735,6 +745,27 @@ LC_AVX2 LC_INLINE int exact_meets_avx2(const lc_exact_ref *ref, const void *boxe
     }
 }
 
+/* Whether the boxes of objects i and j meet: float boxes with one vector
+ * compare of (lo_i, lo_j) against (hi_j, hi_i). */
+LC_AVX2 LC_INLINE int boxes_meet_avx2(const void *boxes, int f64, uint32_t i, uint32_t j)
+{
+    const __m256i six = _mm256_setr_epi32(-1, -1, -1, -1, -1, -1, 0, 0);
+    __m256 a, b, lo, hi;
+    if (f64)
+        return exact_overlap(boxes, f64, i, j);
+    a = _mm256_maskload_ps((const float *)boxes + 6 * (size_t)i, six);
+    b = _mm256_maskload_ps((const float *)boxes + 6 * (size_t)j, six);
+    b = _mm256_permutevar8x32_ps(b, _mm256_setr_epi32(3, 4, 5, 0, 1, 2, 6, 7)); /* hi_j, lo_j */
+    lo = _mm256_blend_ps(a, b, 0x38), hi = _mm256_blend_ps(b, a, 0x38);
+    return (_mm256_movemask_ps(_mm256_cmp_ps(lo, hi, _CMP_LE_OQ)) & 0x3f) == 0x3f;
+}
+
+LC_AVX2 LC_INLINE size_t ties_flush_avx2(lc_ties *t, const void *boxes, int f64, uint32_t *pairs, size_t np,
+                                         uint64_t *exact)
+{
+    return ties_flush_with(t, boxes, f64, pairs, np, exact, boxes_meet_avx2);
+}
+
 /* Clears the lanes of `weak` in m whose objects' boxes miss me's (the
  * exact test of quantized ends that are equal); counts the tests. */
 LC_AVX2 LC_INLINE unsigned exact_lanes_avx2(const lc_scan *sc, int f64, const uint32_t *J, unsigned m, unsigned weak,
@@ -774,7 +805,7 @@ LC_AVX2 LC_INLINE size_t scan_avx2_of(const lc_scan *sc, size_t first, size_t en
     if (!t->n)
         t->base = np; /* offsets from here */
     else if (np - t->base > 0x7fffffffu) /* keep them 32-bit */
-        np = ties_flush(t, sc->boxes, f64, pairs, np, exact);
+        np = ties_flush_avx2(t, sc->boxes, f64, pairs, np, exact);
     nt = t->n;
     for (r = first; r < end; r += 8) {
         const __m256i L0 = _mm256_loadu_si256((const __m256i *)(X0 + r)),
@@ -822,7 +853,7 @@ LC_AVX2 LC_INLINE size_t scan_avx2_of(const lc_scan *sc, size_t first, size_t en
             np = store_pairs_avx2(pairs, np, _mm256_loadu_si256((const __m256i *)(J + r)), mev, m);
             if (nt > LC_TIES - 8) {
                 t->n = nt;
-                np = ties_flush(t, sc->boxes, f64, pairs, np, exact);
+                np = ties_flush_avx2(t, sc->boxes, f64, pairs, np, exact);
                 nt = 0;
             }
             continue;
@@ -1007,6 +1038,7 @@ LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
  * loop compiled for that target. */
 #define LC_TARGET
 #define LC_SCAN(cx, sc, first, end, pairs, np, exact) (cx)->scan(sc, first, end, pairs, np, exact)
+#define LC_TIES_FLUSH ties_flush
 #define LC_T float
 #define LC_SUFFIX f32_generic
 #include "sweep_impl.h"
@@ -1015,11 +1047,13 @@ LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
 #include "sweep_impl.h"
 #undef LC_TARGET
 #undef LC_SCAN
+#undef LC_TIES_FLUSH
 
 #ifdef LC_HAVE_AVX2_KERNEL
 #define LC_TARGET LC_AVX2
 #define LC_SCAN(cx, sc, first, end, pairs, np, exact) \
     scan_avx2_of(sc, first, end, pairs, np, exact, sizeof(LC_T) == sizeof(double))
+#define LC_TIES_FLUSH ties_flush_avx2
 #define LC_T float
 #define LC_SUFFIX f32_avx2
 #include "sweep_impl.h"
@@ -1028,6 +1062,7 @@ LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
 #include "sweep_impl.h"
 #undef LC_TARGET
 #undef LC_SCAN
+#undef LC_TIES_FLUSH
 #endif
 
 #ifdef LC_HAVE_AVX512_KERNEL
@@ -1053,6 +1088,7 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
 #define LC_TARGET LC_AVX512
 #define LC_SCAN(cx, sc, first, end, pairs, np, exact) \
     scan_avx2_of(sc, first, end, pairs, np, exact, sizeof(LC_T) == sizeof(double))
+#define LC_TIES_FLUSH ties_flush_avx2
 #define LC_T float
 #define LC_SUFFIX f32_avx512
 #define LC_QUANTIZE6(g, b, q) quantize6(g, _mm512_cvtps_pd(_mm256_maskz_loadu_ps(0x3f, b)), q)
@@ -1066,6 +1102,7 @@ LC_AVX512 LC_INLINE void quantize6(const locd_grid *g, __m512d x, int32_t q[8])
 #undef LC_QUANTIZE6
 #undef LC_TARGET
 #undef LC_SCAN
+#undef LC_TIES_FLUSH
 #endif
 
 /* The kernel o was made for picks the loop. */

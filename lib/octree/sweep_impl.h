@@ -1,7 +1,8 @@
 /* Step 4, the sweep's main loop for one input precision and kernel family.
  * Included by sweep.c (the include-template of octree.h) with LC_T (float
  * or double), LC_SUFFIX, LC_TARGET (a function attribute, or nothing),
- * LC_SCAN (the scan of one entry's candidates, given the sweep's context)
+ * LC_SCAN (the scan of one entry's candidates, given the sweep's context),
+ * LC_TIES_FLUSH (the test of the ties that scan leaves, ties_flush)
  * defined, and optionally LC_QUANTIZE6 (a vector quantization of one box).
  * The main loop, sweep_range_, walks the cells; sweep_cell_ handles one,
  * as a lone entry (sweep_lone_) or a segment of its own (sweep_dense_,
@@ -371,14 +372,19 @@ static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T 
         if (o->stop && cells % LC_SWEEP_POLL == LC_SWEEP_POLL - 1 && __atomic_load_n(o->stop, __ATOMIC_RELAXED))
             return LOCD_ERR_CANCELLED;
         /* Keep the loads of the next LC_PREFETCH entries past this cell in
-           flight: a dense cell reads all its boxes at once. */
+           flight: a dense cell reads all its boxes at once. Their original
+           boxes too once the ties tested so far (counted at each flush) are
+           more than a quarter of the entries: a tie's test reads both
+           objects' boxes. Where almost nothing ties (the generated 10^6
+           scenes) those loads took the bandwidth the packed boxes need,
+           15-37% slower (bench/results/kernels_notes.md). */
         for (; pf < q + LC_PREFETCH && pf < end; pf++)
             LC_FN(prefetch_)(g, boxes, qbox, entries, pf, end, cx.exact * 4 > pf - begin);
         if ((st = LC_FN(sweep_cell_)(&cx, &ss, boxes, p, q, end)) != LOCD_OK)
             return st;
         p = q;
     }
-    cx.npairs = ties_flush(&ss.ties, boxes, sizeof(LC_T) == sizeof(double), (uint32_t *)o->pairs.data, cx.npairs,
+    cx.npairs = LC_TIES_FLUSH(&ss.ties, boxes, sizeof(LC_T) == sizeof(double), (uint32_t *)o->pairs.data, cx.npairs,
                            &cx.exact);
     o->count = cx.npairs;
     o->candidates += cx.candidates;
