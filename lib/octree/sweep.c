@@ -38,6 +38,7 @@ typedef struct lc_cols {
 #define LC_TIES 1024
 typedef struct lc_ties {
     size_t base, n;
+    int common; /* ties are common in this sweep: the scan records them with no branch */
     uint32_t pos[LC_TIES + 8]; /* room for one more block's 8 */
 } lc_ties;
 
@@ -801,12 +802,8 @@ LC_AVX2 LC_INLINE size_t scan_avx2_of(const lc_scan *sc, size_t first, size_t en
     const __m128i sh = _mm_cvtsi32_si128((int)sc->s);
     const __m256i mev = _mm256_set1_epi32((int)me);
     lc_ties *const t = sc->ties;
-    size_t r, nt;
-    if (!t->n)
-        t->base = np; /* offsets from here */
-    else if (np - t->base > 0x7fffffffu) /* keep them 32-bit */
-        np = ties_flush_avx2(t, sc->boxes, f64, pairs, np, exact);
-    nt = t->n;
+    const unsigned common = (unsigned)t->common;
+    size_t r, nt = t->n;
     for (r = first; r < end; r += 8) {
         const __m256i L0 = _mm256_loadu_si256((const __m256i *)(X0 + r)),
                       H0 = _mm256_loadu_si256((const __m256i *)(X1 + r));
@@ -843,19 +840,25 @@ LC_AVX2 LC_INLINE size_t scan_avx2_of(const lc_scan *sc, size_t first, size_t en
             weak = m & ~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(strict));
         }
         if (!split) { /* every lane left is a pair: written in lane order, no loop */
-            /* the ties' places to t (no branch), tested at the next flush */
-            const __m256i at = _mm256_add_epi32(_mm256_set1_epi32((int)(np - t->base)),
-                                                _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(lc_rank8 + m))));
-            _mm256_storeu_si256(
-                (__m256i *)(t->pos + nt),
-                _mm256_permutevar8x32_epi32(at, _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(lc_compress8 + weak)))));
-            nt += (size_t)__builtin_popcount(weak);
-            np = store_pairs_avx2(pairs, np, _mm256_loadu_si256((const __m256i *)(J + r)), mev, m);
-            if (nt > LC_TIES - 8) {
-                t->n = nt;
-                np = ties_flush_avx2(t, sc->boxes, f64, pairs, np, exact);
-                nt = 0;
+            /* The ties' places to t, tested at the next flush. Where ties
+               are common, with no branch on this block's; where they are
+               rare, the branch is as good as never taken. */
+            if (common | weak) {
+                __m256i at;
+                if (nt > LC_TIES - 8 || np - t->base > 0x7fffffffu) { /* full, or past 32-bit offsets */
+                    t->n = nt;
+                    np = ties_flush_avx2(t, sc->boxes, f64, pairs, np, exact);
+                    nt = 0;
+                }
+                at =
+                    _mm256_add_epi32(_mm256_set1_epi32((int)(np - t->base)),
+                                     _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(lc_rank8 + m))));
+                _mm256_storeu_si256((__m256i *)(t->pos + nt),
+                                    _mm256_permutevar8x32_epi32(
+                                        at, _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(lc_compress8 + weak)))));
+                nt += (size_t)__builtin_popcount(weak);
             }
+            np = store_pairs_avx2(pairs, np, _mm256_loadu_si256((const __m256i *)(J + r)), mev, m);
             continue;
         }
         if (weak)
@@ -962,6 +965,7 @@ static void sweep_ctx_init(lc_sweep_ctx *cx, lc_sweep_state *ss, const locd_grid
     ss->sc.split = o->split;
     ss->ties.n = 0;
     ss->ties.base = cx->npairs;
+    ss->ties.common = 0;
     ss->sc.ties = &ss->ties;
 }
 

@@ -371,15 +371,17 @@ static LC_TARGET locd_status LC_FN(sweep_range_)(const locd_grid *g, const LC_T 
         const size_t q = cell_end(entries, p, end, ib);
         if (o->stop && cells % LC_SWEEP_POLL == LC_SWEEP_POLL - 1 && __atomic_load_n(o->stop, __ATOMIC_RELAXED))
             return LOCD_ERR_CANCELLED;
+        /* Ties are common once those tested so far (counted at each flush)
+           are more than a quarter of the entries, as on a triangle mesh. */
+        ss.ties.common = cx.exact * 4 > p - begin;
         /* Keep the loads of the next LC_PREFETCH entries past this cell in
            flight: a dense cell reads all its boxes at once. Their original
-           boxes too once the ties tested so far (counted at each flush) are
-           more than a quarter of the entries: a tie's test reads both
-           objects' boxes. Where almost nothing ties (the generated 10^6
-           scenes) those loads took the bandwidth the packed boxes need,
-           15-37% slower (bench/results/kernels_notes.md). */
+           boxes too where ties are common: a tie's test reads both objects'
+           boxes. Where almost nothing ties (the generated 10^6 scenes) those
+           loads took the bandwidth the packed boxes need, 15-37% slower
+           (bench/results/kernels_notes.md). */
         for (; pf < q + LC_PREFETCH && pf < end; pf++)
-            LC_FN(prefetch_)(g, boxes, qbox, entries, pf, end, cx.exact * 4 > pf - begin);
+            LC_FN(prefetch_)(g, boxes, qbox, entries, pf, end, ss.ties.common);
         if ((st = LC_FN(sweep_cell_)(&cx, &ss, boxes, p, q, end)) != LOCD_OK)
             return st;
         p = q;
