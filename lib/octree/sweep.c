@@ -590,6 +590,8 @@ LC_INLINE int exact_overlap(const void *boxes, int f64, uint32_t i, uint32_t j)
     }
 }
 
+typedef int (*lc_meet_fn)(const void *boxes, int f64, uint32_t i, uint32_t j);
+
 /* Tests the ties written as pairs (t), drops the pairs whose boxes miss
  * and returns the new count. Dropping leaves the others in order, so the
  * pairs are those, in the order, that a test of each tie where it was
@@ -598,8 +600,6 @@ LC_INLINE int exact_overlap(const void *boxes, int f64, uint32_t i, uint32_t j)
  * where found, behind a branch per block of 8 that went either way with no
  * pattern, they took half of the sweep on the triangle meshes
  * (bench/results/kernels_notes.md, "Ties tested after their pairs"). */
-typedef int (*lc_meet_fn)(const void *boxes, int f64, uint32_t i, uint32_t j);
-
 LC_INLINE size_t ties_flush_with(lc_ties *t, const void *boxes, int f64, uint32_t *pairs, size_t np, uint64_t *exact,
                                  lc_meet_fn meet)
 {
