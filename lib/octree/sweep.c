@@ -34,7 +34,7 @@ typedef struct lc_cols {
 } lc_cols;
 
 /* The ties an AVX2 scan wrote as pairs before their exact test: their
- * places in the pair array, as offsets from pair `base` (ties_flush). */
+ * places in the pair array, as offsets from pair `base` (ties_flush_avx2). */
 #define LC_TIES 1024
 typedef struct lc_ties {
     size_t base, n;
@@ -583,53 +583,11 @@ LC_INLINE int exact_overlap(const void *boxes, int f64, uint32_t i, uint32_t j)
 {
     if (f64) {
         const double *a = (const double *)boxes + 6 * (size_t)i, *b = (const double *)boxes + 6 * (size_t)j;
-        return (a[0] <= b[3]) & (b[0] <= a[3]) & (a[1] <= b[4]) & (b[1] <= a[4]) & (a[2] <= b[5]) & (b[2] <= a[5]);
+        return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
     } else {
         const float *a = (const float *)boxes + 6 * (size_t)i, *b = (const float *)boxes + 6 * (size_t)j;
-        return (a[0] <= b[3]) & (b[0] <= a[3]) & (a[1] <= b[4]) & (b[1] <= a[4]) & (a[2] <= b[5]) & (b[2] <= a[5]);
+        return a[0] <= b[3] && b[0] <= a[3] && a[1] <= b[4] && b[1] <= a[4] && a[2] <= b[5] && b[2] <= a[5];
     }
-}
-
-typedef int (*lc_meet_fn)(const void *boxes, int f64, uint32_t i, uint32_t j);
-
-/* Tests the ties written as pairs (t), drops the pairs whose boxes miss
- * and returns the new count. Dropping leaves the others in order, so the
- * pairs are those, in the order, that a test of each tie where it was
- * found gives (the scalar kernel's). A real mesh's neighbours share
- * vertices, so most of its pairs tie, and nearly all of them meet: tested
- * where found, behind a branch per block of 8 that went either way with no
- * pattern, they took half of the sweep on the triangle meshes
- * (bench/results/kernels_notes.md, "Ties tested after their pairs"). */
-LC_INLINE size_t ties_flush_with(lc_ties *t, const void *boxes, int f64, uint32_t *pairs, size_t np, uint64_t *exact,
-                                 lc_meet_fn meet)
-{
-    size_t k, f, nf = 0, w;
-    *exact += t->n;
-    for (k = 0; k < t->n; k++) { /* the misses' offsets to the front of pos */
-        const size_t p = t->base + t->pos[k];
-        const int met = meet(boxes, f64, pairs[2 * p], pairs[2 * p + 1]);
-        t->pos[nf] = t->pos[k];
-        nf += (size_t)!met;
-    }
-    if (nf) { /* close the gaps */
-        w = t->base + t->pos[0];
-        for (f = 0; f < nf; f++) {
-            const size_t from = t->base + t->pos[f] + 1, to = f + 1 < nf ? t->base + t->pos[f + 1] : np;
-            memmove(pairs + 2 * w, pairs + 2 * from, (to - from) * 2 * sizeof *pairs);
-            w += to - from;
-        }
-        np = w;
-    }
-    t->n = 0;
-    t->base = np;
-    return np;
-}
-
-/* ties_flush_with the scalar test (the portable loop has no ties to test:
- * only the AVX2 scan makes them). */
-LC_INLINE size_t ties_flush(lc_ties *t, const void *boxes, int f64, uint32_t *pairs, size_t np, uint64_t *exact)
-{
-    return ties_flush_with(t, boxes, f64, pairs, np, exact, exact_overlap);
 }
 
 /* Candidate r passed the quantized reject test: report it if this cell is
@@ -747,13 +705,18 @@ LC_AVX2 LC_INLINE int exact_meets_avx2(const lc_exact_ref *ref, const void *boxe
 }
 
 /* Whether the boxes of objects i and j meet: float boxes with one vector
- * compare of (lo_i, lo_j) against (hi_j, hi_i). */
+ * compare of (lo_i, lo_j) against (hi_j, hi_i), a few percent faster on
+ * the meshes' ties than exact_meets_avx2 with i's box as the reference,
+ * which double boxes take. */
 LC_AVX2 LC_INLINE int boxes_meet_avx2(const void *boxes, int f64, uint32_t i, uint32_t j)
 {
     const __m256i six = _mm256_setr_epi32(-1, -1, -1, -1, -1, -1, 0, 0);
     __m256 a, b, lo, hi;
-    if (f64)
-        return exact_overlap(boxes, f64, i, j);
+    if (f64) {
+        lc_exact_ref ref;
+        exact_ref_avx2(&ref, boxes, f64, i);
+        return exact_meets_avx2(&ref, boxes, f64, j);
+    }
     a = _mm256_maskload_ps((const float *)boxes + 6 * (size_t)i, six);
     b = _mm256_maskload_ps((const float *)boxes + 6 * (size_t)j, six);
     b = _mm256_permutevar8x32_ps(b, _mm256_setr_epi32(3, 4, 5, 0, 1, 2, 6, 7)); /* hi_j, lo_j */
@@ -761,10 +724,38 @@ LC_AVX2 LC_INLINE int boxes_meet_avx2(const void *boxes, int f64, uint32_t i, ui
     return (_mm256_movemask_ps(_mm256_cmp_ps(lo, hi, _CMP_LE_OQ)) & 0x3f) == 0x3f;
 }
 
+/* Tests the ties written as pairs (t), drops the pairs whose boxes miss
+ * and returns the new count. Dropping leaves the others in order, so the
+ * pairs are those, in the order, that a test of each tie where it was
+ * found gives (the scalar kernel's: its scans and NEON's test a tie where
+ * they find it, so nothing waits in their sweeps). A real mesh's
+ * neighbours share vertices, so most of its pairs tie, and nearly all of
+ * them meet: tested where found, behind a branch per block of 8 that went
+ * either way with no pattern, they took half of the sweep on the triangle
+ * meshes (bench/results/kernels_notes.md, "Ties tested after their pairs"). */
 LC_AVX2 LC_INLINE size_t ties_flush_avx2(lc_ties *t, const void *boxes, int f64, uint32_t *pairs, size_t np,
                                          uint64_t *exact)
 {
-    return ties_flush_with(t, boxes, f64, pairs, np, exact, boxes_meet_avx2);
+    size_t k, f, nf = 0, w;
+    *exact += t->n;
+    for (k = 0; k < t->n; k++) { /* the misses' offsets to the front of pos */
+        const size_t p = t->base + t->pos[k];
+        const int met = boxes_meet_avx2(boxes, f64, pairs[2 * p], pairs[2 * p + 1]);
+        t->pos[nf] = t->pos[k];
+        nf += (size_t)!met;
+    }
+    if (nf) { /* close the gaps */
+        w = t->base + t->pos[0];
+        for (f = 0; f < nf; f++) {
+            const size_t from = t->base + t->pos[f] + 1, to = f + 1 < nf ? t->base + t->pos[f + 1] : np;
+            memmove(pairs + 2 * w, pairs + 2 * from, (to - from) * 2 * sizeof *pairs);
+            w += to - from;
+        }
+        np = w;
+    }
+    t->n = 0;
+    t->base = np;
+    return np;
 }
 
 /* Clears the lanes of `weak` in m whose objects' boxes miss me's (the
@@ -1042,7 +1033,7 @@ LC_INLINE void entry_from_row(lc_scan *sc, size_t r)
  * loop compiled for that target. */
 #define LC_TARGET
 #define LC_SCAN(cx, sc, first, end, pairs, np, exact) (cx)->scan(sc, first, end, pairs, np, exact)
-#define LC_TIES_FLUSH ties_flush
+#define LC_TIES_FLUSH(t, boxes, f64, pairs, np, exact) (np) /* no tie waits: see ties_flush_avx2 */
 #define LC_T float
 #define LC_SUFFIX f32_generic
 #include "sweep_impl.h"

@@ -2,7 +2,7 @@
  * Included by sweep.c (the include-template of octree.h) with LC_T (float
  * or double), LC_SUFFIX, LC_TARGET (a function attribute, or nothing),
  * LC_SCAN (the scan of one entry's candidates, given the sweep's context),
- * LC_TIES_FLUSH (the test of the ties that scan leaves, ties_flush)
+ * LC_TIES_FLUSH (the test of the ties that scan leaves, ties_flush_avx2)
  * defined, and optionally LC_QUANTIZE6 (a vector quantization of one box).
  * The main loop, sweep_range_, walks the cells; sweep_cell_ handles one,
  * as a lone entry (sweep_lone_) or a segment of its own (sweep_dense_,
